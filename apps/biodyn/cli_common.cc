@@ -1,0 +1,115 @@
+#include "cli_common.h"
+
+#include <algorithm>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <sstream>
+#include <system_error>
+
+#include "biodyn/sim/errors.h"
+#include "biodyn/sim/log.h"
+
+namespace biodyn::apps {
+
+void CharacterOptions::add_to(CLI::App* cmd, bool with_overrides) {
+  cmd->add_option("--height", height_m, "Standing height, m")->capture_default_str();
+  cmd->add_option("--mass", mass_kg, "Body mass, kg")->capture_default_str();
+  cmd->add_option("--sex", sex, "male or female (de Leva 1996 tables)")->capture_default_str();
+  cmd->add_option("--detail", detail,
+                  "gait (paper's lower-body model) or full (spine, neck, head, arms)")
+      ->capture_default_str();
+  if (with_overrides) {
+    cmd->add_option("--overrides", overrides_path,
+                    "JSON {\"segments\": {\"thigh\": {\"mass_kg\": 9, \"length_m\": 0.45}}}");
+  }
+}
+
+models::CharacterSpec CharacterOptions::to_spec() const {
+  models::CharacterSpec spec;
+  spec.height_m = height_m;
+  spec.mass_kg = mass_kg;
+  spec.sex = models::parse_sex(sex, "--sex");
+  spec.detail = models::parse_detail(detail, "--detail");
+  if (!overrides_path.empty()) {
+    spec.overrides = models::parse_overrides(read_text_file(overrides_path), overrides_path);
+  }
+  spec.validate();
+  return spec;
+}
+
+std::string read_text_file(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw sim::InvalidArgument(path + ": cannot open for reading");
+  std::ostringstream s;
+  s << in.rdbuf();
+  if (in.bad()) throw sim::InvalidArgument(path + ": read error");
+  return s.str();
+}
+
+void write_file_atomically(const std::string& path, const std::string& text) {
+  namespace fs = std::filesystem;
+  const fs::path target(path);
+  std::error_code ec;
+  if (target.has_parent_path()) {
+    fs::create_directories(target.parent_path(), ec);
+    if (ec) throw sim::Error(path + ": cannot create directory: " + ec.message());
+  }
+  const fs::path tmp = target.string() + ".tmp-biodyn";
+  {
+    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
+    if (!out) throw sim::Error(path + ": cannot open for writing");
+    out << text;
+    out.flush();
+    if (!out) {
+      out.close();
+      fs::remove(tmp, ec);
+      throw sim::Error(path + ": write failed");
+    }
+  }
+  fs::rename(tmp, target, ec);
+  if (ec) {
+    std::error_code ignore;
+    fs::remove(tmp, ignore);
+    throw sim::Error(path + ": cannot move the finished file into place: " + ec.message());
+  }
+}
+
+void install_console_log(bool verbose) {
+  sim::set_log_sink([verbose](sim::LogLevel level, std::string_view msg) {
+    if (!verbose && (level == sim::LogLevel::kDebug || level == sim::LogLevel::kInfo)) return;
+    std::cerr << "biodyn: " << sim::to_string(level) << ": " << msg << "\n";
+  });
+}
+
+}  // namespace biodyn::apps
+
+#include <unistd.h>
+
+namespace biodyn::apps {
+
+ProgressBar::ProgressBar(std::string label) : label_(std::move(label)), tty_(isatty(2) != 0) {}
+
+void ProgressBar::update(double fraction) {
+  constexpr int kWidth = 30;
+  const int percent = static_cast<int>(std::clamp(fraction, 0.0, 1.0) * 100.0);
+  if (percent == last_percent_ || done_) return;
+  last_percent_ = percent;
+  if (!tty_) return;
+  const int filled = percent * kWidth / 100;
+  std::cerr << "\r" << label_ << " [" << std::string(static_cast<size_t>(filled), '#')
+            << std::string(static_cast<size_t>(kWidth - filled), '.') << "] " << percent << "%"
+            << std::flush;
+}
+
+void ProgressBar::finish() {
+  if (done_) return;
+  done_ = true;
+  if (tty_) {
+    std::cerr << "\r" << label_ << " [" << std::string(30, '#') << "] 100%\n";
+  } else {
+    std::cerr << label_ << ": done\n";
+  }
+}
+
+}  // namespace biodyn::apps

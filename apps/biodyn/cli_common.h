@@ -1,0 +1,58 @@
+#pragma once
+/// Pieces shared by the biodyn subcommands: character options, whole-or-nothing output files,
+/// the console log sink.
+
+#include <CLI/CLI.hpp>
+#include <string>
+
+#include "biodyn/models/character.h"
+
+namespace biodyn::apps {
+
+/// Raw character options as typed on the command line (validated by to_spec()).
+struct CharacterOptions {
+  double height_m = 1.80;
+  double mass_kg = 80.0;
+  std::string sex = "male";
+  std::string detail = "full";
+  std::string overrides_path;  ///< JSON file, optional
+
+  /// Adds --height --mass --sex --detail --overrides to `cmd`.
+  void add_to(CLI::App* cmd, bool with_overrides = true);
+  /// Builds and validates the spec; throws sim::InvalidArgument naming the field and value.
+  models::CharacterSpec to_spec() const;
+};
+
+/// Reads a whole text file; throws sim::InvalidArgument naming the path if it can't.
+std::string read_text_file(const std::string& path);
+
+/// Writes `text` to `path` whole or not at all: into a temporary file beside it, then renamed
+/// over it. Creates missing parent directories. Throws sim::Error naming the path.
+void write_file_atomically(const std::string& path, const std::string& text);
+
+/// Installs a log sink printing warnings and errors to stderr (debug/info only if verbose).
+void install_console_log(bool verbose);
+
+}  // namespace biodyn::apps
+
+namespace biodyn::apps {
+
+/// A one-line progress bar on stderr, redrawn in place on a terminal; elsewhere (CI logs,
+/// pipes) it prints only the finished line so logs stay short.
+class ProgressBar {
+ public:
+  explicit ProgressBar(std::string label);
+  /// fraction in [0, 1].
+  void update(double fraction);
+  /// Prints the final state and a newline (idempotent).
+  void finish();
+  ~ProgressBar() { finish(); }
+
+ private:
+  std::string label_;
+  bool tty_ = false;
+  bool done_ = false;
+  int last_percent_ = -1;
+};
+
+}  // namespace biodyn::apps

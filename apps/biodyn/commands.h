@@ -1,0 +1,26 @@
+#pragma once
+/// Subcommand registration: each add_*_command creates its CLI11 subcommand and returns it with
+/// the callback that runs it.
+
+#include <CLI/CLI.hpp>
+#include <functional>
+
+namespace biodyn::apps {
+
+/// A registered subcommand; `run()` returns the process exit code.
+struct Command {
+  CLI::App* cli = nullptr;
+  std::function<int()> run;
+};
+
+/// `biodyn model`: write a character's MJCF (and summary JSON).
+Command add_model_command(CLI::App* app);
+/// `biodyn drop`: zero-torque drop of a character (the main job until walking lands).
+Command add_drop_command(CLI::App* app);
+
+/// Exit codes shared by every subcommand.
+inline constexpr int kExitOk = 0;
+inline constexpr int kExitFailure = 1;   ///< the job ran and failed (e.g. MuJoCo warnings)
+inline constexpr int kExitBadInput = 2;  ///< bad option, file or value: nothing was written
+
+}  // namespace biodyn::apps

@@ -1,0 +1,35 @@
+// biodyn: the command line. main() only dispatches; each subcommand lives in its own file.
+#include <iostream>
+#include <vector>
+
+#include "biodyn/sim/errors.h"
+#include "cli_common.h"
+#include "commands.h"
+
+int main(int argc, char** argv) {
+  using namespace biodyn::apps;
+  CLI::App app{"biodyn: physics-based character animation and biodynamics on MuJoCo 2.2.2"};
+  app.require_subcommand(1);
+  bool verbose = false;
+  app.add_flag("-v,--verbose", verbose, "Log info messages to stderr");
+  const std::vector<Command> commands = {add_model_command(&app), add_drop_command(&app)};
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e) == 0 ? kExitOk : kExitBadInput;
+  }
+  install_console_log(verbose);
+  for (const Command& cmd : commands) {
+    if (!cmd.cli->parsed()) continue;
+    try {
+      return cmd.run();
+    } catch (const biodyn::sim::InvalidArgument& e) {
+      std::cerr << "biodyn " << cmd.cli->get_name() << ": error: " << e.what() << "\n";
+      return kExitBadInput;
+    } catch (const biodyn::sim::Error& e) {
+      std::cerr << "biodyn " << cmd.cli->get_name() << ": error: " << e.what() << "\n";
+      return kExitFailure;
+    }
+  }
+  return kExitBadInput;
+}

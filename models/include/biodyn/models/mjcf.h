@@ -1,0 +1,45 @@
+#pragma once
+/// MJCF for a generated character, built through tinyxml2's DOM (style.md, habit 10), and the
+/// JSON summary `biodyn model --summary` writes.
+
+#include <string>
+
+#include "biodyn/models/character.h"
+
+namespace biodyn::models {
+
+/// Simulation settings written into <option>/<size>, chosen for stable humanoid contact in
+/// MuJoCo 2.2.2 (mujoco-2.2.2.md, walking-notes.md).
+struct PhysicsOptions {
+  double timestep_s = 0.002;  ///< s; 2 ms with armature ~0.1 was stable for a walker here
+  /// Elliptic friction cones with impratio 5 reduce foot creep (mujoco-2.2.2.md).
+  bool elliptic_cone = true;
+  double impratio = 5.0;
+  int solver_iterations = 50;
+  double solver_tolerance = 1e-10;
+  /// Static sizes (2.2.2 drops contacts past these with only a warning). Boxes give up to 4
+  /// contacts each on a plane, capsules 2: a fallen full body touches with < 80 contacts; an
+  /// elliptic condim-3 contact takes 3 rows, each weld 6, each limit 1.
+  int nconmax = 200;
+  int njmax = 1000;
+  double friction = 1.0;  ///< sliding friction of every geom and the floor
+  /// s, joint-limit solref time constant (>= 2 timesteps). MuJoCo's default 0.02 lets a heavy
+  /// body sink into its limits and store energy there that comes back later: measured on a
+  /// 1.40 m / 150 kg drop, 40 J (3.5% of the start energy) at 0.02, 7.5 J (0.6%) at 0.005.
+  double limit_time_constant_s = 0.005;
+};
+
+/// The MJCF text of `c`: floor, light, tracking camera, one body per segment with an explicit
+/// <inertial>, joints with limits/armature/damping, one <motor> per DOF (ctrl in N m, limited
+/// to +-tau_max), collision geoms (body-floor only; no self-collision) and marker sites
+/// named "marker_<NAME>".
+std::string to_mjcf(const Character& c, const PhysicsOptions& options = {});
+
+/// Actuator names of a joint: {name} for a hinge, {name_x, name_y, name_z} for a ball.
+std::vector<std::string> actuator_names(const Joint& joint);
+
+/// JSON text listing every segment (mass kg, length m, CoM m, inertia kg m^2, table fraction,
+/// joints), the markers, total mass, standing height, DOF counts and the inputs.
+std::string summary_json(const Character& c);
+
+}  // namespace biodyn::models

@@ -1,0 +1,288 @@
+#include "biodyn/models/mjcf.h"
+
+#include <tinyxml2.h>
+
+#include <cmath>
+#include <functional>
+#include <iomanip>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+namespace biodyn::models {
+namespace {
+
+using Eigen::Matrix3d;
+using Eigen::Vector3d;
+
+// Collision filtering: the floor collides with every body geom, body geoms never with each
+// other (contype/conaffinity bits, MuJoCo: collide if (ct1 & ca2) || (ct2 & ca1)).
+constexpr int kFloorContype = 1, kFloorConaffinity = 2;
+constexpr int kBodyContype = 2, kBodyConaffinity = 1;
+constexpr int kMarkerSiteGroup = 4;     // hidden in the viewer unless group 4 is shown
+constexpr double kMarkerSiteRadius = 0.01;  // m
+constexpr double kOffDiagonalEpsilon = 1e-12;  // kg m^2: below this the inertia is diagonal
+
+std::string fmt(double v) {
+  std::ostringstream s;
+  s << std::setprecision(12) << (std::abs(v) < 1e-15 ? 0.0 : v);
+  return s.str();
+}
+std::string fmt(const Vector3d& v) { return fmt(v.x()) + " " + fmt(v.y()) + " " + fmt(v.z()); }
+
+tinyxml2::XMLElement* child(tinyxml2::XMLElement* parent, const char* name) {
+  tinyxml2::XMLElement* e = parent->GetDocument()->NewElement(name);
+  parent->InsertEndChild(e);
+  return e;
+}
+
+void set(tinyxml2::XMLElement* e, const char* attr, const std::string& value) {
+  e->SetAttribute(attr, value.c_str());
+}
+
+}  // namespace
+
+std::vector<std::string> actuator_names(const Joint& joint) {
+  if (joint.type == JointType::kHinge) return {joint.name};
+  return {joint.name + "_x", joint.name + "_y", joint.name + "_z"};
+}
+
+std::string to_mjcf(const Character& c, const PhysicsOptions& o) {
+  tinyxml2::XMLDocument doc;
+  tinyxml2::XMLElement* root = doc.NewElement("mujoco");
+  doc.InsertEndChild(root);
+  std::ostringstream model_name;
+  model_name << "biodyn_" << to_string(c.spec.sex) << "_" << fmt(c.spec.height_m) << "m_"
+             << fmt(c.spec.mass_kg) << "kg_" << to_string(c.spec.detail);
+  set(root, "model", model_name.str());
+
+  tinyxml2::XMLElement* compiler = child(root, "compiler");
+  set(compiler, "angle", "radian");
+  set(compiler, "inertiafromgeom", "false");  // every body has an explicit <inertial>
+
+  tinyxml2::XMLElement* option = child(root, "option");
+  set(option, "timestep", fmt(o.timestep_s));
+  set(option, "integrator", "implicit");  // joint damping integrated implicitly
+  set(option, "cone", o.elliptic_cone ? "elliptic" : "pyramidal");
+  set(option, "impratio", fmt(o.impratio));
+  set(option, "solver", "Newton");
+  set(option, "iterations", std::to_string(o.solver_iterations));
+  set(option, "tolerance", fmt(o.solver_tolerance));
+  tinyxml2::XMLElement* size = child(root, "size");
+  set(size, "nconmax", std::to_string(o.nconmax));
+  set(size, "njmax", std::to_string(o.njmax));
+
+  tinyxml2::XMLElement* visual = child(root, "visual");
+  tinyxml2::XMLElement* global = child(visual, "global");
+  set(global, "offwidth", "1280");
+  set(global, "offheight", "720");
+
+  tinyxml2::XMLElement* asset = child(root, "asset");
+  tinyxml2::XMLElement* tex = child(asset, "texture");
+  set(tex, "name", "grid");
+  set(tex, "type", "2d");
+  set(tex, "builtin", "checker");
+  set(tex, "rgb1", "0.2 0.3 0.4");
+  set(tex, "rgb2", "0.3 0.4 0.5");
+  set(tex, "width", "512");
+  set(tex, "height", "512");
+  tinyxml2::XMLElement* mat = child(asset, "material");
+  set(mat, "name", "grid");
+  set(mat, "texture", "grid");
+  set(mat, "texrepeat", "1 1");
+  set(mat, "texuniform", "true");
+  set(mat, "reflectance", "0.1");
+  tinyxml2::XMLElement* body_mat = child(asset, "material");
+  set(body_mat, "name", "body");
+  set(body_mat, "rgba", "0.8 0.6 0.45 1");
+
+  tinyxml2::XMLElement* defaults = child(root, "default");
+  tinyxml2::XMLElement* dgeom = child(defaults, "geom");
+  set(dgeom, "contype", std::to_string(kBodyContype));
+  set(dgeom, "conaffinity", std::to_string(kBodyConaffinity));
+  set(dgeom, "condim", "3");
+  set(dgeom, "friction", fmt(o.friction) + " 0.005 0.0001");
+  set(dgeom, "material", "body");
+  tinyxml2::XMLElement* djoint = child(defaults, "joint");
+  set(djoint, "solreflimit", fmt(o.limit_time_constant_s) + " 1");
+  tinyxml2::XMLElement* dsite = child(defaults, "site");
+  set(dsite, "size", fmt(kMarkerSiteRadius));
+  set(dsite, "group", std::to_string(kMarkerSiteGroup));
+  set(dsite, "rgba", "0.1 0.3 1 1");
+  tinyxml2::XMLElement* dmotor = child(defaults, "motor");
+  set(dmotor, "ctrllimited", "true");
+
+  tinyxml2::XMLElement* world = child(root, "worldbody");
+  tinyxml2::XMLElement* light = child(world, "light");
+  set(light, "name", "sun");
+  set(light, "directional", "true");
+  set(light, "pos", "0 0 5");
+  set(light, "dir", "-0.3 0.3 -1");
+  set(light, "diffuse", "0.8 0.8 0.8");
+  tinyxml2::XMLElement* floor = child(world, "geom");
+  set(floor, "name", "floor");
+  set(floor, "type", "plane");
+  set(floor, "size", "50 50 0.05");
+  set(floor, "material", "grid");
+  set(floor, "contype", std::to_string(kFloorContype));
+  set(floor, "conaffinity", std::to_string(kFloorConaffinity));
+
+  std::map<std::string, tinyxml2::XMLElement*> body_elements;
+  std::map<std::string, const Segment*> by_name;
+  for (const Segment& s : c.segments) by_name[s.name] = &s;
+  tinyxml2::XMLElement* actuators = child(root, "actuator");
+
+  for (const Segment& s : c.segments) {
+    tinyxml2::XMLElement* parent_el = s.parent.empty() ? world : body_elements.at(s.parent);
+    tinyxml2::XMLElement* body = child(parent_el, "body");
+    body_elements[s.name] = body;
+    set(body, "name", s.name);
+    const Vector3d pos = s.parent.empty() ? s.origin_W : s.origin_W - by_name.at(s.parent)->origin_W;
+    set(body, "pos", fmt(pos));
+    if (s.parent.empty()) {
+      // Follows the character's centre of mass, looking at it from its left-front.
+      tinyxml2::XMLElement* cam = child(body, "camera");
+      set(cam, "name", "tracking");
+      set(cam, "mode", "trackcom");
+      set(cam, "pos", fmt(Vector3d(2.5, 2.5, 0.6)));
+      set(cam, "xyaxes", "-1 1 0 -0.1 -0.1 1");
+      tinyxml2::XMLElement* free = child(body, "freejoint");
+      set(free, "name", "root");
+    }
+    tinyxml2::XMLElement* inertial = child(body, "inertial");
+    set(inertial, "pos", fmt(s.com_B));
+    set(inertial, "mass", fmt(s.mass_kg));
+    const Matrix3d& I = s.inertia_B;
+    if (std::abs(I(0, 1)) < kOffDiagonalEpsilon && std::abs(I(0, 2)) < kOffDiagonalEpsilon &&
+        std::abs(I(1, 2)) < kOffDiagonalEpsilon) {
+      set(inertial, "diaginertia", fmt(Vector3d(I(0, 0), I(1, 1), I(2, 2))));
+    } else {
+      set(inertial, "fullinertia", fmt(Vector3d(I(0, 0), I(1, 1), I(2, 2))) + " " +
+                                       fmt(Vector3d(I(0, 1), I(0, 2), I(1, 2))));
+    }
+    for (const Joint& j : s.joints) {
+      tinyxml2::XMLElement* je = child(body, "joint");
+      set(je, "name", j.name);
+      set(je, "type", j.type == JointType::kBall ? "ball" : "hinge");
+      set(je, "pos", fmt(j.anchor_B));
+      if (j.type == JointType::kHinge) set(je, "axis", fmt(j.axis_B));
+      set(je, "limited", "true");
+      set(je, "range", fmt(j.min_rad) + " " + fmt(j.max_rad));
+      set(je, "armature", fmt(j.armature));
+      set(je, "damping", fmt(j.damping));
+      const std::vector<std::string> names = actuator_names(j);
+      for (size_t k = 0; k < names.size(); ++k) {
+        tinyxml2::XMLElement* motor = child(actuators, "motor");
+        set(motor, "name", names[k]);
+        set(motor, "joint", j.name);
+        if (j.type == JointType::kBall) {
+          Eigen::Matrix<double, 6, 1> gear = Eigen::Matrix<double, 6, 1>::Zero();
+          gear[static_cast<int>(k)] = 1;
+          set(motor, "gear", fmt(gear.head<3>()) + " 0 0 0");
+        }
+        const double tau = j.tau_max_Nm[static_cast<int>(k)];
+        set(motor, "ctrlrange", fmt(-tau) + " " + fmt(tau));
+      }
+    }
+    int gi = 0;
+    for (const Geom& g : s.geoms) {
+      tinyxml2::XMLElement* ge = child(body, "geom");
+      set(ge, "name", s.name + (gi ? "_" + std::to_string(gi) : std::string()));
+      ++gi;
+      switch (g.type) {
+        case GeomType::kBox:
+          set(ge, "type", "box");
+          set(ge, "pos", fmt(g.center_B));
+          set(ge, "size", fmt(g.half_extents));
+          break;
+        case GeomType::kSphere:
+          set(ge, "type", "sphere");
+          set(ge, "pos", fmt(g.center_B));
+          set(ge, "size", fmt(g.radius));
+          break;
+        case GeomType::kCapsule:
+          set(ge, "type", "capsule");
+          set(ge, "fromto", fmt(g.from_B) + " " + fmt(g.to_B));
+          set(ge, "size", fmt(g.radius));
+          break;
+      }
+    }
+    for (const Marker& m : c.markers) {
+      if (m.segment != s.name) continue;
+      tinyxml2::XMLElement* site = child(body, "site");
+      set(site, "name", "marker_" + m.name);
+      set(site, "pos", fmt(m.position_B));
+    }
+  }
+
+  tinyxml2::XMLPrinter printer;
+  doc.Print(&printer);
+  return std::string("<!-- Generated by biodyn (models/src/mjcf.cc). Anthropometry: de Leva 1996; "
+                     "see models/data/ for every table and its source. -->\n") +
+         printer.CStr();
+}
+
+std::string summary_json(const Character& c) {
+  using nlohmann::json;
+  const auto vec = [](const Vector3d& v) { return json::array({v.x(), v.y(), v.z()}); };
+  json j;
+  j["inputs"] = {{"height_m", c.spec.height_m},
+                 {"mass_kg", c.spec.mass_kg},
+                 {"sex", to_string(c.spec.sex)},
+                 {"detail", to_string(c.spec.detail)}};
+  json overrides = json::object();
+  for (const auto& [name, o] : c.spec.overrides) {
+    json entry = json::object();
+    if (o.mass_kg) entry["mass_kg"] = *o.mass_kg;
+    if (o.length_m) entry["length_m"] = *o.length_m;
+    overrides[name] = entry;
+  }
+  j["inputs"]["overrides"] = overrides;
+  j["total_mass_kg"] = c.total_mass_kg();
+  j["standing_height_m"] = c.standing_height_m;
+  j["lowest_point_m"] = c.lowest_point_m;
+  j["actuated_dof"] = c.actuated_dof_count();
+  j["dof"] = c.actuated_dof_count() + 6;
+  j["torque_scale"] = c.torque_scale;
+  j["torque_scale_rule"] =
+      "tau_max = tau_paper * (mass / 82.2 kg) * (height / 1.799 m) (paper §5.1: proportional)";
+  json segments = json::array();
+  for (const Segment& s : c.segments) {
+    json seg;
+    seg["name"] = s.name;
+    seg["parent"] = s.parent;
+    seg["mass_kg"] = s.mass_kg;
+    seg["mass_fraction"] = s.mass_kg / c.total_mass_kg();
+    seg["table_mass_fraction"] = s.table_mass_fraction;
+    seg["table"] = s.table_parts;
+    seg["length_m"] = s.length_m;
+    seg["origin_m"] = vec(s.origin_W);
+    seg["com_m"] = vec(s.com_B);
+    seg["com_frame"] = "body (origin at the proximal joint, axes x forward, y left, z up)";
+    seg["inertia_kg_m2"] = {{"xx", s.inertia_B(0, 0)}, {"yy", s.inertia_B(1, 1)},
+                            {"zz", s.inertia_B(2, 2)}, {"xy", s.inertia_B(0, 1)},
+                            {"xz", s.inertia_B(0, 2)}, {"yz", s.inertia_B(1, 2)}};
+    json joints = json::array();
+    for (const Joint& jt : s.joints) {
+      joints.push_back({{"name", jt.name},
+                        {"type", jt.type == JointType::kBall ? "ball" : "hinge"},
+                        {"axis", vec(jt.axis_B)},
+                        {"range_deg", {jt.min_rad * 180 / M_PI, jt.max_rad * 180 / M_PI}},
+                        {"tau_max_Nm", jt.type == JointType::kBall ? vec(jt.tau_max_Nm)
+                                                                   : json(jt.tau_max_Nm.x())},
+                        {"tau_source", jt.tau_source},
+                        {"actuators", actuator_names(jt)}});
+    }
+    seg["joints"] = joints;
+    segments.push_back(seg);
+  }
+  j["segments"] = segments;
+  json markers = json::array();
+  for (const Marker& m : c.markers) {
+    markers.push_back({{"name", m.name}, {"segment", m.segment}, {"position_m", vec(m.position_B)}});
+  }
+  j["markers"] = markers;
+  return j.dump(2) + "\n";
+}
+
+}  // namespace biodyn::models

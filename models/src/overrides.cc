@@ -1,0 +1,59 @@
+#include <nlohmann/json.hpp>
+
+#include "biodyn/models/character.h"
+#include "biodyn/sim/errors.h"
+
+namespace biodyn::models {
+
+std::map<std::string, SegmentOverride> parse_overrides(const std::string& json_text,
+                                                       const std::string& source) {
+  using sim::InvalidArgument;
+  nlohmann::json doc;
+  try {
+    doc = nlohmann::json::parse(json_text);
+  } catch (const nlohmann::json::parse_error& e) {
+    // e.byte is the 1-based offset of the error.
+    throw InvalidArgument(source + ": malformed JSON at byte " + std::to_string(e.byte) + ": " +
+                          e.what());
+  }
+  if (!doc.is_object() || !doc.contains("segments") || !doc["segments"].is_object()) {
+    throw InvalidArgument(source + ": expected an object {\"segments\": {name: {...}}}, found " +
+                          std::string(doc.type_name()) +
+                          (doc.is_object() ? " without an object 'segments'" : ""));
+  }
+  for (const auto& [key, value] : doc.items()) {
+    if (key != "segments") {
+      throw InvalidArgument(source + ": unknown top-level field '" + key + "' (expected 'segments')");
+    }
+  }
+  std::map<std::string, SegmentOverride> out;
+  for (const auto& [name, fields] : doc["segments"].items()) {
+    const std::string where = source + ": segments." + name;
+    if (!fields.is_object()) {
+      throw InvalidArgument(where + ": expected an object with mass_kg and/or length_m, found " +
+                            std::string(fields.type_name()));
+    }
+    SegmentOverride o;
+    for (const auto& [field, value] : fields.items()) {
+      if (field != "mass_kg" && field != "length_m") {
+        throw InvalidArgument(where + ": unknown field '" + field + "' (expected mass_kg, length_m)");
+      }
+      if (!value.is_number()) {
+        throw InvalidArgument(where + "." + field + ": expected a number, found " +
+                              value.dump());
+      }
+      const double v = value.get<double>();
+      if (!(v > 0)) {
+        throw InvalidArgument(where + "." + field + ": must be > 0, got " + value.dump());
+      }
+      (field == "mass_kg" ? o.mass_kg : o.length_m) = v;
+    }
+    if (!o.mass_kg && !o.length_m) {
+      throw InvalidArgument(where + ": gives neither mass_kg nor length_m");
+    }
+    out[name] = o;
+  }
+  return out;
+}
+
+}  // namespace biodyn::models

@@ -1,0 +1,66 @@
+#pragma once
+/// Read-outs every controller needs. All take (model, data) and read derived fields, so call
+/// them after mj_forward, inside a Simulation::step controller (after mj_step1), or after a
+/// step (contacts and forces then belong to the state at the start of that step).
+/// Frames: _W world. Quaternions (w, x, y, z) as in MuJoCo.
+
+#include <mujoco/mujoco.h>
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <vector>
+
+namespace biodyn::sim {
+
+/// Whole-body centre of mass.
+struct CenterOfMass {
+  Eigen::Vector3d position_W = Eigen::Vector3d::Zero();  ///< m, world frame
+  Eigen::Vector3d velocity_W = Eigen::Vector3d::Zero();  ///< m/s, world frame
+  double mass = 0.0;                                     ///< kg, sum of all body masses
+};
+
+/// Centre of mass of all bodies and its velocity (mass-weighted body-CoM velocities from
+/// mj_objectVelocity). Needs positions and velocities computed (mj_forward / mj_step1).
+CenterOfMass center_of_mass(const mjModel& m, const mjData& d);
+
+/// One contact between a geom and the floor geom.
+struct FloorContact {
+  int geom = -1;                                             ///< the non-floor geom
+  int body = -1;                                             ///< its body
+  Eigen::Vector3d position_W = Eigen::Vector3d::Zero();      ///< m, contact point, world
+  Eigen::Vector3d normal_W = Eigen::Vector3d::UnitZ();       ///< unit, from floor into body
+  double normal_force = 0.0;                                 ///< N, >= 0, pushes body away
+  Eigen::Vector3d tangential_force_W = Eigen::Vector3d::Zero();  ///< N, friction on the body
+  double distance = 0.0;  ///< m, signed distance (negative = penetration)
+};
+
+/// Appends to `out` (after clearing it) every active contact between `floor_geom` and another
+/// geom, with the contact force acting on the non-floor body. Reuses `out`'s capacity: no
+/// allocation once it has grown to the contact count.
+void floor_contacts(const mjModel& m, const mjData& d, int floor_geom,
+                    std::vector<FloorContact>* out);
+
+/// Pose of a body frame in the world.
+struct Pose {
+  Eigen::Vector3d position_W = Eigen::Vector3d::Zero();  ///< m
+  Eigen::Quaterniond orientation_W = Eigen::Quaterniond::Identity();
+};
+
+/// World pose of `body`'s frame (xpos, xquat).
+Pose body_pose(const mjModel& m, const mjData& d, int body);
+
+/// Orientation of `body` relative to its parent body: conj(q_parent) * q_body. For a body with
+/// one ball joint and no offset rotation this equals the joint's qpos quaternion.
+Eigen::Quaterniond relative_orientation(const mjModel& m, const mjData& d, int body);
+
+/// The qpos quaternion of a ball or free joint (for a free joint: its orientation part).
+/// Throws InvalidArgument for other joint types.
+Eigen::Quaterniond joint_quaternion(const mjModel& m, const mjData& d, int joint);
+
+/// Total mechanical energy, J: kinetic (every body's translation and rotation about its CoM,
+/// plus the armature's 0.5*a*qvel^2, i.e. 0.5 qvel' M qvel) + gravitational potential + hinge/
+/// slide spring potential. Computed from cvel/xipos, so it needs mj_forward or mj_step1 first.
+/// (2.2.2's mj_energyPos/Vel return 0 unless the model enables the energy flag.)
+double mechanical_energy(const mjModel& m, const mjData& d);
+
+}  // namespace biodyn::sim

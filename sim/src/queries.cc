@@ -1,0 +1,118 @@
+#include "biodyn/sim/queries.h"
+
+#include <string>
+
+#include "biodyn/sim/errors.h"
+
+namespace biodyn::sim {
+namespace {
+
+Eigen::Quaterniond quat_from(const mjtNum* q) { return Eigen::Quaterniond(q[0], q[1], q[2], q[3]); }
+
+}  // namespace
+
+CenterOfMass center_of_mass(const mjModel& m, const mjData& d) {
+  CenterOfMass com;
+  mjtNum velocity[6];  // [angular, linear] at the body CoM, world orientation
+  Eigen::Vector3d weighted_position = Eigen::Vector3d::Zero();
+  Eigen::Vector3d momentum = Eigen::Vector3d::Zero();
+  for (int b = 1; b < m.nbody; ++b) {
+    const double mass = m.body_mass[b];
+    if (mass <= 0) continue;
+    mj_objectVelocity(&m, &d, mjOBJ_BODY, b, velocity, 0);
+    weighted_position += mass * Eigen::Vector3d(d.xipos[3 * b], d.xipos[3 * b + 1], d.xipos[3 * b + 2]);
+    momentum += mass * Eigen::Vector3d(velocity[3], velocity[4], velocity[5]);
+    com.mass += mass;
+  }
+  if (com.mass > 0) {
+    com.position_W = weighted_position / com.mass;
+    com.velocity_W = momentum / com.mass;
+  }
+  return com;
+}
+
+void floor_contacts(const mjModel& m, const mjData& d, int floor_geom,
+                    std::vector<FloorContact>* out) {
+  out->clear();
+  for (int i = 0; i < d.ncon; ++i) {
+    const mjContact& c = d.contact[i];
+    if (c.geom1 != floor_geom && c.geom2 != floor_geom) continue;
+    if (c.exclude != 0 || c.efc_address < 0) continue;  // not an active constraint
+    mjtNum f_local[6];
+    mj_contactForce(&m, &d, i, f_local);
+    // Contact frame rows: normal (geom1 -> geom2), then two tangents. Force on geom2.
+    Eigen::Vector3d f_on_geom2 = Eigen::Vector3d::Zero();
+    for (int r = 0; r < 3; ++r) {
+      f_on_geom2 += f_local[r] * Eigen::Vector3d(c.frame[3 * r], c.frame[3 * r + 1], c.frame[3 * r + 2]);
+    }
+    Eigen::Vector3d normal(c.frame[0], c.frame[1], c.frame[2]);
+    const bool body_is_geom2 = (c.geom1 == floor_geom);
+    FloorContact fc;
+    fc.geom = body_is_geom2 ? c.geom2 : c.geom1;
+    fc.body = m.geom_bodyid[fc.geom];
+    fc.position_W = Eigen::Vector3d(c.pos[0], c.pos[1], c.pos[2]);
+    fc.normal_W = body_is_geom2 ? normal : -normal;
+    const Eigen::Vector3d f_on_body = body_is_geom2 ? f_on_geom2 : -f_on_geom2;
+    fc.normal_force = f_on_body.dot(fc.normal_W);
+    fc.tangential_force_W = f_on_body - fc.normal_force * fc.normal_W;
+    fc.distance = c.dist;
+    out->push_back(fc);
+  }
+}
+
+Pose body_pose(const mjModel& m, const mjData& d, int body) {
+  if (body < 0 || body >= m.nbody) {
+    throw InvalidArgument("body_pose: body id " + std::to_string(body) + " out of range");
+  }
+  Pose p;
+  p.position_W = Eigen::Vector3d(d.xpos[3 * body], d.xpos[3 * body + 1], d.xpos[3 * body + 2]);
+  p.orientation_W = quat_from(d.xquat + 4 * body);
+  return p;
+}
+
+Eigen::Quaterniond relative_orientation(const mjModel& m, const mjData& d, int body) {
+  if (body <= 0 || body >= m.nbody) {
+    throw InvalidArgument("relative_orientation: body id " + std::to_string(body) +
+                          " out of range [1, " + std::to_string(m.nbody) + ")");
+  }
+  const int parent = m.body_parentid[body];
+  const Eigen::Quaterniond q_parent = quat_from(d.xquat + 4 * parent);
+  const Eigen::Quaterniond q_body = quat_from(d.xquat + 4 * body);
+  return (q_parent.conjugate() * q_body).normalized();
+}
+
+Eigen::Quaterniond joint_quaternion(const mjModel& m, const mjData& d, int joint) {
+  if (joint < 0 || joint >= m.njnt) {
+    throw InvalidArgument("joint_quaternion: joint id " + std::to_string(joint) + " out of range");
+  }
+  const int type = m.jnt_type[joint];
+  const int adr = m.jnt_qposadr[joint];
+  if (type == mjJNT_BALL) return quat_from(d.qpos + adr).normalized();
+  if (type == mjJNT_FREE) return quat_from(d.qpos + adr + 3).normalized();
+  throw InvalidArgument("joint_quaternion: joint " + std::to_string(joint) +
+                        " is not a ball or free joint");
+}
+
+double mechanical_energy(const mjModel& m, const mjData& d) {
+  double kinetic = 0, potential = 0;
+  mjtNum vel[6];  // [angular, linear] in the body's inertial (principal) frame
+  for (int b = 1; b < m.nbody; ++b) {
+    const double mass = m.body_mass[b];
+    mj_objectVelocity(&m, &d, mjOBJ_BODY, b, vel, 1);
+    const mjtNum* I = m.body_inertia + 3 * b;
+    kinetic += 0.5 * (I[0] * vel[0] * vel[0] + I[1] * vel[1] * vel[1] + I[2] * vel[2] * vel[2]);
+    kinetic += 0.5 * mass * (vel[3] * vel[3] + vel[4] * vel[4] + vel[5] * vel[5]);
+    potential -= mass * mju_dot3(m.opt.gravity, d.xipos + 3 * b);
+  }
+  for (int i = 0; i < m.nv; ++i) kinetic += 0.5 * m.dof_armature[i] * d.qvel[i] * d.qvel[i];
+  for (int j = 0; j < m.njnt; ++j) {
+    const int type = m.jnt_type[j];
+    if (m.jnt_stiffness[j] == 0 || (type != mjJNT_HINGE && type != mjJNT_SLIDE)) continue;
+    const int adr = m.jnt_qposadr[j];
+    const double dq = d.qpos[adr] - m.qpos_spring[adr];
+    potential += 0.5 * m.jnt_stiffness[j] * dq * dq;
+  }
+  return kinetic + potential;
+}
+
+}  // namespace biodyn::sim
