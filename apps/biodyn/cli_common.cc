@@ -33,6 +33,7 @@ models::CharacterSpec CharacterOptions::to_spec() const {
   spec.detail = models::parse_detail(detail, "--detail");
   if (!overrides_path.empty()) {
     spec.overrides = models::parse_overrides(read_text_file(overrides_path), overrides_path);
+    models::check_override_names(spec.overrides, spec.detail, overrides_path);
   }
   spec.validate();
   return spec;

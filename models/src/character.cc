@@ -311,24 +311,14 @@ Character generate_character(const CharacterSpec& spec) {
   // --- Segments of this detail and their overrides.
   const std::vector<SegmentPlan> plan = plan_segments(spec.detail);
   std::map<std::string, SegmentOverride> seg_override;
+  check_override_names(spec.overrides, spec.detail, "overrides");
   for (const auto& [key, o] : spec.overrides) {
-    bool matched = false;
     for (const SegmentPlan& p : plan) {
       if (p.name == key) {
-        matched = true;
-      } else if (p.name == key + "_l" || p.name == key + "_r") {
-        matched = true;
-        if (!spec.overrides.count(p.name)) seg_override[p.name] = o;  // side-specific wins
+        seg_override[key] = o;
+      } else if ((p.name == key + "_l" || p.name == key + "_r") && !spec.overrides.count(p.name)) {
+        seg_override[p.name] = o;  // a side-specific override wins over the generic one
       }
-    }
-    if (!matched) {
-      throw InvalidArgument("overrides: no segment named '" + key + "' in the " +
-                            to_string(spec.detail) + " character (segments: " + names_list(plan) +
-                            "; a name without _l/_r applies to both sides)");
-    }
-    if (std::find_if(plan.begin(), plan.end(), [&](const SegmentPlan& p) { return p.name == key; }) !=
-        plan.end()) {
-      seg_override[key] = o;
     }
   }
 
@@ -671,6 +661,22 @@ Character generate_character(const CharacterSpec& spec) {
   c.lowest_point_m = lowest;
   c.standing_height_m = highest - lowest;
   return c;
+}
+
+void check_override_names(const std::map<std::string, SegmentOverride>& overrides, Detail detail,
+                          const std::string& source) {
+  const std::vector<SegmentPlan> plan = plan_segments(detail);
+  for (const auto& entry : overrides) {
+    const std::string& key = entry.first;
+    const bool matched = std::any_of(plan.begin(), plan.end(), [&](const SegmentPlan& p) {
+      return p.name == key || p.name == key + "_l" || p.name == key + "_r";
+    });
+    if (!matched) {
+      throw InvalidArgument(source + ": segments." + key + ": no segment named '" + key +
+                            "' in the " + to_string(detail) + " character (segments: " +
+                            names_list(plan) + "; a name without _l/_r applies to both sides)");
+    }
+  }
 }
 
 Sex parse_sex(const std::string& text, const std::string& field) {

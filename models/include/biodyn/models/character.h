@@ -121,6 +121,11 @@ Character generate_character(const CharacterSpec& spec);
 /// Segment names of a detail level, in generation order.
 std::vector<std::string> segment_names(Detail detail);
 
+/// Checks that every override key names a segment of `detail` (or one without its _l/_r side).
+/// Throws InvalidArgument starting with `source` (e.g. the overrides file) and listing the names.
+void check_override_names(const std::map<std::string, SegmentOverride>& overrides, Detail detail,
+                          const std::string& source);
+
 /// Parses "male"/"female" and "gait"/"full"; throws InvalidArgument naming `field` and value.
 Sex parse_sex(const std::string& text, const std::string& field = "sex");
 Detail parse_detail(const std::string& text, const std::string& field = "detail");

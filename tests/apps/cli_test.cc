@@ -1,0 +1,117 @@
+// The `biodyn` executable as a user runs it: outputs, exit codes, one-line errors, and nothing
+// written on bad input.
+#include <sys/wait.h>
+
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "test_support.h"
+
+namespace fs = std::filesystem;
+
+namespace {
+
+struct Run {
+  int exit_code = -1;
+  std::string out, err;
+};
+
+std::string slurp(const fs::path& p) {
+  std::ifstream in(p);
+  std::ostringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+/// Runs `biodyn <args>` in `dir`, capturing stdout and stderr.
+Run run_biodyn(const std::string& args, const fs::path& dir) {
+  const std::string exe = biodyn::testing::binary_dir() + "/apps/biodyn";
+  const std::string cmd = "cd '" + dir.string() + "' && '" + exe + "' " + args + " > stdout.txt 2> stderr.txt";
+  const int status = std::system(cmd.c_str());
+  Run r;
+  r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  r.out = slurp(dir / "stdout.txt");
+  r.err = slurp(dir / "stderr.txt");
+  return r;
+}
+
+fs::path fresh_dir(const std::string& name) {
+  const fs::path dir = fs::path(biodyn::testing::binary_dir()) / "cli_test" / name;
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  return dir;
+}
+
+}  // namespace
+
+TEST_CASE("biodyn model writes the MJCF and a summary of every segment", "[apps][cli]") {
+  const fs::path dir = fresh_dir("model");
+  const Run r = run_biodyn("model --height 1.80 --mass 80 --sex male --detail full -o character.xml "
+                       "--summary summary.json", dir);
+  INFO(r.err);
+  REQUIRE(r.exit_code == 0);
+  CHECK(fs::exists(dir / "character.xml"));
+  const auto j = nlohmann::json::parse(slurp(dir / "summary.json"));
+  CHECK(j["total_mass_kg"].get<double>() == Approx(80.0).margin(1e-3));
+  CHECK(j["segments"].size() == 21);
+  for (const auto& s : j["segments"]) {
+    CHECK(s.contains("mass_kg"));
+    CHECK(s.contains("length_m"));
+    CHECK(s["com_m"].size() == 3);
+    CHECK(s["inertia_kg_m2"].contains("xx"));
+  }
+  // The file compiles in stock MuJoCo too.
+  CHECK(std::system(("mujoco-compile '" + (dir / "character.xml").string() + "' '" +
+                     (dir / "c.mjb").string() + "' > /dev/null 2>&1").c_str()) == 0);
+}
+
+TEST_CASE("Bad values exit non-zero with a one-line message and write nothing", "[apps][cli]") {
+  const fs::path dir = fresh_dir("bad");
+  std::ofstream(dir / "unknown.json") << R"({"segments": {"femur": {"mass_kg": 9}}})";
+  std::ofstream(dir / "malformed.json") << R"({"segments": {"thigh": )";
+  struct Case {
+    const char* args;
+    const char* must_mention;  // the field
+    const char* value;         // and the value
+  };
+  const Case cases[] = {
+      {"--height -1.7", "height", "-1.7"},
+      {"--height 7", "height", "7"},
+      {"--mass 0", "mass", "0"},
+      {"--mass 9000", "mass", "9000"},
+      {"--sex alien", "sex", "alien"},
+      {"--detail medium", "detail", "medium"},
+      {"--overrides unknown.json", "unknown.json", "femur"},
+      {"--overrides malformed.json", "malformed.json", "malformed JSON"},
+      {"--overrides missing.json", "missing.json", "cannot open"},
+  };
+  for (const Case& c : cases) {
+    INFO(c.args);
+    const Run r = run_biodyn(std::string("model ") + c.args + " -o out.xml --summary out.json", dir);
+    INFO(r.err);
+    CHECK(r.exit_code == 2);
+    CHECK(std::count(r.err.begin(), r.err.end(), '\n') == 1);
+    CHECK_THAT(r.err, Catch::Contains(c.must_mention) && Catch::Contains(c.value));
+    CHECK(!fs::exists(dir / "out.xml"));
+    CHECK(!fs::exists(dir / "out.json"));
+  }
+  const Run r = run_biodyn("model --height abc -o out.xml", dir);
+  CHECK(r.exit_code == 2);
+  CHECK_THAT(r.err, Catch::Contains("height"));
+  CHECK(!fs::exists(dir / "out.xml"));
+}
+
+TEST_CASE("biodyn drop runs the main job and reports it", "[apps][cli]") {
+  const fs::path dir = fresh_dir("drop");
+  const Run r = run_biodyn("drop --duration 2 -o out/c.xml --json out/drop.json", dir);
+  INFO(r.err);
+  REQUIRE(r.exit_code == 0);
+  CHECK_THAT(r.out, Catch::Contains("MuJoCo warnings: none"));
+  const auto j = nlohmann::json::parse(slurp(dir / "out/drop.json"));
+  CHECK(j["mujoco_warnings"].get<int>() == 0);
+  CHECK(j["collapse_time_s"].get<double>() > 0);
+  CHECK(j["total_mass_kg"].get<double>() == Approx(80).margin(1e-3));
+  CHECK(!fs::exists(dir / "out/c.xml.tmp-biodyn"));
+}
