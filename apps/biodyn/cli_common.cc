@@ -50,8 +50,22 @@ std::string read_text_file(const std::string& path) {
 
 void write_file_atomically(const std::string& path, const std::string& text) {
   namespace fs = std::filesystem;
-  const fs::path target(path);
   std::error_code ec;
+  fs::path target(path);
+  const fs::file_status status = fs::status(target, ec);
+  if (fs::exists(status) && !fs::is_regular_file(status)) {
+    // A device or pipe (/dev/stdout, a fifo): stream into it; renaming over it would replace it.
+    if (fs::is_directory(status)) throw sim::Error(path + ": is a directory");
+    std::ofstream out(target, std::ios::binary);
+    if (!(out << text) || !out.flush()) throw sim::Error(path + ": write failed");
+    return;
+  }
+  // Keep a symlink (even a dangling one) and write the file it points to.
+  for (int hops = 0; hops < 40 && fs::is_symlink(fs::symlink_status(target, ec)); ++hops) {
+    const fs::path next = fs::read_symlink(target, ec);
+    if (ec) break;
+    target = next.is_absolute() ? next : target.parent_path() / next;
+  }
   if (target.has_parent_path()) {
     fs::create_directories(target.parent_path(), ec);
     if (ec) throw sim::Error(path + ": cannot create directory: " + ec.message());

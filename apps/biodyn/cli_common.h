@@ -27,7 +27,9 @@ struct CharacterOptions {
 std::string read_text_file(const std::string& path);
 
 /// Writes `text` to `path` whole or not at all: into a temporary file beside it, then renamed
-/// over it. Creates missing parent directories. Throws sim::Error naming the path.
+/// over it (through a symlink, the file it points to). Creates missing parent directories.
+/// A path that is a device or pipe (/dev/stdout) is written directly. Throws sim::Error naming
+/// the path.
 void write_file_atomically(const std::string& path, const std::string& text);
 
 /// Installs a log sink printing warnings and errors to stderr (debug/info only if verbose).

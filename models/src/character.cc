@@ -34,19 +34,19 @@ Vector3d mirror(const Vector3d& axis_left, double sign) {
 
 /// A piece of the full-detail body, laid out in the world frame of the standing pose.
 struct Part {
-  std::string name;        // full-detail segment name, e.g. "thigh_l"
-  std::string parent;      // full-detail parent
-  std::string kind;        // name without side, e.g. "thigh"
-  std::string side;        // "l", "r" or ""
-  std::string table_parts;  // human-readable provenance for the summary
-  double table_fraction = 0;  // share of body mass by the tables
-  double length = 0;          // m
-  double mass = 0;            // kg
+  std::string name;                        // full-detail segment name, e.g. "thigh_l"
+  std::string parent;                      // full-detail parent
+  std::string kind;                        // name without side, e.g. "thigh"
+  std::string side;                        // "l", "r" or ""
+  std::string table_parts;                 // human-readable provenance for the summary
+  double table_fraction = 0;               // share of body mass by the tables
+  double length = 0;                       // m
+  double mass = 0;                         // kg
   Vector3d proximal_W = Vector3d::Zero();  // joint to the parent (body origin)
   Vector3d distal_W = Vector3d::Zero();    // distal landmark
   Vector3d com_W = Vector3d::Zero();
-  Matrix3d inertia = Matrix3d::Zero();  // about com, world axes
-  std::vector<Geom> geoms_W;            // centres/endpoints in world coordinates
+  Matrix3d inertia = Matrix3d::Zero();      // about com, world axes
+  std::vector<Geom> geoms_W;                // centres/endpoints in world coordinates
   Vector3d half_extent = Vector3d::Zero();  // surface distance along x, y, z (markers)
 };
 
@@ -64,7 +64,8 @@ std::vector<std::string> full_part_names() {
     }
   }
   for (const char* s : kSides) {
-    for (const char* k : {"thigh", "shank", "foot", "toes"}) names.push_back(std::string(k) + "_" + s);
+    for (const char* k : {"thigh", "shank", "foot", "toes"})
+      names.push_back(std::string(k) + "_" + s);
   }
   return names;
 }
@@ -95,14 +96,15 @@ std::vector<SegmentPlan> plan_segments(Detail detail) {
 
 std::string parent_of(const std::string& part, Detail detail) {
   static const std::map<std::string, std::string> kParentKind = {
-      {"lumbar", "pelvis"},       {"thorax", "lumbar"},     {"neck", "thorax"},
-      {"head", "neck"},           {"clavicle", "thorax"},   {"upper_arm", "clavicle"},
-      {"forearm", "upper_arm"},   {"hand", "forearm"},      {"thigh", "pelvis"},
-      {"shank", "thigh"},         {"foot", "shank"},        {"toes", "foot"}};
+      {"lumbar", "pelvis"},     {"thorax", "lumbar"},   {"neck", "thorax"},
+      {"head", "neck"},         {"clavicle", "thorax"}, {"upper_arm", "clavicle"},
+      {"forearm", "upper_arm"}, {"hand", "forearm"},    {"thigh", "pelvis"},
+      {"shank", "thigh"},       {"foot", "shank"},      {"toes", "foot"}};
   if (part == "pelvis") return "";
   if (detail == Detail::kGait && part == "trunk") return "pelvis";
   const size_t us = part.rfind('_');
-  const bool sided = us != std::string::npos && (part.substr(us + 1) == "l" || part.substr(us + 1) == "r");
+  const bool sided =
+      us != std::string::npos && (part.substr(us + 1) == "l" || part.substr(us + 1) == "r");
   const std::string kind = sided ? part.substr(0, us) : part;
   const std::string parent_kind = kParentKind.at(kind);
   const bool parent_sided = parent_kind != "pelvis" && parent_kind != "thorax" &&
@@ -231,15 +233,19 @@ Character generate_character(const CharacterSpec& spec) {
   const double density = T.proportion("tissue_density");
   const double stature_ref = de_leva_reference_height_m(sex);
   const auto row = [&](const char* seg) -> const DeLevaRow& { return T.de_leva_row(seg, sex); };
-  const auto table_length = [&](const char* seg) { return row(seg).length_mm / 1000.0 / stature_ref * H; };
+  const auto table_length = [&](const char* seg) {
+    return row(seg).length_mm / 1000.0 / stature_ref * H;
+  };
 
   // --- Mass fractions (de Leva Table 4), normalised so they sum to exactly 1 (the female
   // column sums to 99.99% by rounding).
-  const char* kDeLevaParts[] = {"head", "upper_trunk", "middle_trunk", "lower_trunk", "upper_arm",
-                                "forearm", "hand", "thigh", "shank", "foot"};
+  const char* kDeLevaParts[] = {"head",      "upper_trunk", "middle_trunk", "lower_trunk",
+                                "upper_arm", "forearm",     "hand",         "thigh",
+                                "shank",     "foot"};
   double pct_sum = 0;
   for (const char* seg : kDeLevaParts) {
-    const bool bilateral = std::string(seg) != "head" && std::string(seg).find("trunk") == std::string::npos;
+    const bool bilateral =
+        std::string(seg) != "head" && std::string(seg).find("trunk") == std::string::npos;
     pct_sum += row(seg).mass_pct * (bilateral ? 2 : 1);
   }
   const auto frac = [&](const char* seg) { return row(seg).mass_pct / pct_sum; };
@@ -253,7 +259,8 @@ Character generate_character(const CharacterSpec& spec) {
     Part p;
     p.name = n;
     const size_t us = n.rfind('_');
-    const bool sided = us != std::string::npos && (n.substr(us + 1) == "l" || n.substr(us + 1) == "r");
+    const bool sided =
+        us != std::string::npos && (n.substr(us + 1) == "l" || n.substr(us + 1) == "r");
     p.kind = sided ? n.substr(0, us) : n;
     p.side = sided ? n.substr(us + 1) : "";
     p.parent = parent_of(n, Detail::kFull);
@@ -289,9 +296,9 @@ Character generate_character(const CharacterSpec& spec) {
   parts["lumbar"].length = table_length("middle_trunk");
   parts["thorax"].length = table_length("upper_trunk");
   parts["head"].length = table_length("head");
-  parts["neck"].length = H - (ankle_h + table_length("shank") + table_length("thigh") +
-                              parts["pelvis"].length + parts["lumbar"].length +
-                              parts["thorax"].length + parts["head"].length);
+  parts["neck"].length =
+      H - (ankle_h + table_length("shank") + table_length("thigh") + parts["pelvis"].length +
+           parts["lumbar"].length + parts["thorax"].length + parts["head"].length);
   if (!(parts["neck"].length > 0.01 * H)) {
     throw sim::Error("tables: segment lengths leave no room for the neck (" +
                      std::to_string(parts["neck"].length) + " m)");
@@ -335,7 +342,9 @@ Character generate_character(const CharacterSpec& spec) {
     std::vector<std::string> chain;
     for (const std::string& part : p.parts) {
       const std::string& kind = parts[part].kind;
-      if (p.parts.size() > 1 && kind != "lumbar" && kind != "thorax" && kind != "neck" && kind != "head") continue;
+      if (p.parts.size() > 1 && kind != "lumbar" && kind != "thorax" && kind != "neck" &&
+          kind != "head")
+        continue;
       chain.push_back(part);
       current += parts[part].length;
     }
@@ -484,8 +493,9 @@ Character generate_character(const CharacterSpec& spec) {
     head.proximal_W = parts["neck"].distal_W;
     head.distal_W = head.proximal_W + Vector3d(0, 0, head.length);  // vertex
     head.com_W = head.distal_W - Vector3d(0, 0, r.com_pct / 100 * head.length);
-    head.inertia = diag_inertia(head.mass, r.r_sag_pct / 100 * head.length,
-                                r.r_trans_pct / 100 * head.length, r.r_long_pct / 100 * head.length);
+    head.inertia =
+        diag_inertia(head.mass, r.r_sag_pct / 100 * head.length, r.r_trans_pct / 100 * head.length,
+                     r.r_long_pct / 100 * head.length);
     Geom sphere;
     sphere.type = GeomType::kSphere;
     sphere.radius = 0.5 * head.length;
@@ -500,8 +510,8 @@ Character generate_character(const CharacterSpec& spec) {
     Part& clav = parts["clavicle" + sd];
     const double r_ua = radius_of("upper_arm" + sd);
     const double sc_y = T.proportion("sternoclavicular_offset") * H;
-    const double gh_y = clav.length > 0 ? sc_y + clav.length
-                                        : 0.5 * T.proportion("shoulder_width") * H - r_ua;
+    const double gh_y =
+        clav.length > 0 ? sc_y + clav.length : 0.5 * T.proportion("shoulder_width") * H - r_ua;
     clav.length = gh_y - sc_y;
     const double gh_z = z_supra - T.proportion("shoulder_joint_drop") * H;
     clav.proximal_W = Vector3d(0, sign * sc_y, z_supra);
@@ -615,11 +625,12 @@ Character generate_character(const CharacterSpec& spec) {
   for (const MarkerRow& mr : T.markers) {
     const auto pit = parts.find(mr.segment);
     if (pit == parts.end()) {
-      throw sim::Error("markers_26.csv: marker " + mr.marker + " names no segment '" + mr.segment + "'");
+      throw sim::Error("markers_26.csv: marker " + mr.marker + " names no segment '" + mr.segment +
+                       "'");
     }
     const Part& part = pit->second;
-    const bool arm = part.kind == "clavicle" || part.kind == "upper_arm" || part.kind == "forearm" ||
-                     part.kind == "hand";
+    const bool arm = part.kind == "clavicle" || part.kind == "upper_arm" ||
+                     part.kind == "forearm" || part.kind == "hand";
     if (spec.detail == Detail::kGait && arm) continue;  // no arms in the gait model
     const double lateral_sign = part.side.empty() ? 1.0 : side_sign(part.side);
     Vector3d pos_W;
@@ -627,7 +638,8 @@ Character generate_character(const CharacterSpec& spec) {
       const double x_heel = part.geoms_W[0].center_B.x() - part.geoms_W[0].half_extents.x();
       const double sole = part.geoms_W[0].center_B.z() - part.geoms_W[0].half_extents.z();
       const double full_len = part.length + parts["toes_" + part.side].length;
-      pos_W = Vector3d(x_heel + mr.along * full_len, part.proximal_W.y(), sole + mr.sup * part.half_extent.z());
+      pos_W = Vector3d(x_heel + mr.along * full_len, part.proximal_W.y(),
+                       sole + mr.sup * part.half_extent.z());
       pos_W.y() += mr.lat * lateral_sign * part.half_extent.y();
       pos_W.x() += mr.ant * part.half_extent.x();
     } else {

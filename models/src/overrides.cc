@@ -23,7 +23,8 @@ std::map<std::string, SegmentOverride> parse_overrides(const std::string& json_t
   }
   for (const auto& [key, value] : doc.items()) {
     if (key != "segments") {
-      throw InvalidArgument(source + ": unknown top-level field '" + key + "' (expected 'segments')");
+      throw InvalidArgument(source + ": unknown top-level field '" + key +
+                            "' (expected 'segments')");
     }
   }
   std::map<std::string, SegmentOverride> out;
@@ -36,11 +37,11 @@ std::map<std::string, SegmentOverride> parse_overrides(const std::string& json_t
     SegmentOverride o;
     for (const auto& [field, value] : fields.items()) {
       if (field != "mass_kg" && field != "length_m") {
-        throw InvalidArgument(where + ": unknown field '" + field + "' (expected mass_kg, length_m)");
+        throw InvalidArgument(where + ": unknown field '" + field +
+                              "' (expected mass_kg, length_m)");
       }
       if (!value.is_number()) {
-        throw InvalidArgument(where + "." + field + ": expected a number, found " +
-                              value.dump());
+        throw InvalidArgument(where + "." + field + ": expected a number, found " + value.dump());
       }
       const double v = value.get<double>();
       if (!(v > 0)) {

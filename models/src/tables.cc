@@ -113,8 +113,8 @@ Tables parse_tables(std::string_view de_leva_csv, std::string_view proportions_c
   Tables t;
   {
     const CsvReader csv("de_leva_1996.csv", de_leva_csv,
-                        {"segment", "sex", "proximal", "distal", "length_mm", "mass_pct",
-                         "com_pct", "r_sag_pct", "r_trans_pct", "r_long_pct"});
+                        {"segment", "sex", "proximal", "distal", "length_mm", "mass_pct", "com_pct",
+                         "r_sag_pct", "r_trans_pct", "r_long_pct"});
     for (size_t r = 0; r < csv.size(); ++r) {
       DeLevaRow row;
       row.segment = csv.text(r, 0);
@@ -135,7 +135,8 @@ Tables parse_tables(std::string_view de_leva_csv, std::string_view proportions_c
     }
   }
   {
-    const CsvReader csv("body_proportions.csv", proportions_csv, {"name", "value", "unit", "source"});
+    const CsvReader csv("body_proportions.csv", proportions_csv,
+                        {"name", "value", "unit", "source"});
     for (size_t r = 0; r < csv.size(); ++r) {
       const double v = csv.number(r, 1);
       if (!(v > 0)) csv.fail(r, 1, "a positive value", csv.text(r, 1));
@@ -143,9 +144,9 @@ Tables parse_tables(std::string_view de_leva_csv, std::string_view proportions_c
     }
   }
   {
-    const CsvReader csv("joints.csv", joints_csv,
-                        {"dof", "type", "min_deg", "max_deg", "tau_ref_Nm", "tau_source",
-                         "armature", "damping"});
+    const CsvReader csv(
+        "joints.csv", joints_csv,
+        {"dof", "type", "min_deg", "max_deg", "tau_ref_Nm", "tau_source", "armature", "damping"});
     for (size_t r = 0; r < csv.size(); ++r) {
       JointRow row;
       row.dof = csv.text(r, 0);
@@ -211,7 +212,8 @@ const DeLevaRow& Tables::de_leva_row(const std::string& segment, Sex sex) const 
 
 double Tables::proportion(const std::string& name) const {
   const auto it = proportions.find(name);
-  if (it == proportions.end()) throw sim::Error("body_proportions.csv: no row named '" + name + "'");
+  if (it == proportions.end())
+    throw sim::Error("body_proportions.csv: no row named '" + name + "'");
   return it->second;
 }
 

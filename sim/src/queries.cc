@@ -20,7 +20,8 @@ CenterOfMass center_of_mass(const mjModel& m, const mjData& d) {
     const double mass = m.body_mass[b];
     if (mass <= 0) continue;
     mj_objectVelocity(&m, &d, mjOBJ_BODY, b, velocity, 0);
-    weighted_position += mass * Eigen::Vector3d(d.xipos[3 * b], d.xipos[3 * b + 1], d.xipos[3 * b + 2]);
+    weighted_position +=
+        mass * Eigen::Vector3d(d.xipos[3 * b], d.xipos[3 * b + 1], d.xipos[3 * b + 2]);
     momentum += mass * Eigen::Vector3d(velocity[3], velocity[4], velocity[5]);
     com.mass += mass;
   }
@@ -43,7 +44,8 @@ void floor_contacts(const mjModel& m, const mjData& d, int floor_geom,
     // Contact frame rows: normal (geom1 -> geom2), then two tangents. Force on geom2.
     Eigen::Vector3d f_on_geom2 = Eigen::Vector3d::Zero();
     for (int r = 0; r < 3; ++r) {
-      f_on_geom2 += f_local[r] * Eigen::Vector3d(c.frame[3 * r], c.frame[3 * r + 1], c.frame[3 * r + 2]);
+      f_on_geom2 +=
+          f_local[r] * Eigen::Vector3d(c.frame[3 * r], c.frame[3 * r + 1], c.frame[3 * r + 2]);
     }
     Eigen::Vector3d normal(c.frame[0], c.frame[1], c.frame[2]);
     const bool body_is_geom2 = (c.geom1 == floor_geom);

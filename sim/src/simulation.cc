@@ -31,20 +31,28 @@ WarningCounts& WarningCounts::operator+=(const WarningCounts& other) {
 
 const char* warning_name(int warning) {
   switch (warning) {
-    case mjWARN_INERTIA: return "singular inertia";
-    case mjWARN_CONTACTFULL: return "contact list full";
-    case mjWARN_CNSTRFULL: return "constraint list full";
-    case mjWARN_VGEOMFULL: return "visual geom list full";
-    case mjWARN_BADQPOS: return "bad qpos";
-    case mjWARN_BADQVEL: return "bad qvel";
-    case mjWARN_BADQACC: return "bad qacc";
-    case mjWARN_BADCTRL: return "bad ctrl";
-    default: return "unknown warning";
+    case mjWARN_INERTIA:
+      return "singular inertia";
+    case mjWARN_CONTACTFULL:
+      return "contact list full";
+    case mjWARN_CNSTRFULL:
+      return "constraint list full";
+    case mjWARN_VGEOMFULL:
+      return "visual geom list full";
+    case mjWARN_BADQPOS:
+      return "bad qpos";
+    case mjWARN_BADQVEL:
+      return "bad qvel";
+    case mjWARN_BADQACC:
+      return "bad qacc";
+    case mjWARN_BADCTRL:
+      return "bad ctrl";
+    default:
+      return "unknown warning";
   }
 }
 
-Simulation::Simulation(Model model)
-    : model_(std::move(model)), data_(*model_), scratch_(*model_) {
+Simulation::Simulation(Model model) : model_(std::move(model)), data_(*model_), scratch_(*model_) {
   reset();
 }
 

@@ -28,7 +28,8 @@ std::string slurp(const fs::path& p) {
 /// Runs `biodyn <args>` in `dir`, capturing stdout and stderr.
 Run run_biodyn(const std::string& args, const fs::path& dir) {
   const std::string exe = biodyn::testing::binary_dir() + "/apps/biodyn";
-  const std::string cmd = "cd '" + dir.string() + "' && '" + exe + "' " + args + " > stdout.txt 2> stderr.txt";
+  const std::string cmd =
+      "cd '" + dir.string() + "' && '" + exe + "' " + args + " > stdout.txt 2> stderr.txt";
   const int status = std::system(cmd.c_str());
   Run r;
   r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
@@ -48,8 +49,10 @@ fs::path fresh_dir(const std::string& name) {
 
 TEST_CASE("biodyn model writes the MJCF and a summary of every segment", "[apps][cli]") {
   const fs::path dir = fresh_dir("model");
-  const Run r = run_biodyn("model --height 1.80 --mass 80 --sex male --detail full -o character.xml "
-                       "--summary summary.json", dir);
+  const Run r = run_biodyn(
+      "model --height 1.80 --mass 80 --sex male --detail full -o character.xml "
+      "--summary summary.json",
+      dir);
   INFO(r.err);
   REQUIRE(r.exit_code == 0);
   CHECK(fs::exists(dir / "character.xml"));
@@ -64,7 +67,8 @@ TEST_CASE("biodyn model writes the MJCF and a summary of every segment", "[apps]
   }
   // The file compiles in stock MuJoCo too.
   CHECK(std::system(("mujoco-compile '" + (dir / "character.xml").string() + "' '" +
-                     (dir / "c.mjb").string() + "' > /dev/null 2>&1").c_str()) == 0);
+                     (dir / "c.mjb").string() + "' > /dev/null 2>&1")
+                        .c_str()) == 0);
 }
 
 TEST_CASE("Bad values exit non-zero with a one-line message and write nothing", "[apps][cli]") {
@@ -89,7 +93,8 @@ TEST_CASE("Bad values exit non-zero with a one-line message and write nothing", 
   };
   for (const Case& c : cases) {
     INFO(c.args);
-    const Run r = run_biodyn(std::string("model ") + c.args + " -o out.xml --summary out.json", dir);
+    const Run r =
+        run_biodyn(std::string("model ") + c.args + " -o out.xml --summary out.json", dir);
     INFO(r.err);
     CHECK(r.exit_code == 2);
     CHECK(std::count(r.err.begin(), r.err.end(), '\n') == 1);
@@ -114,4 +119,14 @@ TEST_CASE("biodyn drop runs the main job and reports it", "[apps][cli]") {
   CHECK(j["collapse_time_s"].get<double>() > 0);
   CHECK(j["total_mass_kg"].get<double>() == Approx(80).margin(1e-3));
   CHECK(!fs::exists(dir / "out/c.xml.tmp-biodyn"));
+}
+
+TEST_CASE("Outputs to devices and through symlinks leave them in place", "[apps][cli]") {
+  const fs::path dir = fresh_dir("special");
+  fs::create_symlink("real.xml", dir / "link.xml");
+  REQUIRE(run_biodyn("model -o link.xml --summary /dev/stdout", dir).exit_code == 0);
+  CHECK(fs::is_symlink(dir / "link.xml"));
+  CHECK(fs::file_size(dir / "real.xml") > 1000);
+  CHECK_THAT(slurp(dir / "stdout.txt"), Catch::Contains("\"total_mass_kg\""));
+  CHECK(fs::is_symlink("/dev/stdout"));
 }

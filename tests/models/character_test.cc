@@ -17,10 +17,10 @@ using biodyn::testing::MujocoWarningGuard;
 
 namespace {
 
-constexpr double kMassTolerance_kg = 1e-3;      // issue: total mass within 1 g
-constexpr double kSoleTolerance_m = 2e-3;       // issue: lowest geom within 2 mm of z = 0
-constexpr double kHeightTolerance = 0.03;       // issue: standing height within 3%
-constexpr double kFractionTolerance = 1e-9;     // exact up to the printed precision
+constexpr double kMassTolerance_kg = 1e-3;   // issue: total mass within 1 g
+constexpr double kSoleTolerance_m = 2e-3;    // issue: lowest geom within 2 mm of z = 0
+constexpr double kHeightTolerance = 0.03;    // issue: standing height within 3%
+constexpr double kFractionTolerance = 1e-9;  // exact up to the printed precision
 
 /// The tables' share of body mass for each segment, computed here from the CSV rows (not from
 /// the generator) so the test checks the generator's arithmetic.
@@ -64,8 +64,8 @@ std::map<std::string, double> expected_fractions(models::Sex sex, models::Detail
 
 /// Runs Debian's stock `mujoco-compile` sample on the file: an independent compile check.
 int stock_compile(const std::string& xml_path) {
-  const std::string cmd = "mujoco-compile '" + xml_path + "' '" + xml_path + ".mjb' > '" +
-                          xml_path + ".log' 2>&1";
+  const std::string cmd =
+      "mujoco-compile '" + xml_path + "' '" + xml_path + ".mjb' > '" + xml_path + ".log' 2>&1";
   return std::system(cmd.c_str());
 }
 
@@ -131,7 +131,8 @@ TEST_CASE("Generated characters meet the anthropometric and physical invariants"
           for (const models::Segment& s : c.segments) {
             const int body = mj_name2id(&m, mjOBJ_BODY, s.name.c_str());
             Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(s.inertia_B);
-            std::vector<double> ours = {eig.eigenvalues()[0], eig.eigenvalues()[1], eig.eigenvalues()[2]};
+            std::vector<double> ours = {eig.eigenvalues()[0], eig.eigenvalues()[1],
+                                        eig.eigenvalues()[2]};
             std::vector<double> theirs(m.body_inertia + 3 * body, m.body_inertia + 3 * body + 3);
             std::sort(ours.begin(), ours.end());
             std::sort(theirs.begin(), theirs.end());
@@ -153,7 +154,8 @@ TEST_CASE("Generated MJCF compiles in stock MuJoCo 2.2.2 (mujoco-compile)", "[mo
           const std::string path = testing::binary_dir() + "/stock_compile_" +
                                    std::to_string(static_cast<int>(height * 100)) + "_" +
                                    std::to_string(static_cast<int>(mass)) + "_" +
-                                   models::to_string(sex) + "_" + models::to_string(detail) + ".xml";
+                                   models::to_string(sex) + "_" + models::to_string(detail) +
+                                   ".xml";
           std::ofstream(path) << models::to_mjcf(models::generate_character(spec));
           INFO(path);
           CHECK(stock_compile(path) == 0);
@@ -214,7 +216,8 @@ TEST_CASE("Generation is deterministic and the spec is validated", "[models][cha
   CHECK(models::to_mjcf(models::generate_character(spec)) ==
         models::to_mjcf(models::generate_character(spec)));
   spec.height_m = -1.7;
-  CHECK_THROWS_WITH(models::generate_character(spec), Catch::Contains("height") && Catch::Contains("-1.7"));
+  CHECK_THROWS_WITH(models::generate_character(spec),
+                    Catch::Contains("height") && Catch::Contains("-1.7"));
   spec.height_m = 1.7;
   spec.mass_kg = 1e6;
   CHECK_THROWS_WITH(models::generate_character(spec), Catch::Contains("mass"));
@@ -225,7 +228,8 @@ TEST_CASE("Generation is deterministic and the spec is validated", "[models][cha
 TEST_CASE("Summary JSON lists every segment", "[models][mjcf]") {
   const models::Character c = models::generate_character({});
   const std::string json = models::summary_json(c);
-  for (const models::Segment& s : c.segments) CHECK_THAT(json, Catch::Contains("\"" + s.name + "\""));
+  for (const models::Segment& s : c.segments)
+    CHECK_THAT(json, Catch::Contains("\"" + s.name + "\""));
   CHECK_THAT(json, Catch::Contains("\"total_mass_kg\""));
   CHECK_THAT(json, Catch::Contains("\"inertia_kg_m2\""));
 }

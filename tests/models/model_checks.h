@@ -19,13 +19,19 @@ inline std::pair<double, double> geom_z_span(const mjModel& m, const mjData& d) 
     const double z = d.geom_xpos[3 * g + 2];
     double reach = 0;
     switch (m.geom_type[g]) {
-      case mjGEOM_PLANE: continue;
-      case mjGEOM_SPHERE: reach = size[0]; break;
-      case mjGEOM_CAPSULE: reach = size[0] + std::abs(R[8]) * size[1]; break;
+      case mjGEOM_PLANE:
+        continue;
+      case mjGEOM_SPHERE:
+        reach = size[0];
+        break;
+      case mjGEOM_CAPSULE:
+        reach = size[0] + std::abs(R[8]) * size[1];
+        break;
       case mjGEOM_BOX:
         reach = std::abs(R[6]) * size[0] + std::abs(R[7]) * size[1] + std::abs(R[8]) * size[2];
         break;
-      default: reach = m.geom_rbound[g];
+      default:
+        reach = m.geom_rbound[g];
     }
     lo = std::min(lo, z - reach);
     hi = std::max(hi, z + reach);

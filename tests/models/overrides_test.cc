@@ -7,7 +7,8 @@
 
 using namespace biodyn;
 
-TEST_CASE("A mass override fixes the segment and the tables share the rest", "[models][overrides]") {
+TEST_CASE("A mass override fixes the segment and the tables share the rest",
+          "[models][overrides]") {
   models::CharacterSpec spec;
   const models::Character base = models::generate_character(spec);
   spec.overrides["thigh"].mass_kg = 10.0;  // both sides
@@ -64,8 +65,8 @@ TEST_CASE("Bad overrides are rejected with the segment and field named", "[model
 }
 
 TEST_CASE("Override JSON is parsed strictly", "[models][overrides]") {
-  const auto o = models::parse_overrides(R"({"segments": {"thigh": {"mass_kg": 9.5, "length_m": 0.45}}})",
-                                         "seg.json");
+  const auto o = models::parse_overrides(
+      R"({"segments": {"thigh": {"mass_kg": 9.5, "length_m": 0.45}}})", "seg.json");
   REQUIRE(o.count("thigh") == 1);
   CHECK(*o.at("thigh").mass_kg == 9.5);
   CHECK(*o.at("thigh").length_m == 0.45);
@@ -73,8 +74,9 @@ TEST_CASE("Override JSON is parsed strictly", "[models][overrides]") {
                     Catch::StartsWith("seg.json: malformed JSON"));
   CHECK_THROWS_WITH(models::parse_overrides(R"({"segments": {"thigh": {"mass": 9}}})", "seg.json"),
                     Catch::Contains("segments.thigh") && Catch::Contains("'mass'"));
-  CHECK_THROWS_WITH(models::parse_overrides(R"({"segments": {"thigh": {"mass_kg": "9"}}})", "seg.json"),
-                    Catch::Contains("segments.thigh.mass_kg") && Catch::Contains("\"9\""));
+  CHECK_THROWS_WITH(
+      models::parse_overrides(R"({"segments": {"thigh": {"mass_kg": "9"}}})", "seg.json"),
+      Catch::Contains("segments.thigh.mass_kg") && Catch::Contains("\"9\""));
   CHECK_THROWS_WITH(models::parse_overrides(R"([1, 2])", "seg.json"), Catch::Contains("seg.json"));
   CHECK_THROWS_WITH(models::parse_overrides(R"({"segments": {}, "extra": 1})", "seg.json"),
                     Catch::Contains("extra"));

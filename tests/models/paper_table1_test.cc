@@ -20,9 +20,9 @@ using namespace biodyn::models;
 namespace {
 struct PaperRow {
   const char* segment;
-  double length_cm;  // Table 1
-  double mass_kg;    // Table 1
-  double our_mass_ratio;  // ours / paper, as measured and explained above
+  double length_cm;         // Table 1
+  double mass_kg;           // Table 1
+  double our_mass_ratio;    // ours / paper, as measured and explained above
   double our_length_ratio;  // ours / paper, 0 = not comparable
 };
 constexpr double kRatioTolerance = 0.02;
@@ -35,9 +35,9 @@ TEST_CASE("Generator versus the paper's Table 1 (179.9 cm, 82.2 kg)", "[models][
   spec.detail = Detail::kGait;
   const Character c = generate_character(spec);
   const PaperRow rows[] = {
-      {"trunk", 40.9, 40.0, 1.01, 0},       {"pelvis", 21.09, 16.3, 0.563, 0},
+      {"trunk", 40.9, 40.0, 1.01, 0},        {"pelvis", 21.09, 16.3, 0.563, 0},
       {"thigh_l", 45.85, 8.3, 1.402, 0.952}, {"shank_l", 45.05, 4.04, 0.881, 0.996},
-      {"foot_l", 19.0, 0.86, 1.115, 1.063}, {"toes_l", 6.1, 0.15, 1.115, 1.063},
+      {"foot_l", 19.0, 0.86, 1.115, 1.063},  {"toes_l", 6.1, 0.15, 1.115, 1.063},
   };
   double paper_total = 0;
   for (const PaperRow& r : rows) {

@@ -35,7 +35,8 @@ TEST_CASE("de Leva's table is transcribed consistently", "[models][tables]") {
 TEST_CASE("The compiled-in tables are the files in models/data", "[models][tables]") {
   const char* src = std::getenv("BIODYN_SOURCE_DIR");
   REQUIRE(src != nullptr);
-  for (const char* name : {"de_leva_1996.csv", "body_proportions.csv", "joints.csv", "markers_26.csv"}) {
+  for (const char* name :
+       {"de_leva_1996.csv", "body_proportions.csv", "joints.csv", "markers_26.csv"}) {
     std::ifstream in(std::string(src) + "/models/data/" + name, std::ios::binary);
     REQUIRE(in);
     std::ostringstream s;
@@ -54,9 +55,9 @@ TEST_CASE("Malformed tables are reported by file, line and column", "[models][ta
   const std::string_view markers = embedded_data_file("markers_26.csv");
   std::string bad_joints(joints);
   bad_joints += "knee_flexion,hinge,0,abc,600,paper,0.1,1.0\n";
-  CHECK_THROWS_WITH(parse_tables(leva, prop, bad_joints, markers),
-                    Catch::StartsWith("joints.csv:") && Catch::Contains("max_deg") &&
-                        Catch::Contains("'abc'"));
+  CHECK_THROWS_WITH(
+      parse_tables(leva, prop, bad_joints, markers),
+      Catch::StartsWith("joints.csv:") && Catch::Contains("max_deg") && Catch::Contains("'abc'"));
   std::string bad_leva(leva);
   bad_leva += "thigh,male,HJC,KJC,422.2,14.16\n";
   CHECK_THROWS_WITH(parse_tables(bad_leva, prop, joints, markers),

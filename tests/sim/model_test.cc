@@ -31,7 +31,8 @@ TEST_CASE("Model loads MJCF text and names objects", "[sim][model]") {
 
 TEST_CASE("MuJoCo's compile error becomes a ModelLoadError naming the source", "[sim][model]") {
   MujocoWarningGuard guard;
-  const std::string bad = "<mujoco><worldbody><body><joint type='hinge'/></body></worldbody></mujoco>";
+  const std::string bad =
+      "<mujoco><worldbody><body><joint type='hinge'/></body></worldbody></mujoco>";
   try {
     Model::from_string(bad, "my_model.xml");
     FAIL("expected ModelLoadError");

@@ -107,7 +107,8 @@ TEST_CASE("Relative orientations and ball-joint quaternions", "[sim][queries]") 
   CHECK_THROWS(biodyn::sim::joint_quaternion(m, sim.data(), 1));  // a hinge
   const auto pose = biodyn::sim::body_pose(m, sim.data(), lower);
   // lower's origin hangs 0.3 m below the shoulder, rotated 0.4 rad about x.
-  CHECK((pose.position_W - (Eigen::Vector3d(0, 0, 1) + q_sh * Eigen::Vector3d(0, 0, -0.3))).norm() < 1e-9);
+  CHECK((pose.position_W - (Eigen::Vector3d(0, 0, 1) + q_sh * Eigen::Vector3d(0, 0, -0.3))).norm() <
+        1e-9);
 }
 
 TEST_CASE("Mechanical energy is conserved by a frictionless free flight", "[sim][queries]") {

@@ -100,6 +100,7 @@ TEST_CASE("The scratch data answers queries without disturbing the simulation", 
   mj_inverse(&sim.model(), &scratch);
   CHECK(std::abs(scratch.qfrc_inverse[0] - 6.0) < 1e-9);  // F = m a on the 2 kg box
   scratch.qpos[0] = 42;
-  for (int i = 0; i < sim.model().nq; ++i) CHECK(sim.data().qpos[i] == qpos[static_cast<size_t>(i)]);
+  for (int i = 0; i < sim.model().nq; ++i)
+    CHECK(sim.data().qpos[i] == qpos[static_cast<size_t>(i)]);
   CHECK(sim.data().time == time);
 }

@@ -48,12 +48,12 @@ enum class JointType { kHinge, kBall };
 
 /// One joint of a segment (a hinge is 1 DOF, a ball 3 DOF).
 struct Joint {
-  std::string name;   ///< e.g. "knee_flexion_l", "hip_l"
+  std::string name;  ///< e.g. "knee_flexion_l", "hip_l"
   JointType type = JointType::kHinge;
   Eigen::Vector3d anchor_B = Eigen::Vector3d::Zero();  ///< m, in the segment's body frame
   Eigen::Vector3d axis_B = Eigen::Vector3d::UnitY();   ///< hinge axis (unit), body frame
-  double min_rad = 0.0;  ///< hinge: lower limit; ball: 0
-  double max_rad = 0.0;  ///< hinge: upper limit; ball: cone half-angle on total rotation
+  double min_rad = 0.0;                                ///< hinge: lower limit; ball: 0
+  double max_rad = 0.0;   ///< hinge: upper limit; ball: cone half-angle on total rotation
   double armature = 0.0;  ///< kg m^2
   double damping = 0.0;   ///< N m s / rad
   /// N m, torque limit per actuated axis (hinge: [0]; ball: x, y, z of the body frame),
@@ -67,16 +67,17 @@ enum class GeomType { kBox, kCapsule, kSphere };
 /// A collision geom, in the segment's body frame.
 struct Geom {
   GeomType type = GeomType::kBox;
-  Eigen::Vector3d center_B = Eigen::Vector3d::Zero();        ///< m (box, sphere)
-  Eigen::Vector3d half_extents = Eigen::Vector3d::Zero();    ///< m (box)
-  Eigen::Vector3d from_B = Eigen::Vector3d::Zero(), to_B = Eigen::Vector3d::Zero();  ///< m (capsule)
-  double radius = 0.0;                                       ///< m (capsule, sphere)
+  Eigen::Vector3d center_B = Eigen::Vector3d::Zero();      ///< m (box, sphere)
+  Eigen::Vector3d half_extents = Eigen::Vector3d::Zero();  ///< m (box)
+  Eigen::Vector3d from_B = Eigen::Vector3d::Zero(),
+                  to_B = Eigen::Vector3d::Zero();  ///< m (capsule)
+  double radius = 0.0;                             ///< m (capsule, sphere)
 };
 
 /// One rigid body of the character.
 struct Segment {
-  std::string name;    ///< e.g. "pelvis", "thigh_l"
-  std::string parent;  ///< empty for the root (pelvis)
+  std::string name;                                    ///< e.g. "pelvis", "thigh_l"
+  std::string parent;                                  ///< empty for the root (pelvis)
   Eigen::Vector3d origin_W = Eigen::Vector3d::Zero();  ///< m, body origin in the standing pose
   double mass_kg = 0.0;
   double length_m = 0.0;  ///< m, proximal joint to distal landmark (foot: heel to MTP joint)
@@ -90,8 +91,8 @@ struct Segment {
 
 /// A marker site on a segment (the thesis's 26-marker skeleton-marker model).
 struct Marker {
-  std::string name;     ///< e.g. "LASI"
-  std::string segment;  ///< body it rides on
+  std::string name;                                      ///< e.g. "LASI"
+  std::string segment;                                   ///< body it rides on
   Eigen::Vector3d position_B = Eigen::Vector3d::Zero();  ///< m, body frame
   std::string description;
 };
@@ -101,9 +102,9 @@ struct Character {
   CharacterSpec spec;
   std::vector<Segment> segments;  ///< parents before children; segments[0] is the root
   std::vector<Marker> markers;
-  double torque_scale = 1.0;        ///< (mass/82.2 kg) * (height/1.799 m), paper §5.1
-  double standing_height_m = 0.0;   ///< highest geom point in the standing pose
-  double lowest_point_m = 0.0;      ///< lowest geom point (the soles), 0 by construction
+  double torque_scale = 1.0;       ///< (mass/82.2 kg) * (height/1.799 m), paper §5.1
+  double standing_height_m = 0.0;  ///< highest geom point in the standing pose
+  double lowest_point_m = 0.0;     ///< lowest geom point (the soles), 0 by construction
 
   double total_mass_kg() const;
   int actuated_dof_count() const;

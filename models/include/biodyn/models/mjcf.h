@@ -16,7 +16,7 @@ struct PhysicsOptions {
   bool elliptic_cone = true;
   double impratio = 5.0;
   int solver_iterations = 50;
-  double solver_tolerance = 1e-10;
+  double solver_tolerance = 1e-8;  ///< MuJoCo's default; Newton needs ~1.5 iterations here
   /// Static sizes (2.2.2 drops contacts past these with only a warning). Boxes give up to 4
   /// contacts each on a plane, capsules 2: a fallen full body touches with < 80 contacts; an
   /// elliptic condim-3 contact takes 3 rows, each weld 6, each limit 1.

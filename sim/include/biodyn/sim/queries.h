@@ -25,11 +25,11 @@ CenterOfMass center_of_mass(const mjModel& m, const mjData& d);
 
 /// One contact between a geom and the floor geom.
 struct FloorContact {
-  int geom = -1;                                             ///< the non-floor geom
-  int body = -1;                                             ///< its body
-  Eigen::Vector3d position_W = Eigen::Vector3d::Zero();      ///< m, contact point, world
-  Eigen::Vector3d normal_W = Eigen::Vector3d::UnitZ();       ///< unit, from floor into body
-  double normal_force = 0.0;                                 ///< N, >= 0, pushes body away
+  int geom = -1;                                                 ///< the non-floor geom
+  int body = -1;                                                 ///< its body
+  Eigen::Vector3d position_W = Eigen::Vector3d::Zero();          ///< m, contact point, world
+  Eigen::Vector3d normal_W = Eigen::Vector3d::UnitZ();           ///< unit, from floor into body
+  double normal_force = 0.0;                                     ///< N, >= 0, pushes body away
   Eigen::Vector3d tangential_force_W = Eigen::Vector3d::Zero();  ///< N, friction on the body
   double distance = 0.0;  ///< m, signed distance (negative = penetration)
 };

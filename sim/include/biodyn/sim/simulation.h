@@ -31,10 +31,10 @@ const char* warning_name(int warning);
 /// A horizontal or any other external force on one body, applied at the body's centre of mass
 /// through `xfrc_applied` (references.md, push protocol).
 struct Push {
-  int body = -1;                                   ///< body id receiving the force
+  int body = -1;                                      ///< body id receiving the force
   Eigen::Vector3d force_W = Eigen::Vector3d::Zero();  ///< N, world frame
-  double start_s = 0.0;                            ///< s, simulation time of onset
-  double duration_s = 0.0;                         ///< s, > 0
+  double start_s = 0.0;                               ///< s, simulation time of onset
+  double duration_s = 0.0;                            ///< s, > 0
 };
 
 /// Result of one step.
@@ -101,7 +101,7 @@ class Simulation {
   Data scratch_;
   std::vector<Push> pushes_;
   std::vector<Eigen::Vector3d> push_applied_W_;  // what each push wrote into xfrc_applied
-  std::array<int, mjNWARNING> seen_{};          // warning[i].number already counted
+  std::array<int, mjNWARNING> seen_{};           // warning[i].number already counted
   WarningCounts warnings_total_;
 };
 
