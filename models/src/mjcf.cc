@@ -3,7 +3,7 @@
 #include <tinyxml2.h>
 
 #include <cmath>
-#include <functional>
+#include <initializer_list>
 #include <iomanip>
 #include <map>
 #include <nlohmann/json.hpp>
@@ -30,9 +30,13 @@ std::string fmt(double v) {
 }
 std::string fmt(const Vector3d& v) { return fmt(v.x()) + " " + fmt(v.y()) + " " + fmt(v.z()); }
 
-tinyxml2::XMLElement* child(tinyxml2::XMLElement* parent, const char* name) {
+using Attributes = std::initializer_list<std::pair<const char*, std::string>>;
+
+/// Appends <name attr="value" ...> to `parent` and returns it.
+tinyxml2::XMLElement* child(tinyxml2::XMLElement* parent, const char* name, Attributes attrs = {}) {
   tinyxml2::XMLElement* e = parent->GetDocument()->NewElement(name);
   parent->InsertEndChild(e);
+  for (const auto& [key, value] : attrs) e->SetAttribute(key, value.c_str());
   return e;
 }
 
@@ -56,79 +60,67 @@ std::string to_mjcf(const Character& c, const PhysicsOptions& o) {
              << fmt(c.spec.mass_kg) << "kg_" << to_string(c.spec.detail);
   set(root, "model", model_name.str());
 
-  tinyxml2::XMLElement* compiler = child(root, "compiler");
-  set(compiler, "angle", "radian");
-  set(compiler, "inertiafromgeom", "false");  // every body has an explicit <inertial>
-
-  tinyxml2::XMLElement* option = child(root, "option");
-  set(option, "timestep", fmt(o.timestep_s));
+  child(root, "compiler",
+        {{"angle", "radian"}, {"inertiafromgeom", "false"}});  // explicit <inertial>
   // 2.2.2's Euler already integrates joint damping implicitly; its "implicit" integrator adds
   // only actuator-velocity derivatives (none for motors) at the cost of a dense nv x nv
   // factorisation: measured 180-230 us/step against 70-85 us for Euler on the full body.
-  set(option, "integrator", "Euler");
-  set(option, "cone", o.elliptic_cone ? "elliptic" : "pyramidal");
-  set(option, "impratio", fmt(o.impratio));
-  set(option, "solver", "Newton");
-  set(option, "iterations", std::to_string(o.solver_iterations));
-  set(option, "tolerance", fmt(o.solver_tolerance));
-  tinyxml2::XMLElement* size = child(root, "size");
-  set(size, "nconmax", std::to_string(o.nconmax));
-  set(size, "njmax", std::to_string(o.njmax));
-
-  tinyxml2::XMLElement* visual = child(root, "visual");
-  tinyxml2::XMLElement* global = child(visual, "global");
-  set(global, "offwidth", "1280");
-  set(global, "offheight", "720");
+  child(root, "option",
+        {{"timestep", fmt(o.timestep_s)},
+         {"integrator", "Euler"},
+         {"cone", o.elliptic_cone ? "elliptic" : "pyramidal"},
+         {"impratio", fmt(o.impratio)},
+         {"solver", "Newton"},
+         {"iterations", std::to_string(o.solver_iterations)},
+         {"tolerance", fmt(o.solver_tolerance)}});
+  child(root, "size", {{"nconmax", std::to_string(o.nconmax)}, {"njmax", std::to_string(o.njmax)}});
+  child(child(root, "visual"), "global", {{"offwidth", "1280"}, {"offheight", "720"}});
 
   tinyxml2::XMLElement* asset = child(root, "asset");
-  tinyxml2::XMLElement* tex = child(asset, "texture");
-  set(tex, "name", "grid");
-  set(tex, "type", "2d");
-  set(tex, "builtin", "checker");
-  set(tex, "rgb1", "0.2 0.3 0.4");
-  set(tex, "rgb2", "0.3 0.4 0.5");
-  set(tex, "width", "512");
-  set(tex, "height", "512");
-  tinyxml2::XMLElement* mat = child(asset, "material");
-  set(mat, "name", "grid");
-  set(mat, "texture", "grid");
-  set(mat, "texrepeat", "1 1");
-  set(mat, "texuniform", "true");
-  set(mat, "reflectance", "0.1");
-  tinyxml2::XMLElement* body_mat = child(asset, "material");
-  set(body_mat, "name", "body");
-  set(body_mat, "rgba", "0.8 0.6 0.45 1");
+  child(asset, "texture",
+        {{"name", "grid"},
+         {"type", "2d"},
+         {"builtin", "checker"},
+         {"rgb1", "0.2 0.3 0.4"},
+         {"rgb2", "0.3 0.4 0.5"},
+         {"width", "512"},
+         {"height", "512"}});
+  child(asset, "material",
+        {{"name", "grid"},
+         {"texture", "grid"},
+         {"texrepeat", "1 1"},
+         {"texuniform", "true"},
+         {"reflectance", "0.1"}});
+  child(asset, "material", {{"name", "body"}, {"rgba", "0.8 0.6 0.45 1"}});
 
   tinyxml2::XMLElement* defaults = child(root, "default");
-  tinyxml2::XMLElement* dgeom = child(defaults, "geom");
-  set(dgeom, "contype", std::to_string(kBodyContype));
-  set(dgeom, "conaffinity", std::to_string(kBodyConaffinity));
-  set(dgeom, "condim", "3");
-  set(dgeom, "friction", fmt(o.friction) + " 0.005 0.0001");
-  set(dgeom, "material", "body");
-  tinyxml2::XMLElement* djoint = child(defaults, "joint");
-  set(djoint, "solreflimit", fmt(o.limit_time_constant_s) + " 1");
-  tinyxml2::XMLElement* dsite = child(defaults, "site");
-  set(dsite, "size", fmt(kMarkerSiteRadius));
-  set(dsite, "group", std::to_string(kMarkerSiteGroup));
-  set(dsite, "rgba", "0.1 0.3 1 1");
-  tinyxml2::XMLElement* dmotor = child(defaults, "motor");
-  set(dmotor, "ctrllimited", "true");
+  child(defaults, "geom",
+        {{"contype", std::to_string(kBodyContype)},
+         {"conaffinity", std::to_string(kBodyConaffinity)},
+         {"condim", "3"},
+         {"friction", fmt(o.friction) + " 0.005 0.0001"},
+         {"material", "body"}});
+  child(defaults, "joint", {{"solreflimit", fmt(o.limit_time_constant_s) + " 1"}});
+  child(defaults, "site",
+        {{"size", fmt(kMarkerSiteRadius)},
+         {"group", std::to_string(kMarkerSiteGroup)},
+         {"rgba", "0.1 0.3 1 1"}});
+  child(defaults, "motor", {{"ctrllimited", "true"}});
 
   tinyxml2::XMLElement* world = child(root, "worldbody");
-  tinyxml2::XMLElement* light = child(world, "light");
-  set(light, "name", "sun");
-  set(light, "directional", "true");
-  set(light, "pos", "0 0 5");
-  set(light, "dir", "-0.3 0.3 -1");
-  set(light, "diffuse", "0.8 0.8 0.8");
-  tinyxml2::XMLElement* floor = child(world, "geom");
-  set(floor, "name", "floor");
-  set(floor, "type", "plane");
-  set(floor, "size", "50 50 0.05");
-  set(floor, "material", "grid");
-  set(floor, "contype", std::to_string(kFloorContype));
-  set(floor, "conaffinity", std::to_string(kFloorConaffinity));
+  child(world, "light",
+        {{"name", "sun"},
+         {"directional", "true"},
+         {"pos", "0 0 5"},
+         {"dir", "-0.3 0.3 -1"},
+         {"diffuse", "0.8 0.8 0.8"}});
+  child(world, "geom",
+        {{"name", "floor"},
+         {"type", "plane"},
+         {"size", "50 50 0.05"},
+         {"material", "grid"},
+         {"contype", std::to_string(kFloorContype)},
+         {"conaffinity", std::to_string(kFloorConaffinity)}});
 
   std::map<std::string, tinyxml2::XMLElement*> body_elements;
   std::map<std::string, const Segment*> by_name;
@@ -145,13 +137,12 @@ std::string to_mjcf(const Character& c, const PhysicsOptions& o) {
     set(body, "pos", fmt(pos));
     if (s.parent.empty()) {
       // Follows the character's centre of mass, looking at it from its left-front.
-      tinyxml2::XMLElement* cam = child(body, "camera");
-      set(cam, "name", "tracking");
-      set(cam, "mode", "trackcom");
-      set(cam, "pos", fmt(Vector3d(2.5, 2.5, 0.6)));
-      set(cam, "xyaxes", "-1 1 0 -0.1 -0.1 1");
-      tinyxml2::XMLElement* free = child(body, "freejoint");
-      set(free, "name", "root");
+      child(body, "camera",
+            {{"name", "tracking"},
+             {"mode", "trackcom"},
+             {"pos", fmt(Vector3d(2.5, 2.5, 0.6))},
+             {"xyaxes", "-1 1 0 -0.1 -0.1 1"}});
+      child(body, "freejoint", {{"name", "root"}});
     }
     tinyxml2::XMLElement* inertial = child(body, "inertial");
     set(inertial, "pos", fmt(s.com_B));

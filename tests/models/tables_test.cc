@@ -33,11 +33,10 @@ TEST_CASE("de Leva's table is transcribed consistently", "[models][tables]") {
 }
 
 TEST_CASE("The compiled-in tables are the files in models/data", "[models][tables]") {
-  const char* src = std::getenv("BIODYN_SOURCE_DIR");
-  REQUIRE(src != nullptr);
+  const std::string src = biodyn::testing::source_dir();
   for (const char* name :
        {"de_leva_1996.csv", "body_proportions.csv", "joints.csv", "markers_26.csv"}) {
-    std::ifstream in(std::string(src) + "/models/data/" + name, std::ios::binary);
+    std::ifstream in(src + "/models/data/" + name, std::ios::binary);
     REQUIRE(in);
     std::ostringstream s;
     s << in.rdbuf();

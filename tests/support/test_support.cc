@@ -58,8 +58,12 @@ sim::Model load_inline(const std::string& xml) {
 
 std::string binary_dir() {
   const char* dir = std::getenv("BIODYN_BINARY_DIR");
-  REQUIRE(dir != nullptr);
-  return dir;
+  return dir ? dir : BIODYN_DEFAULT_BINARY_DIR;
+}
+
+std::string source_dir() {
+  const char* dir = std::getenv("BIODYN_SOURCE_DIR");
+  return dir ? dir : BIODYN_DEFAULT_SOURCE_DIR;
 }
 
 }  // namespace biodyn::testing

@@ -34,7 +34,10 @@ class MujocoWarningGuard {
 /// Compiles inline MJCF, failing the test with MuJoCo's message if it does not compile.
 sim::Model load_inline(const std::string& xml);
 
-/// The biodyn build directory (for running the CLI from tests).
+/// The biodyn build directory (for running the CLI from tests): $BIODYN_BINARY_DIR, else the
+/// build directory this test was compiled in.
 std::string binary_dir();
+/// The biodyn source directory: $BIODYN_SOURCE_DIR, else the one this test was compiled from.
+std::string source_dir();
 
 }  // namespace biodyn::testing
