@@ -29,6 +29,9 @@ int main(int argc, char** argv) {
     } catch (const biodyn::sim::Error& e) {
       std::cerr << "biodyn " << cmd.cli->get_name() << ": error: " << e.what() << "\n";
       return kExitFailure;
+    } catch (const std::exception& e) {  // a bug: report it instead of aborting
+      std::cerr << "biodyn " << cmd.cli->get_name() << ": internal error: " << e.what() << "\n";
+      return kExitFailure;
     }
   }
   return kExitBadInput;

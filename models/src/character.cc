@@ -2,8 +2,9 @@
 
 #include <algorithm>
 #include <cmath>
-#include <set>
+#include <optional>
 #include <sstream>
+#include <tuple>
 
 #include "biodyn/models/tables.h"
 #include "biodyn/sim/errors.h"
@@ -27,6 +28,15 @@ constexpr double kMaxTrunkDepthPerHeight = 0.2;
 const char* kSides[] = {"l", "r"};
 double side_sign(const std::string& side) { return side == "l" ? 1.0 : -1.0; }
 
+/// Splits "thigh_l" into ("thigh", "l"); a name without a side gives (name, "").
+std::pair<std::string, std::string> split_side(const std::string& name) {
+  const size_t us = name.rfind('_');
+  if (us != std::string::npos && (name.substr(us + 1) == "l" || name.substr(us + 1) == "r")) {
+    return {name.substr(0, us), name.substr(us + 1)};
+  }
+  return {name, ""};
+}
+
 /// Mirror a left-side axis to the right side: x and z flip, y stays (sagittal symmetry).
 Vector3d mirror(const Vector3d& axis_left, double sign) {
   return sign > 0 ? axis_left : Vector3d(-axis_left.x(), axis_left.y(), -axis_left.z());
@@ -35,7 +45,6 @@ Vector3d mirror(const Vector3d& axis_left, double sign) {
 /// A piece of the full-detail body, laid out in the world frame of the standing pose.
 struct Part {
   std::string name;                        // full-detail segment name, e.g. "thigh_l"
-  std::string parent;                      // full-detail parent
   std::string kind;                        // name without side, e.g. "thigh"
   std::string side;                        // "l", "r" or ""
   std::string table_parts;                 // human-readable provenance for the summary
@@ -102,14 +111,11 @@ std::string parent_of(const std::string& part, Detail detail) {
       {"shank", "thigh"},       {"foot", "shank"},      {"toes", "foot"}};
   if (part == "pelvis") return "";
   if (detail == Detail::kGait && part == "trunk") return "pelvis";
-  const size_t us = part.rfind('_');
-  const bool sided =
-      us != std::string::npos && (part.substr(us + 1) == "l" || part.substr(us + 1) == "r");
-  const std::string kind = sided ? part.substr(0, us) : part;
-  const std::string parent_kind = kParentKind.at(kind);
-  const bool parent_sided = parent_kind != "pelvis" && parent_kind != "thorax" &&
-                            parent_kind != "lumbar" && parent_kind != "neck";
-  return parent_sided ? parent_kind + part.substr(us) : parent_kind;
+  const auto [kind, side] = split_side(part);
+  const std::string& parent_kind = kParentKind.at(kind);
+  const bool parent_central = parent_kind == "pelvis" || parent_kind == "lumbar" ||
+                              parent_kind == "thorax" || parent_kind == "neck";
+  return parent_central ? parent_kind : parent_kind + "_" + side;
 }
 
 Matrix3d diag_inertia(double mass, double rx, double ry, double rz) {
@@ -224,212 +230,212 @@ std::vector<std::string> segment_names(Detail detail) {
   return names;
 }
 
-Character generate_character(const CharacterSpec& spec) {
-  spec.validate();
-  const Tables& T = default_tables();
-  const double H = spec.height_m;
-  const double M = spec.mass_kg;
-  const Sex sex = spec.sex;
-  const double density = T.proportion("tissue_density");
-  const double stature_ref = de_leva_reference_height_m(sex);
-  const auto row = [&](const char* seg) -> const DeLevaRow& { return T.de_leva_row(seg, sex); };
-  const auto table_length = [&](const char* seg) {
-    return row(seg).length_mm / 1000.0 / stature_ref * H;
-  };
+namespace {
 
-  // --- Mass fractions (de Leva Table 4), normalised so they sum to exactly 1 (the female
-  // column sums to 99.99% by rounding).
-  const char* kDeLevaParts[] = {"head",      "upper_trunk", "middle_trunk", "lower_trunk",
-                                "upper_arm", "forearm",     "hand",         "thigh",
-                                "shank",     "foot"};
-  double pct_sum = 0;
-  for (const char* seg : kDeLevaParts) {
-    const bool bilateral =
-        std::string(seg) != "head" && std::string(seg).find("trunk") == std::string::npos;
-    pct_sum += row(seg).mass_pct * (bilateral ? 2 : 1);
-  }
-  const auto frac = [&](const char* seg) { return row(seg).mass_pct / pct_sum; };
-  const double neck_share = T.proportion("neck_mass_share");
-  const double girdle_share = T.proportion("shoulder_girdle_mass_share");
-  const double toe_mass_share = T.proportion("toe_mass_share");
-  const double toe_len_share = T.proportion("toe_length_share");
-
+/// What the build stages share for one character: the tables, the inputs and the parts.
+struct Build {
+  Build(const Tables& tables, const CharacterSpec& character) : T(tables), spec(character) {}
+  const Tables& T;
+  const CharacterSpec& spec;
+  double H = 0;        // m, standing height
+  double ankle_h = 0;  // m, ankle above the sole (Winter)
+  double density = 0;  // kg/m^3, only to size collision geoms
   std::map<std::string, Part> parts;
-  for (const std::string& n : full_part_names()) {
-    Part p;
-    p.name = n;
-    const size_t us = n.rfind('_');
-    const bool sided =
-        us != std::string::npos && (n.substr(us + 1) == "l" || n.substr(us + 1) == "r");
-    p.kind = sided ? n.substr(0, us) : n;
-    p.side = sided ? n.substr(us + 1) : "";
-    p.parent = parent_of(n, Detail::kFull);
-    parts[n] = p;
+
+  const DeLevaRow& row(const char* segment) const { return T.de_leva_row(segment, spec.sex); }
+  /// de Leva's reference length scaled to this height, m.
+  double table_length(const char* segment) const {
+    return row(segment).length_mm / 1000.0 / de_leva_reference_height_m(spec.sex) * H;
   }
-  const auto set_table = [&](const std::string& part, double fraction, const std::string& what) {
-    parts[part].table_fraction = fraction;
-    parts[part].table_parts = what;
+  double radius_of(const std::string& part) const {
+    return capsule_radius(parts.at(part).mass, parts.at(part).length, density);
+  }
+};
+
+/// Mass shares of every full-detail part (de Leva Table 4, normalised to sum to exactly 1: the
+/// female column sums to 99.99% by rounding) and their provenance.
+void assign_mass_shares(Build& b) {
+  const char* kCentral[] = {"head", "upper_trunk", "middle_trunk", "lower_trunk"};
+  const char* kBilateral[] = {"upper_arm", "forearm", "hand", "thigh", "shank", "foot"};
+  double pct_sum = 0;
+  for (const char* seg : kCentral) pct_sum += b.row(seg).mass_pct;
+  for (const char* seg : kBilateral) pct_sum += 2 * b.row(seg).mass_pct;
+  const auto frac = [&](const char* seg) { return b.row(seg).mass_pct / pct_sum; };
+  const double neck = b.T.proportion("neck_mass_share");
+  const double girdle = b.T.proportion("shoulder_girdle_mass_share");
+  const double toe = b.T.proportion("toe_mass_share");
+  const auto set = [&](const std::string& part, double fraction, const std::string& what) {
+    b.parts.at(part).table_fraction = fraction;
+    b.parts.at(part).table_parts = what;
   };
-  set_table("pelvis", frac("lower_trunk"), "de Leva lower_trunk (OMPH-MIDH)");
-  set_table("lumbar", frac("middle_trunk"), "de Leva middle_trunk (XYPH-OMPH)");
-  set_table("thorax", frac("upper_trunk") * (1 - 2 * girdle_share),
-            "de Leva upper_trunk less both shoulder girdles");
-  set_table("neck", frac("head") * neck_share, "share neck_mass_share of de Leva head");
-  set_table("head", frac("head") * (1 - neck_share), "de Leva head less the neck share");
+  set("pelvis", frac("lower_trunk"), "de Leva lower_trunk (OMPH-MIDH)");
+  set("lumbar", frac("middle_trunk"), "de Leva middle_trunk (XYPH-OMPH)");
+  set("thorax", frac("upper_trunk") * (1 - 2 * girdle),
+      "de Leva upper_trunk less both shoulder girdles");
+  set("neck", frac("head") * neck, "share neck_mass_share of de Leva head");
+  set("head", frac("head") * (1 - neck), "de Leva head less the neck share");
   for (const char* s : kSides) {
     const std::string sd = std::string("_") + s;
-    set_table("clavicle" + sd, frac("upper_trunk") * girdle_share,
-              "share shoulder_girdle_mass_share of de Leva upper_trunk");
-    set_table("upper_arm" + sd, frac("upper_arm"), "de Leva upper_arm");
-    set_table("forearm" + sd, frac("forearm"), "de Leva forearm");
-    set_table("hand" + sd, frac("hand"), "de Leva hand");
-    set_table("thigh" + sd, frac("thigh"), "de Leva thigh");
-    set_table("shank" + sd, frac("shank"), "de Leva shank");
-    set_table("foot" + sd, frac("foot") * (1 - toe_mass_share), "de Leva foot less the toe share");
-    set_table("toes" + sd, frac("foot") * toe_mass_share, "share toe_mass_share of de Leva foot");
+    set("clavicle" + sd, frac("upper_trunk") * girdle,
+        "share shoulder_girdle_mass_share of de Leva upper_trunk");
+    for (const char* seg : {"upper_arm", "forearm", "hand", "thigh", "shank"}) {
+      set(seg + sd, frac(seg), std::string("de Leva ") + seg);
+    }
+    set("foot" + sd, frac("foot") * (1 - toe), "de Leva foot less the toe share");
+    set("toes" + sd, frac("foot") * toe, "share toe_mass_share of de Leva foot");
   }
+}
 
-  // --- Table lengths (m). The neck takes what is left of the stature.
-  const double ankle_h = T.proportion("ankle_height") * H;
-  const double foot_total = table_length("foot");
-  parts["pelvis"].length = table_length("lower_trunk");
-  parts["lumbar"].length = table_length("middle_trunk");
-  parts["thorax"].length = table_length("upper_trunk");
-  parts["head"].length = table_length("head");
-  parts["neck"].length =
-      H - (ankle_h + table_length("shank") + table_length("thigh") + parts["pelvis"].length +
-           parts["lumbar"].length + parts["thorax"].length + parts["head"].length);
-  if (!(parts["neck"].length > 0.01 * H)) {
+/// Table lengths of every part, m. The neck takes what is left of the stature, so the standing
+/// height is exactly H; the clavicle is derived from the shoulder breadth in lay_out_arms.
+void assign_table_lengths(Build& b) {
+  std::map<std::string, Part>& p = b.parts;
+  p.at("pelvis").length = b.table_length("lower_trunk");
+  p.at("lumbar").length = b.table_length("middle_trunk");
+  p.at("thorax").length = b.table_length("upper_trunk");
+  p.at("head").length = b.table_length("head");
+  p.at("neck").length =
+      b.H - (b.ankle_h + b.table_length("shank") + b.table_length("thigh") + p.at("pelvis").length +
+             p.at("lumbar").length + p.at("thorax").length + p.at("head").length);
+  if (!(p.at("neck").length > 0.01 * b.H)) {
     throw sim::Error("tables: segment lengths leave no room for the neck (" +
-                     std::to_string(parts["neck"].length) + " m)");
+                     std::to_string(p.at("neck").length) + " m)");
   }
+  const double foot_total = b.table_length("foot");
+  const double toe_share = b.T.proportion("toe_length_share");
   for (const char* s : kSides) {
     const std::string sd = std::string("_") + s;
-    parts["upper_arm" + sd].length = table_length("upper_arm");
-    parts["forearm" + sd].length = table_length("forearm");
-    parts["hand" + sd].length = table_length("hand");
-    parts["thigh" + sd].length = table_length("thigh");
-    parts["shank" + sd].length = table_length("shank");
-    parts["foot" + sd].length = foot_total * (1 - toe_len_share);
-    parts["toes" + sd].length = foot_total * toe_len_share;
-    parts["clavicle" + sd].length = 0;  // derived from the shoulder breadth below
+    for (const char* seg : {"upper_arm", "forearm", "hand", "thigh", "shank"}) {
+      p.at(seg + sd).length = b.table_length(seg);
+    }
+    p.at("foot" + sd).length = foot_total * (1 - toe_share);
+    p.at("toes" + sd).length = foot_total * toe_share;
   }
+}
 
-  // --- Segments of this detail and their overrides.
-  const std::vector<SegmentPlan> plan = plan_segments(spec.detail);
-  std::map<std::string, SegmentOverride> seg_override;
+/// The override of each segment of the plan: exact names, and names without a side for both
+/// sides (a side-specific entry wins).
+std::map<std::string, SegmentOverride> resolve_overrides(const CharacterSpec& spec,
+                                                         const std::vector<SegmentPlan>& plan) {
   check_override_names(spec.overrides, spec.detail, "overrides");
+  std::map<std::string, SegmentOverride> resolved;
   for (const auto& [key, o] : spec.overrides) {
     for (const SegmentPlan& p : plan) {
       if (p.name == key) {
-        seg_override[key] = o;
+        resolved[key] = o;
       } else if ((p.name == key + "_l" || p.name == key + "_r") && !spec.overrides.count(p.name)) {
-        seg_override[p.name] = o;  // a side-specific override wins over the generic one
+        resolved[p.name] = o;
       }
     }
   }
+  return resolved;
+}
 
-  // Length overrides scale every part of the segment (the gait trunk: lumbar..head; the
-  // clavicle's length is taken as given).
+/// A length override scales every part of the segment (the gait trunk: lumbar to head; the
+/// clavicle's length is taken as given).
+void apply_length_overrides(Build& b, const std::vector<SegmentPlan>& plan,
+                            const std::map<std::string, SegmentOverride>& overrides) {
   for (const SegmentPlan& p : plan) {
-    const auto it = seg_override.find(p.name);
-    if (it == seg_override.end() || !it->second.length_m) continue;
-    if (p.name.rfind("clavicle", 0) == 0) {
-      parts[p.name].length = *it->second.length_m;
+    const auto it = overrides.find(p.name);
+    if (it == overrides.end() || !it->second.length_m) continue;
+    if (b.parts.at(p.parts.front()).kind == "clavicle") {
+      b.parts.at(p.name).length = *it->second.length_m;
       continue;
     }
-    double current = 0;
     std::vector<std::string> chain;
+    double current = 0;
     for (const std::string& part : p.parts) {
-      const std::string& kind = parts[part].kind;
-      if (p.parts.size() > 1 && kind != "lumbar" && kind != "thorax" && kind != "neck" &&
-          kind != "head")
-        continue;
+      const std::string& kind = b.parts.at(part).kind;
+      const bool spine = kind == "lumbar" || kind == "thorax" || kind == "neck" || kind == "head";
+      if (p.parts.size() > 1 && !spine) continue;  // the fused arms keep their lengths
       chain.push_back(part);
-      current += parts[part].length;
+      current += b.parts.at(part).length;
     }
     const double factor = *it->second.length_m / current;
-    for (const std::string& part : chain) parts[part].length *= factor;
+    for (const std::string& part : chain) b.parts.at(part).length *= factor;
   }
+}
 
-  // --- Masses: overridden segments keep their value; the rest share the remainder in the
-  // tables' proportions.
+/// Masses: overridden segments keep their value; the rest share the remainder in the tables'
+/// proportions; within a fused segment the parts keep their table proportions.
+void distribute_mass(Build& b, const std::vector<SegmentPlan>& plan,
+                     const std::map<std::string, SegmentOverride>& overrides) {
+  const double M = b.spec.mass_kg;
+  const auto given = [&](const std::string& seg) -> const std::optional<double>& {
+    static const std::optional<double> kNone;
+    const auto it = overrides.find(seg);
+    return it == overrides.end() ? kNone : it->second.mass_kg;
+  };
   double fixed_mass = 0, free_fraction = 0;
   std::map<std::string, double> seg_fraction;
   for (const SegmentPlan& p : plan) {
-    double f = 0;
-    for (const std::string& part : p.parts) f += parts[part].table_fraction;
-    seg_fraction[p.name] = f;
-    const auto it = seg_override.find(p.name);
-    if (it != seg_override.end() && it->second.mass_kg) {
-      fixed_mass += *it->second.mass_kg;
+    for (const std::string& part : p.parts) seg_fraction[p.name] += b.parts.at(part).table_fraction;
+    if (given(p.name)) {
+      fixed_mass += *given(p.name);
     } else {
-      free_fraction += f;
+      free_fraction += seg_fraction[p.name];
     }
   }
+  std::ostringstream msg;
   if (free_fraction == 0 && std::abs(fixed_mass - M) > 1e-9) {
-    std::ostringstream msg;
     msg << "overrides: every segment's mass is given and they sum to " << fixed_mass
         << " kg, not the body mass " << M << " kg";
     throw InvalidArgument(msg.str());
   }
   if (free_fraction > 0 && (fixed_mass >= M || M - fixed_mass < 1e-3 * M)) {
-    std::ostringstream msg;
-    msg << "overrides: segment masses sum to " << fixed_mass << " kg, which leaves nothing for the "
-        << "other segments of a " << M << " kg body";
+    msg << "overrides: segment masses sum to " << fixed_mass
+        << " kg, which leaves nothing for the other segments of a " << M << " kg body";
     throw InvalidArgument(msg.str());
   }
-  std::map<std::string, double> seg_mass;
   for (const SegmentPlan& p : plan) {
-    const auto it = seg_override.find(p.name);
-    seg_mass[p.name] = (it != seg_override.end() && it->second.mass_kg)
-                           ? *it->second.mass_kg
-                           : (M - fixed_mass) * seg_fraction[p.name] / free_fraction;
+    const double seg_mass =
+        given(p.name) ? *given(p.name) : (M - fixed_mass) * seg_fraction[p.name] / free_fraction;
     for (const std::string& part : p.parts) {
-      parts[part].mass = seg_mass[p.name] * parts[part].table_fraction / seg_fraction[p.name];
+      Part& q = b.parts.at(part);
+      q.mass = seg_mass * q.table_fraction / seg_fraction[p.name];
     }
   }
+}
 
-  // --- Layout of the standing pose, bottom-up (legs), then the spine, then the arms.
-  const double hjc_half = 0.5 * T.proportion("hip_joint_separation") * H;
+/// A limb part hanging straight down from `top`: capsule, de Leva CoM and radii.
+void lay_out_limb(Build& b, const std::string& name, const Vector3d& top, const DeLevaRow& r) {
+  Part& p = b.parts.at(name);
+  const Vector3d down(0, 0, -1);
+  p.proximal_W = top;
+  p.distal_W = top + p.length * down;
+  p.com_W = top + r.com_pct / 100.0 * p.length * down;
+  p.inertia = diag_inertia(p.mass, r.r_sag_pct / 100 * p.length, r.r_trans_pct / 100 * p.length,
+                           r.r_long_pct / 100 * p.length);
+  const double rad = b.radius_of(name);
+  p.geoms_W.push_back(capsule_between(p.proximal_W, p.distal_W, rad));
+  p.half_extent = Vector3d::Constant(rad);
+}
+
+/// Legs from the hip joint centres down; the hips sit as high as the longer leg needs, so that
+/// leg's sole is on the floor. Returns the hip height (m).
+double lay_out_legs(Build& b) {
+  const double hjc_half = 0.5 * b.T.proportion("hip_joint_separation") * b.H;
   double z_hip = 0;
   for (const char* s : kSides) {
     const std::string sd = std::string("_") + s;
-    z_hip = std::max(z_hip, ankle_h + parts["shank" + sd].length + parts["thigh" + sd].length);
+    z_hip = std::max(z_hip,
+                     b.ankle_h + b.parts.at("shank" + sd).length + b.parts.at("thigh" + sd).length);
   }
-  const auto radius_of = [&](const std::string& n) {
-    return capsule_radius(parts[n].mass, parts[n].length, density);
-  };
-  const auto limb = [&](const std::string& n, const Vector3d& top, const Vector3d& axis_down,
-                        const DeLevaRow& r) {
-    Part& p = parts[n];
-    p.proximal_W = top;
-    p.distal_W = top + p.length * axis_down;
-    p.com_W = top + r.com_pct / 100.0 * p.length * axis_down;
-    p.inertia = diag_inertia(p.mass, r.r_sag_pct / 100 * p.length, r.r_trans_pct / 100 * p.length,
-                             r.r_long_pct / 100 * p.length);
-    const double rad = radius_of(n);
-    p.geoms_W.push_back(capsule_between(p.proximal_W, p.distal_W, rad));
-    p.half_extent = Vector3d(rad, rad, rad);
-  };
-  const Vector3d down(0, 0, -1);
-  const double foot_w = T.proportion("foot_width") * H;
-  const double foot_thick = T.proportion("foot_thickness") * ankle_h;
-  const double toe_thick = T.proportion("toe_thickness") * ankle_h;
+  const double foot_w = b.T.proportion("foot_width") * b.H;
+  const double foot_thick = b.T.proportion("foot_thickness") * b.ankle_h;
+  const double toe_thick = b.T.proportion("toe_thickness") * b.ankle_h;
+  const DeLevaRow& fr = b.row("foot");
   for (const char* s : kSides) {
     const std::string sd = std::string("_") + s;
-    const double sign = side_sign(s);
-    const Vector3d hjc(0, sign * hjc_half, z_hip);
-    limb("thigh" + sd, hjc, down, row("thigh"));
-    limb("shank" + sd, parts["thigh" + sd].distal_W, down, row("shank"));
-    const Vector3d ankle = parts["shank" + sd].distal_W;
-    const double sole_z = ankle.z() - ankle_h;
+    lay_out_limb(b, "thigh" + sd, Vector3d(0, side_sign(s) * hjc_half, z_hip), b.row("thigh"));
+    lay_out_limb(b, "shank" + sd, b.parts.at("thigh" + sd).distal_W, b.row("shank"));
+    const Vector3d ankle = b.parts.at("shank" + sd).distal_W;
+    const double sole_z = ankle.z() - b.ankle_h;
     // Foot: heel -> MTP (box), toes: MTP -> tip (box); de Leva's CoM is for the whole foot.
-    const double len_foot = parts["foot" + sd].length, len_toes = parts["toes" + sd].length;
-    const double x_heel = -T.proportion("heel_to_ankle") * (len_foot + len_toes);
-    const double x_mtp = x_heel + len_foot, x_tip = x_mtp + len_toes;
-    Part& foot = parts["foot" + sd];
-    Part& toes = parts["toes" + sd];
+    Part& foot = b.parts.at("foot" + sd);
+    Part& toes = b.parts.at("toes" + sd);
+    const double x_heel = -b.T.proportion("heel_to_ankle") * (foot.length + toes.length);
+    const double x_mtp = x_heel + foot.length, x_tip = x_mtp + toes.length;
     foot.proximal_W = ankle;
     foot.distal_W = Vector3d(x_tip, ankle.y(), sole_z);
     toes.proximal_W = Vector3d(x_mtp, ankle.y(), sole_z + 0.5 * toe_thick);
@@ -438,238 +444,295 @@ Character generate_character(const CharacterSpec& spec) {
                                Vector3d(x_mtp, ankle.y() + foot_w / 2, sole_z + foot_thick)));
     toes.geoms_W.push_back(box(Vector3d(x_mtp, ankle.y() - foot_w / 2, sole_z),
                                Vector3d(x_tip, ankle.y() + foot_w / 2, sole_z + toe_thick)));
-    foot.half_extent = Vector3d(0.5 * len_foot, foot_w / 2, foot_thick);
-    toes.half_extent = Vector3d(0.5 * len_toes, foot_w / 2, toe_thick);
-    const DeLevaRow& fr = row("foot");
-    const double m_total = foot.mass + toes.mass;
-    const Vector3d com_total(x_heel + fr.com_pct / 100 * (len_foot + len_toes), ankle.y(),
+    foot.half_extent = Vector3d(0.5 * foot.length, foot_w / 2, foot_thick);  // z: sole to dorsum
+    toes.half_extent = Vector3d(0.5 * toes.length, foot_w / 2, toe_thick);
+    const Vector3d com_whole(x_heel + fr.com_pct / 100 * (foot.length + toes.length), ankle.y(),
                              sole_z + 0.5 * foot_thick);
     toes.com_W = Vector3d(0.5 * (x_mtp + x_tip), ankle.y(), sole_z + 0.5 * toe_thick);
-    foot.com_W = (m_total * com_total - toes.mass * toes.com_W) / foot.mass;
+    foot.com_W = ((foot.mass + toes.mass) * com_whole - toes.mass * toes.com_W) / foot.mass;
     // Foot axes: longitudinal = x (heel->toe), sagittal column about y, transverse about z.
-    foot.inertia = diag_inertia(foot.mass, fr.r_long_pct / 100 * len_foot,
-                                fr.r_sag_pct / 100 * len_foot, fr.r_trans_pct / 100 * len_foot);
-    toes.inertia = diag_inertia(toes.mass, fr.r_long_pct / 100 * len_toes,
-                                fr.r_sag_pct / 100 * len_toes, fr.r_trans_pct / 100 * len_toes);
+    for (Part* q : {&foot, &toes}) {
+      q->inertia = diag_inertia(q->mass, fr.r_long_pct / 100 * q->length,
+                                fr.r_sag_pct / 100 * q->length, fr.r_trans_pct / 100 * q->length);
+    }
   }
+  return z_hip;
+}
 
-  // Spine: each trunk part spans its landmarks; de Leva's CoM is measured from the cranial end.
+/// Pelvis, lumbar and thorax boxes, neck capsule and head sphere, stacked from the hips.
+/// de Leva's trunk and head CoM are measured from the cranial end.
+void lay_out_spine(Build& b, double z_hip) {
   const auto trunk_part = [&](const std::string& n, double z_bottom, const DeLevaRow& r,
                               double width) {
-    Part& p = parts[n];
+    Part& p = b.parts.at(n);
     p.proximal_W = Vector3d(0, 0, z_bottom);
     p.distal_W = Vector3d(0, 0, z_bottom + p.length);
     p.com_W = Vector3d(0, 0, z_bottom + p.length * (1 - r.com_pct / 100));
-    const double rl = p.length;
-    p.inertia = diag_inertia(p.mass, r.r_sag_pct / 100 * rl, r.r_trans_pct / 100 * rl,
-                             r.r_long_pct / 100 * rl);
-    double depth = p.mass / (density * width * p.length);
-    depth = std::clamp(depth, kMinTrunkDepthPerHeight * H, kMaxTrunkDepthPerHeight * H);
+    p.inertia = diag_inertia(p.mass, r.r_sag_pct / 100 * p.length, r.r_trans_pct / 100 * p.length,
+                             r.r_long_pct / 100 * p.length);
+    const double depth = std::clamp(p.mass / (b.density * width * p.length),
+                                    kMinTrunkDepthPerHeight * b.H, kMaxTrunkDepthPerHeight * b.H);
     p.geoms_W.push_back(box(Vector3d(-depth / 2, -width / 2, z_bottom),
                             Vector3d(depth / 2, width / 2, z_bottom + p.length)));
     p.half_extent = Vector3d(depth / 2, width / 2, p.length / 2);
   };
-  const double hip_w = T.proportion("hip_width") * H;
-  const double chest_w = T.proportion("chest_width") * H;
-  trunk_part("pelvis", z_hip, row("lower_trunk"), hip_w);
-  trunk_part("lumbar", parts["pelvis"].distal_W.z(), row("middle_trunk"), 0.5 * (hip_w + chest_w));
-  trunk_part("thorax", parts["lumbar"].distal_W.z(), row("upper_trunk"), chest_w);
-  const double z_supra = parts["thorax"].distal_W.z();
-  {
-    Part& neck = parts["neck"];
-    neck.proximal_W = Vector3d(0, 0, z_supra);
-    neck.distal_W = Vector3d(0, 0, z_supra + neck.length);
-    neck.com_W = 0.5 * (neck.proximal_W + neck.distal_W);
-    const double r = radius_of("neck");
-    // Solid cylinder (no table gives the neck alone).
-    const double Ixy = neck.mass * (3 * r * r + neck.length * neck.length) / 12;
-    neck.inertia = Vector3d(Ixy, Ixy, 0.5 * neck.mass * r * r).asDiagonal();
-    neck.geoms_W.push_back(capsule_between(neck.proximal_W, neck.distal_W, r));
-    neck.half_extent = Vector3d(r, r, r);
-  }
-  {
-    Part& head = parts["head"];
-    const DeLevaRow& r = row("head");
-    head.proximal_W = parts["neck"].distal_W;
-    head.distal_W = head.proximal_W + Vector3d(0, 0, head.length);  // vertex
-    head.com_W = head.distal_W - Vector3d(0, 0, r.com_pct / 100 * head.length);
-    head.inertia =
-        diag_inertia(head.mass, r.r_sag_pct / 100 * head.length, r.r_trans_pct / 100 * head.length,
-                     r.r_long_pct / 100 * head.length);
-    Geom sphere;
-    sphere.type = GeomType::kSphere;
-    sphere.radius = 0.5 * head.length;
-    sphere.center_B = head.distal_W - Vector3d(0, 0, sphere.radius);
-    head.geoms_W.push_back(sphere);
-    head.half_extent = Vector3d::Constant(sphere.radius);
-  }
-  // Arms hang beside the trunk in the anatomical position (palms forward).
+  const double hip_w = b.T.proportion("hip_width") * b.H;
+  const double chest_w = b.T.proportion("chest_width") * b.H;
+  trunk_part("pelvis", z_hip, b.row("lower_trunk"), hip_w);
+  trunk_part("lumbar", b.parts.at("pelvis").distal_W.z(), b.row("middle_trunk"),
+             0.5 * (hip_w + chest_w));
+  trunk_part("thorax", b.parts.at("lumbar").distal_W.z(), b.row("upper_trunk"), chest_w);
+
+  Part& neck = b.parts.at("neck");
+  neck.proximal_W = b.parts.at("thorax").distal_W;  // suprasternale
+  neck.distal_W = neck.proximal_W + Vector3d(0, 0, neck.length);
+  neck.com_W = 0.5 * (neck.proximal_W + neck.distal_W);
+  const double r = b.radius_of("neck");
+  // Solid cylinder (no table gives the neck alone).
+  const double I_perp = neck.mass * (3 * r * r + neck.length * neck.length) / 12;
+  neck.inertia = Vector3d(I_perp, I_perp, 0.5 * neck.mass * r * r).asDiagonal();
+  neck.geoms_W.push_back(capsule_between(neck.proximal_W, neck.distal_W, r));
+  neck.half_extent = Vector3d::Constant(r);
+
+  Part& head = b.parts.at("head");
+  const DeLevaRow& hr = b.row("head");
+  head.proximal_W = neck.distal_W;                                // gonion level
+  head.distal_W = head.proximal_W + Vector3d(0, 0, head.length);  // vertex
+  head.com_W = head.distal_W - Vector3d(0, 0, hr.com_pct / 100 * head.length);
+  head.inertia =
+      diag_inertia(head.mass, hr.r_sag_pct / 100 * head.length, hr.r_trans_pct / 100 * head.length,
+                   hr.r_long_pct / 100 * head.length);
+  Geom sphere;
+  sphere.type = GeomType::kSphere;
+  sphere.radius = 0.5 * head.length;
+  sphere.center_B = head.distal_W - Vector3d(0, 0, sphere.radius);
+  head.geoms_W.push_back(sphere);
+  head.half_extent = Vector3d::Constant(sphere.radius);
+}
+
+/// Shoulder girdles and arms hanging beside the trunk in the anatomical position (palms
+/// forward).
+void lay_out_arms(Build& b) {
+  const double z_supra = b.parts.at("thorax").distal_W.z();
   for (const char* s : kSides) {
     const std::string sd = std::string("_") + s;
     const double sign = side_sign(s);
-    Part& clav = parts["clavicle" + sd];
-    const double r_ua = radius_of("upper_arm" + sd);
-    const double sc_y = T.proportion("sternoclavicular_offset") * H;
-    const double gh_y =
-        clav.length > 0 ? sc_y + clav.length : 0.5 * T.proportion("shoulder_width") * H - r_ua;
+    Part& clav = b.parts.at("clavicle" + sd);
+    const double r_ua = b.radius_of("upper_arm" + sd);
+    const double sc_y = b.T.proportion("sternoclavicular_offset") * b.H;
+    const double gh_y = clav.length > 0 ? sc_y + clav.length  // overridden
+                                        : 0.5 * b.T.proportion("shoulder_width") * b.H - r_ua;
     clav.length = gh_y - sc_y;
-    const double gh_z = z_supra - T.proportion("shoulder_joint_drop") * H;
+    const double gh_z = z_supra - b.T.proportion("shoulder_joint_drop") * b.H;
     clav.proximal_W = Vector3d(0, sign * sc_y, z_supra);
     clav.distal_W = Vector3d(0, sign * gh_y, gh_z);
     clav.com_W = 0.5 * (clav.proximal_W + clav.distal_W);
     const double rc = std::min(0.5 * r_ua, kMaxRadiusPerLength * clav.length);
     // Thin rod along y (clavicle + scapula lumped; no table gives them).
-    const double Iperp = clav.mass * (3 * rc * rc + clav.length * clav.length) / 12;
-    clav.inertia = Vector3d(Iperp, 0.5 * clav.mass * rc * rc, Iperp).asDiagonal();
+    const double I_perp = clav.mass * (3 * rc * rc + clav.length * clav.length) / 12;
+    clav.inertia = Vector3d(I_perp, 0.5 * clav.mass * rc * rc, I_perp).asDiagonal();
     clav.geoms_W.push_back(capsule_between(clav.proximal_W, clav.distal_W, rc));
-    clav.half_extent = Vector3d(rc, rc, rc);
-    limb("upper_arm" + sd, clav.distal_W, down, row("upper_arm"));
-    limb("forearm" + sd, parts["upper_arm" + sd].distal_W, down, row("forearm"));
-    limb("hand" + sd, parts["forearm" + sd].distal_W, down, row("hand"));
+    clav.half_extent = Vector3d::Constant(rc);
+    lay_out_limb(b, "upper_arm" + sd, clav.distal_W, b.row("upper_arm"));
+    lay_out_limb(b, "forearm" + sd, b.parts.at("upper_arm" + sd).distal_W, b.row("forearm"));
+    lay_out_limb(b, "hand" + sd, b.parts.at("forearm" + sd).distal_W, b.row("hand"));
   }
+}
 
-  // --- Joints (axes given for the left side; right side mirrored).
-  const double torque_scale = (M / kPaperMass_kg) * (H / kPaperHeight_m);
-  const auto make_joint = [&](const std::string& dof, const std::string& side,
-                              const Vector3d& anchor_W, const Vector3d& axis_left) {
-    const JointRow& jr = T.joint(dof);
-    Joint j;
-    j.name = side.empty() ? dof : dof + "_" + side;
-    j.type = jr.type;
-    j.anchor_B = anchor_W;  // converted to the body frame below
-    j.axis_B = side.empty() ? axis_left : mirror(axis_left, side_sign(side));
-    j.min_rad = jr.min_deg * kDegToRad;
-    j.max_rad = jr.max_deg * kDegToRad;
-    j.armature = jr.armature;
-    j.damping = jr.damping;
-    j.tau_max_Nm = Vector3d::Constant(jr.tau_ref_Nm * torque_scale);
-    j.tau_source = jr.tau_source;
-    return j;
-  };
+/// A joint from joints.csv at `anchor_W` (world; made body-relative on assembly). Axes are
+/// given for the left side and mirrored for the right.
+Joint make_joint(const Tables& T, double torque_scale, const std::string& dof,
+                 const std::string& side, const Vector3d& anchor_W, const Vector3d& axis_left) {
+  const JointRow& jr = T.joint(dof);
+  Joint j;
+  j.name = side.empty() ? dof : dof + "_" + side;
+  j.type = jr.type;
+  j.anchor_B = anchor_W;
+  j.axis_B = side.empty() ? axis_left : mirror(axis_left, side_sign(side));
+  j.min_rad = jr.min_deg * kDegToRad;
+  j.max_rad = jr.max_deg * kDegToRad;
+  j.armature = jr.armature;
+  j.damping = jr.damping;
+  j.tau_max_Nm = Vector3d::Constant(jr.tau_ref_Nm * torque_scale);
+  j.tau_source = jr.tau_source;
+  return j;
+}
+
+/// The joints of every full-detail part, keyed by part name (sign conventions: joints.csv).
+std::map<std::string, std::vector<Joint>> make_joints(const Build& b, double torque_scale) {
   const Vector3d X = Vector3d::UnitX(), Y = Vector3d::UnitY(), Z = Vector3d::UnitZ();
-  std::map<std::string, std::vector<Joint>> joints;  // by full part name
-  joints["lumbar"] = {make_joint("lumbar_flexion", "", parts["lumbar"].proximal_W, Y),
-                      make_joint("lumbar_bending", "", parts["lumbar"].proximal_W, -X)};
-  joints["thorax"] = {make_joint("thorax_flexion", "", parts["thorax"].proximal_W, Y),
-                      make_joint("thorax_bending", "", parts["thorax"].proximal_W, -X)};
-  joints["neck"] = {make_joint("neck_flexion", "", parts["neck"].proximal_W, Y)};
-  joints["head"] = {make_joint("head", "", parts["head"].proximal_W, Z)};
+  const auto at = [&](const std::string& part) { return b.parts.at(part).proximal_W; };
+  const auto J = [&](const std::string& dof, const std::string& side, const Vector3d& anchor,
+                     const Vector3d& axis) {
+    return make_joint(b.T, torque_scale, dof, side, anchor, axis);
+  };
+  std::map<std::string, std::vector<Joint>> joints;
+  joints["lumbar"] = {J("lumbar_flexion", "", at("lumbar"), Y),
+                      J("lumbar_bending", "", at("lumbar"), -X)};
+  joints["thorax"] = {J("thorax_flexion", "", at("thorax"), Y),
+                      J("thorax_bending", "", at("thorax"), -X)};
+  joints["neck"] = {J("neck_flexion", "", at("neck"), Y)};
+  joints["head"] = {J("head", "", at("head"), Z)};
   for (const char* s : kSides) {
     const std::string sd = std::string("_") + s;
-    const Vector3d sc = parts["clavicle" + sd].proximal_W;
-    joints["clavicle" + sd] = {make_joint("clavicle_elevation", s, sc, X),
-                               make_joint("clavicle_protraction", s, sc, -Z)};
-    joints["upper_arm" + sd] = {make_joint("shoulder", s, parts["upper_arm" + sd].proximal_W, Z)};
-    const Vector3d elbow = parts["forearm" + sd].proximal_W;
-    joints["forearm" + sd] = {make_joint("elbow_flexion", s, elbow, -Y),
-                              make_joint("forearm_pronation", s, elbow, -Z)};
-    const Vector3d wrist = parts["hand" + sd].proximal_W;
-    joints["hand" + sd] = {make_joint("wrist_flexion", s, wrist, -Y),
-                           make_joint("wrist_deviation", s, wrist, X)};
-    joints["thigh" + sd] = {make_joint("hip", s, parts["thigh" + sd].proximal_W, Z)};
-    joints["shank" + sd] = {make_joint("knee_flexion", s, parts["shank" + sd].proximal_W, Y)};
-    const Vector3d ankle = parts["foot" + sd].proximal_W;
-    joints["foot" + sd] = {make_joint("ankle_dorsiflexion", s, ankle, -Y),
-                           make_joint("ankle_inversion", s, ankle, -X)};
-    joints["toes" + sd] = {make_joint("toe_dorsiflexion", s, parts["toes" + sd].proximal_W, -Y)};
+    joints["clavicle" + sd] = {J("clavicle_elevation", s, at("clavicle" + sd), X),
+                               J("clavicle_protraction", s, at("clavicle" + sd), -Z)};
+    joints["upper_arm" + sd] = {J("shoulder", s, at("upper_arm" + sd), Z)};
+    joints["forearm" + sd] = {J("elbow_flexion", s, at("forearm" + sd), -Y),
+                              J("forearm_pronation", s, at("forearm" + sd), -Z)};
+    joints["hand" + sd] = {J("wrist_flexion", s, at("hand" + sd), -Y),
+                           J("wrist_deviation", s, at("hand" + sd), X)};
+    joints["thigh" + sd] = {J("hip", s, at("thigh" + sd), Z)};
+    joints["shank" + sd] = {J("knee_flexion", s, at("shank" + sd), Y)};
+    joints["foot" + sd] = {J("ankle_dorsiflexion", s, at("foot" + sd), -Y),
+                           J("ankle_inversion", s, at("foot" + sd), -X)};
+    joints["toes" + sd] = {J("toe_dorsiflexion", s, at("toes" + sd), -Y)};
   }
+  return joints;
+}
 
-  // --- Assemble the segments of this detail (fusing the gait trunk), in body frames.
-  Character c;
-  c.spec = spec;
-  c.torque_scale = torque_scale;
-  std::map<std::string, std::string> part_to_segment;
-  for (const SegmentPlan& p : plan) {
-    Segment seg;
-    seg.name = p.name;
-    seg.parent = parent_of(p.name, spec.detail);
-    const Part& first = parts[p.parts.front()];
-    seg.origin_W = first.proximal_W;
-    seg.mass_kg = 0;
-    Vector3d weighted = Vector3d::Zero();
-    for (const std::string& n : p.parts) {
-      seg.mass_kg += parts[n].mass;
-      weighted += parts[n].mass * parts[n].com_W;
-      seg.table_mass_fraction += parts[n].table_fraction;
-      part_to_segment[n] = p.name;
+/// One body of the MJCF from its parts (several for the fused gait trunk), in its body frame.
+Segment assemble_segment(const Build& b, const SegmentPlan& plan,
+                         const std::map<std::string, std::vector<Joint>>& joints,
+                         double torque_scale) {
+  Segment seg;
+  seg.name = plan.name;
+  seg.parent = parent_of(plan.name, b.spec.detail);
+  const Part& first = b.parts.at(plan.parts.front());
+  seg.origin_W = first.proximal_W;
+  Vector3d weighted = Vector3d::Zero();
+  for (const std::string& n : plan.parts) {
+    const Part& part = b.parts.at(n);
+    seg.mass_kg += part.mass;
+    weighted += part.mass * part.com_W;
+    seg.table_mass_fraction += part.table_fraction;
+  }
+  const Vector3d com_W = weighted / seg.mass_kg;
+  seg.com_B = com_W - seg.origin_W;
+  for (const std::string& n : plan.parts) {
+    const Part& part = b.parts.at(n);
+    seg.inertia_B += shifted(part.inertia, part.mass, part.com_W - com_W);
+    for (Geom g : part.geoms_W) {
+      g.center_B -= seg.origin_W;
+      g.from_B -= seg.origin_W;
+      g.to_B -= seg.origin_W;
+      seg.geoms.push_back(g);
     }
-    const Vector3d com_W = weighted / seg.mass_kg;
-    seg.com_B = com_W - seg.origin_W;
-    for (const std::string& n : p.parts) {
-      const Part& part = parts[n];
-      seg.inertia_B += shifted(part.inertia, part.mass, part.com_W - com_W);
-      for (Geom g : part.geoms_W) {
-        g.center_B -= seg.origin_W;
-        g.from_B -= seg.origin_W;
-        g.to_B -= seg.origin_W;
-        seg.geoms.push_back(g);
-      }
-    }
-    if (p.parts.size() == 1) {
-      seg.length_m = first.length;
-      seg.table_parts = first.table_parts;
-      for (Joint j : joints[first.name]) {
+  }
+  if (plan.parts.size() == 1) {
+    seg.length_m = first.length;
+    seg.table_parts = first.table_parts;
+    const auto it = joints.find(first.name);  // the root (pelvis) has none: a free joint
+    if (it != joints.end()) {
+      for (Joint j : it->second) {
         j.anchor_B -= seg.origin_W;
         seg.joints.push_back(j);
       }
-    } else {  // gait trunk: OMPH to vertex; joints as the paper's TrunkJoint (Table 2)
-      seg.length_m = parts["head"].distal_W.z() - seg.origin_W.z();
-      seg.table_parts = "de Leva head + upper_trunk + middle_trunk + both arms (fused)";
-      seg.joints = {make_joint("trunk_flexion", "", Vector3d::Zero(), Y),
-                    make_joint("trunk_bending", "", Vector3d::Zero(), -X)};
     }
-    c.segments.push_back(seg);
+  } else {  // gait trunk: OMPH to vertex; 2 DOF as the paper's TrunkJoint (Table 2)
+    seg.length_m = b.parts.at("head").distal_W.z() - seg.origin_W.z();
+    seg.table_parts = "de Leva head + upper_trunk + middle_trunk + both arms (fused)";
+    seg.joints = {
+        make_joint(b.T, torque_scale, "trunk_flexion", "", Vector3d::Zero(), Vector3d::UnitY()),
+        make_joint(b.T, torque_scale, "trunk_bending", "", Vector3d::Zero(), -Vector3d::UnitX())};
   }
+  return seg;
+}
 
-  // --- Markers (thesis's 26-marker model) on the skin of their part.
-  for (const MarkerRow& mr : T.markers) {
-    const auto pit = parts.find(mr.segment);
-    if (pit == parts.end()) {
+/// The thesis's 26 markers on the skin of their part (markers_26.csv explains the columns),
+/// attached to the body that carries that part; arm markers only where there are arms.
+std::vector<Marker> place_markers(const Build& b, const Character& c,
+                                  const std::vector<SegmentPlan>& plan) {
+  std::map<std::string, std::string> part_to_segment;
+  for (const SegmentPlan& p : plan) {
+    for (const std::string& part : p.parts) part_to_segment[part] = p.name;
+  }
+  std::vector<Marker> markers;
+  for (const MarkerRow& mr : b.T.markers) {
+    const auto pit = b.parts.find(mr.segment);
+    if (pit == b.parts.end()) {
       throw sim::Error("markers_26.csv: marker " + mr.marker + " names no segment '" + mr.segment +
                        "'");
     }
     const Part& part = pit->second;
     const bool arm = part.kind == "clavicle" || part.kind == "upper_arm" ||
                      part.kind == "forearm" || part.kind == "hand";
-    if (spec.detail == Detail::kGait && arm) continue;  // no arms in the gait model
+    if (b.spec.detail == Detail::kGait && arm) continue;  // no arms in the gait model
     const double lateral_sign = part.side.empty() ? 1.0 : side_sign(part.side);
     Vector3d pos_W;
-    if (part.kind == "foot") {
-      const double x_heel = part.geoms_W[0].center_B.x() - part.geoms_W[0].half_extents.x();
-      const double sole = part.geoms_W[0].center_B.z() - part.geoms_W[0].half_extents.z();
-      const double full_len = part.length + parts["toes_" + part.side].length;
-      pos_W = Vector3d(x_heel + mr.along * full_len, part.proximal_W.y(),
-                       sole + mr.sup * part.half_extent.z());
-      pos_W.y() += mr.lat * lateral_sign * part.half_extent.y();
-      pos_W.x() += mr.ant * part.half_extent.x();
+    if (part.kind == "foot") {  // along: heel -> toe tip; sup: sole -> dorsum
+      const Geom& sole_box = part.geoms_W.front();
+      const double x_heel = sole_box.center_B.x() - sole_box.half_extents.x();
+      const double sole_z = sole_box.center_B.z() - sole_box.half_extents.z();
+      const double full_len = part.length + b.parts.at("toes_" + part.side).length;
+      pos_W = Vector3d(x_heel + mr.along * full_len + mr.ant * part.half_extent.x(),
+                       part.proximal_W.y() + mr.lat * lateral_sign * part.half_extent.y(),
+                       sole_z + mr.sup * part.half_extent.z());
     } else {
-      pos_W = part.proximal_W + mr.along * (part.distal_W - part.proximal_W);
-      pos_W += Vector3d(mr.ant * part.half_extent.x(), mr.lat * lateral_sign * part.half_extent.y(),
-                        mr.sup * part.half_extent.z());
+      pos_W = part.proximal_W + mr.along * (part.distal_W - part.proximal_W) +
+              Vector3d(mr.ant * part.half_extent.x(), mr.lat * lateral_sign * part.half_extent.y(),
+                       mr.sup * part.half_extent.z());
     }
-    const std::string& seg_name = part_to_segment.at(part.name);
     Marker m;
     m.name = mr.marker;
-    m.segment = seg_name;
-    m.position_B = pos_W - c.find(seg_name)->origin_W;
+    m.segment = part_to_segment.at(part.name);
+    m.position_B = pos_W - c.find(m.segment)->origin_W;
     m.description = mr.description;
-    c.markers.push_back(m);
+    markers.push_back(m);
   }
+  return markers;
+}
 
-  // --- Standing height and lowest point from the geoms.
+/// Lowest and highest point of the geoms in the standing pose, m.
+std::pair<double, double> geom_z_span(const std::vector<Segment>& segments) {
   double lowest = 1e9, highest = -1e9;
-  for (const Segment& seg : c.segments) {
-    for (const Geom& g : seg.geoms) {
-      Geom w = g;
-      w.center_B += seg.origin_W;
-      w.from_B += seg.origin_W;
-      w.to_B += seg.origin_W;
+  for (const Segment& seg : segments) {
+    for (Geom g : seg.geoms) {
+      g.center_B += seg.origin_W;
+      g.from_B += seg.origin_W;
+      g.to_B += seg.origin_W;
       double lo = 0, hi = 0;
-      geom_z_range(w, &lo, &hi);
+      geom_z_range(g, &lo, &hi);
       lowest = std::min(lowest, lo);
       highest = std::max(highest, hi);
     }
   }
+  return {lowest, highest};
+}
+
+}  // namespace
+
+Character generate_character(const CharacterSpec& spec) {
+  spec.validate();
+  Build b{default_tables(), spec};
+  b.H = spec.height_m;
+  b.ankle_h = b.T.proportion("ankle_height") * b.H;
+  b.density = b.T.proportion("tissue_density");
+  for (const std::string& n : full_part_names()) {
+    Part p;
+    p.name = n;
+    std::tie(p.kind, p.side) = split_side(n);
+    b.parts[n] = p;
+  }
+  assign_mass_shares(b);
+  assign_table_lengths(b);
+
+  const std::vector<SegmentPlan> plan = plan_segments(spec.detail);
+  const std::map<std::string, SegmentOverride> overrides = resolve_overrides(spec, plan);
+  apply_length_overrides(b, plan, overrides);
+  distribute_mass(b, plan, overrides);
+
+  lay_out_spine(b, lay_out_legs(b));
+  lay_out_arms(b);
+
+  Character c;
+  c.spec = spec;
+  c.torque_scale = (spec.mass_kg / kPaperMass_kg) * (spec.height_m / kPaperHeight_m);  // §5.1
+  const auto joints = make_joints(b, c.torque_scale);
+  for (const SegmentPlan& p : plan)
+    c.segments.push_back(assemble_segment(b, p, joints, c.torque_scale));
+  c.markers = place_markers(b, c, plan);
+  const auto [lowest, highest] = geom_z_span(c.segments);
   c.lowest_point_m = lowest;
   c.standing_height_m = highest - lowest;
   return c;
