@@ -9,10 +9,20 @@
 int main(int argc, char** argv) {
   using namespace biodyn::apps;
   CLI::App app{"biodyn: physics-based character animation and biodynamics on MuJoCo 2.2.2"};
+  app.name("biodyn");
   app.require_subcommand(1);
   bool verbose = false;
   app.add_flag("-v,--verbose", verbose, "Log info messages to stderr");
   const std::vector<Command> commands = {add_model_command(&app), add_drop_command(&app)};
+  // Parse errors on one line, naming the option and the value.
+  app.failure_message([](const CLI::App* cmd, const CLI::Error& e) {
+    return "biodyn" + (cmd->get_parent() ? " " + cmd->get_name() : std::string()) +
+           ": error: " + e.what() + " (see --help)\n";
+  });
+  if (argc == 1) {  // no subcommand: show what there is
+    std::cout << app.help();
+    return kExitBadInput;
+  }
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

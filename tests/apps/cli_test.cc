@@ -102,10 +102,15 @@ TEST_CASE("Bad values exit non-zero with a one-line message and write nothing", 
     CHECK(!fs::exists(dir / "out.xml"));
     CHECK(!fs::exists(dir / "out.json"));
   }
-  const Run r = run_biodyn("model --height abc -o out.xml", dir);
-  CHECK(r.exit_code == 2);
-  CHECK_THAT(r.err, Catch::Contains("height"));
-  CHECK(!fs::exists(dir / "out.xml"));
+  for (const char* args : {"model --height abc -o out.xml", "drop --duration -1 -o out.xml"}) {
+    INFO(args);
+    const Run r = run_biodyn(args, dir);
+    CHECK(r.exit_code == 2);
+    CHECK(std::count(r.err.begin(), r.err.end(), '\n') == 1);
+    CHECK_THAT(r.err,
+               Catch::Contains(std::string(args).find("abc") != std::string::npos ? "abc" : "-1"));
+    CHECK(!fs::exists(dir / "out.xml"));
+  }
 }
 
 TEST_CASE("biodyn drop runs the main job and reports it", "[apps][cli]") {

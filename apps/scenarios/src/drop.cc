@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <sstream>
 #include <string>
 
 #include "biodyn/sim/errors.h"
@@ -30,12 +31,14 @@ double max_body_speed(const mjModel& m, const mjData& d) {
 }  // namespace
 
 void DropParams::validate() const {
-  if (!(duration_s > 0) || !std::isfinite(duration_s)) {
-    throw sim::InvalidArgument("duration: must be > 0 s, got " + std::to_string(duration_s));
-  }
-  if (!(rest_speed > 0)) {
-    throw sim::InvalidArgument("rest_speed: must be > 0 m/s, got " + std::to_string(rest_speed));
-  }
+  const auto fail = [](const char* field, const char* rule, double value) {
+    std::ostringstream msg;
+    msg << field << ": " << rule << ", got " << value;
+    throw sim::InvalidArgument(msg.str());
+  };
+  if (!(duration_s > 0) || !std::isfinite(duration_s))
+    fail("duration", "must be > 0 s", duration_s);
+  if (!(rest_speed > 0)) fail("rest_speed", "must be > 0 m/s", rest_speed);
 }
 
 DropResult run_drop(sim::Simulation* sim, const DropParams& params,
