@@ -75,6 +75,10 @@ std::string to_mjcf(const Character& c, const PhysicsOptions& o) {
          {"tolerance", fmt(o.solver_tolerance)}});
   child(root, "size", {{"nconmax", std::to_string(o.nconmax)}, {"njmax", std::to_string(o.njmax)}});
   child(child(root, "visual"), "global", {{"offwidth", "1280"}, {"offheight", "720"}});
+  // Frame the character, not the 100 m floor, in MuJoCo's default free camera (simulate).
+  child(root, "statistic",
+        {{"center", fmt(Vector3d(0, 0, 0.5 * c.standing_height_m))},
+         {"extent", fmt(c.standing_height_m)}});
 
   tinyxml2::XMLElement* asset = child(root, "asset");
   child(asset, "texture",
