@@ -33,8 +33,9 @@ struct DropResult {
   sim::WarningCounts warnings;
 };
 
-/// Runs the drop on `sim` from its current state with ctrl = 0, calling `progress(fraction)`
-/// about every 1% if given.
+/// Runs the drop on `sim` (a generated character: it reads the body "pelvis") from its current
+/// state with ctrl = 0, calling `progress(fraction)` about every 1% if given. Throws
+/// sim::InvalidArgument for bad params or a model without a pelvis.
 DropResult run_drop(sim::Simulation* sim, const DropParams& params,
                     const std::function<void(double)>& progress = {});
 
