@@ -35,7 +35,6 @@ models::CharacterSpec CharacterOptions::to_spec() const {
     spec.overrides = models::parse_overrides(read_text_file(overrides_path), overrides_path);
     models::check_override_names(spec.overrides, spec.detail, overrides_path);
   }
-  spec.validate();
   return spec;
 }
 

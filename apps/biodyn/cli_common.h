@@ -19,7 +19,8 @@ struct CharacterOptions {
 
   /// Adds --height --mass --sex --detail --overrides to `cmd`.
   void add_to(CLI::App* cmd, bool with_overrides = true);
-  /// Builds and validates the spec; throws sim::InvalidArgument naming the field and value.
+  /// Builds the spec (reading and name-checking the overrides file); generate_character
+  /// validates the values. Throws sim::InvalidArgument naming the field and value.
   models::CharacterSpec to_spec() const;
 };
 

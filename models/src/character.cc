@@ -224,12 +224,6 @@ const Segment* Character::find(const std::string& name) const {
   return nullptr;
 }
 
-std::vector<std::string> segment_names(Detail detail) {
-  std::vector<std::string> names;
-  for (const SegmentPlan& p : plan_segments(detail)) names.push_back(p.name);
-  return names;
-}
-
 namespace {
 
 /// What the build stages share for one character: the tables, the inputs and the parts.

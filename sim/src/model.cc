@@ -22,15 +22,21 @@ void copy_array(T* dst, const T* src, int count) {
   if (count > 0) std::memcpy(dst, src, sizeof(T) * static_cast<size_t>(count));
 }
 
+/// Turns mj_loadXML's result into a model or a ModelLoadError naming `source`; a warning the
+/// loader left in `error` goes to the log.
+mjModel* checked_load(mjModel* m, const char* error, const std::string& source) {
+  if (!m) throw ModelLoadError(source, trim(error));
+  if (error[0]) log(LogLevel::kWarning, source + ": " + trim(error));
+  return m;
+}
+
 }  // namespace
 
 Model Model::from_file(const std::string& path) {
   install_mujoco_handlers();
   char error[kErrorBufferSize] = "";
-  mjModel* m = mj_loadXML(path.c_str(), nullptr, error, kErrorBufferSize);
-  if (!m) throw ModelLoadError(path, trim(error));
-  if (error[0]) log(LogLevel::kWarning, path + ": " + trim(error));
-  return Model(m);
+  return Model(
+      checked_load(mj_loadXML(path.c_str(), nullptr, error, kErrorBufferSize), error, path));
 }
 
 Model Model::from_string(std::string_view xml, const std::string& name) {
@@ -48,9 +54,7 @@ Model Model::from_string(std::string_view xml, const std::string& name) {
   char error[kErrorBufferSize] = "";
   mjModel* m = mj_loadXML(kVirtualName, &vfs, error, kErrorBufferSize);
   mj_deleteVFS(&vfs);
-  if (!m) throw ModelLoadError(name, trim(error));
-  if (error[0]) log(LogLevel::kWarning, name + ": " + trim(error));
-  return Model(m);
+  return Model(checked_load(m, error, name));
 }
 
 Model Model::copy() const { return Model(mj_copyModel(nullptr, model_.get())); }

@@ -119,9 +119,6 @@ inline constexpr double kPaperMass_kg = 82.2;
 /// segment, field and value), or sim::Error if an embedded table is malformed.
 Character generate_character(const CharacterSpec& spec);
 
-/// Segment names of a detail level, in generation order.
-std::vector<std::string> segment_names(Detail detail);
-
 /// Checks that every override key names a segment of `detail` (or one without its _l/_r side).
 /// Throws InvalidArgument starting with `source` (e.g. the overrides file) and listing the names.
 void check_override_names(const std::map<std::string, SegmentOverride>& overrides, Detail detail,
