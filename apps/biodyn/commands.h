@@ -17,6 +17,10 @@ struct Command {
 Command add_model_command(CLI::App* app);
 /// `biodyn drop`: zero-torque drop of a character (the main job until walking lands).
 Command add_drop_command(CLI::App* app);
+/// `biodyn pose`: stand, squat, reach or one-leg balance under the joint controllers.
+Command add_pose_command(CLI::App* app);
+/// `biodyn bench`: controller cost against the bare physics step.
+Command add_bench_command(CLI::App* app);
 
 /// Exit codes shared by every subcommand.
 inline constexpr int kExitOk = 0;

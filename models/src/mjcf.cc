@@ -71,6 +71,8 @@ std::string to_mjcf(const Character& c, const PhysicsOptions& o) {
          {"cone", o.elliptic_cone ? "elliptic" : "pyramidal"},
          {"impratio", fmt(o.impratio)},
          {"solver", "Newton"},
+         // Dense constraint Jacobians: the whole-body controller reads efc_J rows directly.
+         {"jacobian", "dense"},
          {"iterations", std::to_string(o.solver_iterations)},
          {"tolerance", fmt(o.solver_tolerance)}});
   child(root, "size", {{"nconmax", std::to_string(o.nconmax)}, {"njmax", std::to_string(o.njmax)}});
@@ -213,6 +215,19 @@ std::string to_mjcf(const Character& c, const PhysicsOptions& o) {
       set(site, "name", "marker_" + m.name);
       set(site, "pos", fmt(m.position_B));
     }
+  }
+
+  // Foot-contact welds (paper §4.1), off until a controller switches one on at foot strike
+  // and sets its pose from the foot's current pose (controllers/foot_contact.h).
+  tinyxml2::XMLElement* equality = child(root, "equality");
+  for (const char* side : {"l", "r"}) {
+    const std::string foot = std::string("foot_") + side;
+    if (!by_name.count(foot)) continue;
+    child(equality, "weld",
+          {{"name", std::string(kFootWeldPrefix) + side},
+           {"body1", foot},
+           {"active", "false"},
+           {"solref", fmt(o.weld_time_constant_s) + " 1"}});
   }
 
   tinyxml2::XMLPrinter printer;

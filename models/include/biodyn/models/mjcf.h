@@ -27,12 +27,18 @@ struct PhysicsOptions {
   /// body sink into its limits and store energy there that comes back later: measured on a
   /// 1.40 m / 150 kg drop, 40 J (3.5% of the start energy) at 0.02, 7.5 J (0.6%) at 0.005.
   double limit_time_constant_s = 0.005;
+  /// s, solref time constant of the foot-contact welds (>= 2 timesteps; MuJoCo's default).
+  double weld_time_constant_s = 0.02;
 };
+
+/// Names of the foot-contact weld equalities: "foot_weld_l", "foot_weld_r" (body1 = foot,
+/// body2 = world, inactive in the file).
+inline constexpr const char* kFootWeldPrefix = "foot_weld_";
 
 /// The MJCF text of `c`: floor, light, tracking camera, one body per segment with an explicit
 /// <inertial>, joints with limits/armature/damping, one <motor> per DOF (ctrl in N m, limited
 /// to +-tau_max), collision geoms (body-floor only; no self-collision) and marker sites
-/// named "marker_<NAME>".
+/// named "marker_<NAME>", and one inactive foot weld per foot (kFootWeldPrefix).
 std::string to_mjcf(const Character& c, const PhysicsOptions& options = {});
 
 /// Actuator names of a joint: {name} for a hinge, {name_x, name_y, name_z} for a ball.

@@ -1,0 +1,86 @@
+#pragma once
+/// The pose scenarios of `biodyn pose` (stand, squat, reach, one-leg), optionally with a push,
+/// run headless on a generated character with the joint controllers, standing balance and
+/// foot welds. Shared by the CLI, the viewer (later) and the tests.
+
+#include <functional>
+#include <ostream>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "biodyn/controllers/character_controller.h"
+#include "biodyn/sim/simulation.h"
+
+namespace biodyn::scenarios {
+
+/// A horizontal push through the pelvis centre of mass (references.md, push protocol).
+struct PosePush {
+  double force_N = 0;         ///< N, >= 0
+  double duration_s = 0.2;    ///< s, > 0
+  double direction_deg = 0;   ///< deg, 0 = forward (+x), 90 = to the character's left
+  double onset_s = 1.0;       ///< s, simulation time of onset
+  std::string body = "pelvis";
+};
+
+struct PoseRunParams {
+  std::string scenario = "stand";
+  double duration_s = 0;  ///< s; 0: the scenario's own length; longer: the last pose holds
+  controllers::ControllerKind kind = controllers::ControllerKind::kVelocity;
+  controllers::WeldMode weld = controllers::WeldMode::kHonest;
+  double reaction_time_s = 0;  ///< s; > 0 replaces every joint's t_r
+  std::optional<PosePush> push;
+  std::string params_json;    ///< controller parameter overrides (JSON text), optional
+  std::string params_source;  ///< the file it came from, for errors
+  /// Joint-velocity RMS is reported per window of this length (stability check), s.
+  double velocity_window_s = 5.0;
+  /// If set, one CSV line per step is written here (header first): time, CoM, pelvis
+  /// height, capture-point error, balance offsets, welds (on, ground force, tension
+  /// excess), torque ratio, saturated DOFs, honest-mode redos.
+  std::ostream* trace = nullptr;
+  void validate() const;  ///< throws sim::InvalidArgument
+};
+
+/// Orientation error of every joint when one pose's targets are due.
+struct TargetCheck {
+  std::string pose;
+  double time_s = 0;          ///< s, the pose's reach time
+  double error_deg = 0;       ///< deg, max over joints against the controller's targets
+  std::string worst_joint;    ///< where that maximum was
+  double pose_error_deg = 0;  ///< deg, max over joints against the pose without balance offsets
+};
+
+struct PoseRunResult {
+  std::string scenario, controller, weld;
+  double reaction_time_s = 0;     ///< s, the t_r used (if uniform), else -1
+  int steps = 0;
+  double simulated_s = 0, wall_s = 0, realtime_factor = 0;
+  bool fallen = false;
+  double time_fallen_s = -1;      ///< s, first time a non-foot body touched the floor or the
+                                  ///< pelvis dropped below 0.6 x its start height; -1 if never
+  std::vector<TargetCheck> targets;
+  double max_orientation_error_deg = 0;  ///< max over targets of error_deg
+  double max_pose_error_deg = 0;         ///< max over targets of pose_error_deg
+  int weld_tension_steps = 0;
+  int weld_redone_steps = 0;             ///< honest mode: steps repeated with a weld released
+  double max_weld_force_N = 0;           ///< largest |weld force| in any step
+  double weld_active_fraction = 0;       ///< share of foot-steps with a weld on
+  double max_torque_ratio = 0;           ///< peak |tau| / tau_max
+  /// Time the CoM ground projection spent outside the support polygon of the actual foot
+  /// contacts (double stance only), s, and the largest distance outside, m.
+  double com_outside_support_s = 0;
+  double max_com_outside_support_m = 0;
+  double max_foot_displacement_m = 0;  ///< largest horizontal move of a foot (stepping)
+  std::vector<double> joint_velocity_rms;  ///< rad/s, per window (actuated DOFs)
+  int joints_outside_limits_steps = 0;
+  bool solver_converged = true;
+  sim::WarningCounts warnings;
+  bool survived_push = false;  ///< a push was given and the character did not fall
+};
+
+/// Builds and runs the scenario on `sim` (a generated character, reset inside). Progress is
+/// reported as a fraction. Throws sim::InvalidArgument for bad params.
+PoseRunResult run_pose(sim::Simulation* sim, const PoseRunParams& params,
+                       const std::function<void(double)>& progress = {});
+
+}  // namespace biodyn::scenarios

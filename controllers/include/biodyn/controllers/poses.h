@@ -1,0 +1,98 @@
+#pragma once
+/// Pose sequences and the standing balance that keeps them upright.
+///
+/// A pose is a target state (paper §3, Fig. 2): anatomical angles for some joints (the others
+/// stand straight), a reach time, which feet are in stance, and over which support the centre
+/// of mass should be held. A sequence plays poses in order; each lasts `duration_s` and its
+/// targets are due `reach_time_s` after it starts.
+///
+/// Standing balance (ankle and hip strategies, Horak & Nashner 1986) works on the targets, as
+/// the paper's balance does: the capture point xi = c + v/omega0 (omega0 = sqrt(g/z_c),
+/// Pratt 2006) is compared with the chosen support centre; the error tilts the stance legs
+/// about the ankles (sagittal theta, frontal phi; the trunk is kept upright by the hips) with
+/// proportional-integral feedback, and a large sagittal error adds hip flexion (hip strategy).
+/// No force acts on the root: the joint controllers turn the new targets into torques.
+
+#include <mujoco/mujoco.h>
+
+#include <Eigen/Core>
+#include <array>
+#include <map>
+#include <string>
+#include <vector>
+
+#include "biodyn/controllers/joint_groups.h"
+
+namespace biodyn::controllers {
+
+/// Where the balance holds the centre of mass.
+enum class Support { kBoth, kLeft, kRight };
+
+/// One target state.
+struct Pose {
+  std::string name;
+  double duration_s = 1.0;    ///< s, time until the next pose starts, > 0
+  double reach_time_s = 0.5;  ///< s, the targets are due this long after the pose starts
+  /// Joint name -> anatomical angles, rad (hinges: one per DOF in model order; ball joints:
+  /// flexion, abduction, internal rotation). Joints not listed: 0 (upright standing).
+  std::map<std::string, Eigen::Vector3d> angles_rad;
+  std::array<bool, 2> stance = {true, true};  ///< feet wanted on the ground (left, right)
+  Support support = Support::kBoth;
+};
+
+/// The built-in scenarios of `biodyn pose`: "stand", "squat", "reach", "one-leg".
+std::vector<std::string> pose_scenario_names();
+/// The poses of a scenario for the model's joints; `duration_s` stretches the final hold so
+/// the whole sequence lasts that long (if longer than the poses). Throws
+/// sim::InvalidArgument for an unknown scenario or one the model cannot do (reach needs arms).
+std::vector<Pose> pose_scenario(const std::string& name, const std::vector<JointGroup>& groups,
+                                double duration_s);
+
+/// Gains of the standing balance.
+struct BalanceParams {
+  bool enabled = true;
+  double proportional = 1.0;  ///< leg tilt per capture-point error, in units of error / leg length
+  double integral_per_s = 2.0;  ///< 1/s, integral gain (removes a steady CoM offset)
+  double max_tilt_rad = 0.25;   ///< rad, bound on the sagittal and frontal leg tilts
+  /// Hip strategy: hip flexion per metre of sagittal capture-point error beyond
+  /// `hip_threshold_fraction` of the half foot length, rad/m.
+  double hip_gain_rad_per_m = 4.0;
+  double hip_threshold_fraction = 0.5;
+  double max_hip_rad = 0.6;
+  void validate() const;  ///< throws sim::InvalidArgument
+};
+
+/// Offsets the balance adds to the stance legs, rad.
+struct BalanceOffsets {
+  double sagittal_tilt = 0;  ///< legs lean forward (+) about the ankles
+  double frontal_tilt = 0;   ///< legs lean to the left (+)
+  double hip_flexion = 0;    ///< hip strategy, both stance hips
+};
+
+/// Standing balance state (the integrators). reset() -> update() each step.
+class StandingBalance {
+ public:
+  StandingBalance(const mjModel& m, BalanceParams params);
+  const BalanceParams& params() const { return params_; }
+  void set_params(const BalanceParams& params);
+  void reset();
+  /// Offsets for the current state (after mj_step1) holding the CoM over `support` with the
+  /// given feet in stance. Also reports the capture-point error (m, heading frame) and the
+  /// support centre (world).
+  BalanceOffsets update(const mjModel& m, const mjData& d, Support support, double dt);
+  const Eigen::Vector2d& capture_point_error() const { return error_; }
+  const Eigen::Vector2d& support_centre_W() const { return centre_; }
+
+ private:
+  BalanceParams params_;
+  int foot_[2] = {-1, -1};
+  int pelvis_ = -1;
+  Eigen::Vector3d sole_centre_B_[2];  // sole centre in each foot frame (m)
+  double foot_half_length_ = 0.1;
+  double leg_length_ = 0.9;
+  Eigen::Vector2d integral_ = Eigen::Vector2d::Zero();
+  Eigen::Vector2d error_ = Eigen::Vector2d::Zero();
+  Eigen::Vector2d centre_ = Eigen::Vector2d::Zero();
+};
+
+}  // namespace biodyn::controllers

@@ -1,0 +1,157 @@
+#include "biodyn/controllers/character_controller.h"
+
+#include <algorithm>
+#include <cassert>
+#include <cmath>
+
+namespace biodyn::controllers {
+namespace {
+
+constexpr int kMaxRedos = 2;  // one per foot weld
+
+std::vector<JointGroup> groups_of(const sim::Simulation& sim) {
+  return find_joint_groups(sim.model());
+}
+
+}  // namespace
+
+CharacterController::CharacterController(sim::Simulation* sim, ControllerParams params,
+                                         CharacterControllerConfig config)
+    : sim_(sim),
+      config_(config),
+      joints_(sim->model(), groups_of(*sim), params, config.kind),
+      limiter_(joints_.groups(), params),
+      welds_(sim->model(), config.weld),
+      balance_(sim->model(), config.balance),
+      snapshot_(sim->model()),
+      base_angles_(joints_.groups().size(), Eigen::Vector3d::Zero()),
+      qfrc_limit_(static_cast<std::size_t>(sim->model().nv)),
+      qfrc_other_(static_cast<std::size_t>(sim->model().nv)),
+      torque_(static_cast<std::size_t>(sim->model().nv)) {
+  const char* sides[2] = {"_l", "_r"};
+  for (int s = 0; s < 2; ++s) {
+    group_ankle_[s] = find_group(groups(), std::string("ankle") + sides[s]);
+    group_hip_[s] = find_group(groups(), std::string("hip") + sides[s]);
+  }
+}
+
+void CharacterController::set_params(const ControllerParams& params) {
+  joints_.set_params(params);
+  limiter_.set_params(params);
+}
+
+void CharacterController::set_weld_mode(WeldMode mode) {
+  config_.weld.mode = mode;
+  welds_.set_mode(sim_->mutable_model(), mode);
+}
+
+void CharacterController::reset() {
+  welds_.reset(sim_->mutable_model());
+  balance_.reset();
+  sim_->forward();
+  joints_.reset(sim_->model(), sim_->data());
+  pose_ = Pose{};
+  pose_.name = "initial";
+  std::fill(base_angles_.begin(), base_angles_.end(), Eigen::Vector3d::Zero());
+  pose_start_s_ = sim_->data().time;
+}
+
+void CharacterController::set_pose(const Pose& pose) {
+  pose_ = pose;
+  pose_start_s_ = sim_->data().time;
+  const std::vector<JointGroup>& gs = groups();
+  for (std::size_t g = 0; g < gs.size(); ++g) {
+    const auto it = pose.angles_rad.find(gs[g].name);
+    base_angles_[g] = it == pose.angles_rad.end() ? Eigen::Vector3d::Zero() : it->second;
+  }
+  for (int s = 0; s < 2; ++s) welds_.set_stance(sim_->mutable_model(), s, pose.stance[static_cast<std::size_t>(s)]);
+}
+
+void CharacterController::apply_targets(const mjData& d) {
+  const std::vector<JointGroup>& gs = groups();
+  const double reach_at = pose_start_s_ + pose_.reach_time_s;
+  for (std::size_t g = 0; g < gs.size(); ++g) {
+    Eigen::Vector3d angles = base_angles_[g];
+    for (int s = 0; s < 2; ++s) {
+      if (!pose_.stance[static_cast<std::size_t>(s)]) continue;
+      const double side_sign = s == 0 ? -1.0 : 1.0;  // frontal tilt: see poses.h
+      if (static_cast<int>(g) == group_ankle_[s]) {
+        angles[0] += offsets_.sagittal_tilt;  // dorsiflexion leans the shank forward
+        if (gs[g].dof_count > 1) angles[1] += side_sign * offsets_.frontal_tilt;
+      }
+      if (static_cast<int>(g) == group_hip_[s]) {
+        angles[0] += -offsets_.sagittal_tilt + offsets_.hip_flexion;  // trunk stays upright
+        angles[1] += side_sign * offsets_.frontal_tilt;
+      }
+    }
+    (void)d;
+    joints_.set_target(static_cast<int>(g), orientation_from_angles(gs[g], angles), reach_at);
+  }
+}
+
+void CharacterController::control(mjData& d, bool* outside) {
+  mjModel& m = sim_->mutable_model();
+  const int nv = m.nv;
+  offsets_ = balance_.update(m, d, pose_.support, m.opt.timestep);
+  apply_targets(d);
+  welds_.engage_at_strikes(m, d);
+
+  std::fill(qfrc_limit_.begin(), qfrc_limit_.end(), 0.0);
+  last_outside_ = limiter_.compute(m, d, qfrc_limit_.data());
+  *outside = last_outside_ > 0;
+  // Other forces acting this step: the limits and the pushes (xfrc_applied at body CoMs).
+  std::copy(qfrc_limit_.begin(), qfrc_limit_.end(), qfrc_other_.begin());
+  for (int b = 1; b < m.nbody; ++b) {
+    const mjtNum* f = d.xfrc_applied + 6 * b;
+    if (f[0] == 0 && f[1] == 0 && f[2] == 0 && f[3] == 0 && f[4] == 0 && f[5] == 0) continue;
+    mj_applyFT(&m, &d, f, f + 3, d.xipos + 3 * b, b, qfrc_other_.data());
+  }
+  last_status_ = joints_.compute(m, d, qfrc_other_.data(), torque_.data());
+  for (int i = 0; i < nv; ++i) {
+    d.qfrc_applied[i] = qfrc_limit_[static_cast<std::size_t>(i)] + torque_[static_cast<std::size_t>(i)];
+  }
+  for (int a = 0; a < m.nu; ++a) d.ctrl[a] = 0;  // the torques go through qfrc_applied
+}
+
+StepReport CharacterController::step() {
+  mjModel& m = sim_->mutable_model();
+  mjData& d = sim_->data();
+  StepReport report;
+  snapshot_.save(m, d);
+  const StandingBalance balance_before = balance_;
+  bool outside = false;
+  for (int attempt = 0;; ++attempt) {
+    report.status = sim_->step([&](const mjModel&, mjData& data) { control(data, &outside); });
+    const int tense = welds_.measure(m, d);
+    if (tense >= 0 && config_.weld.mode == WeldMode::kHonest && attempt < kMaxRedos) {
+      // Undo, switch the offending weld off, and take the step again (foot_contact.h).
+      snapshot_.restore(m, d);
+      balance_ = balance_before;
+      welds_.release_for_tension(m, tense, d.time);
+      ++report.redone;
+      continue;
+    }
+    report.weld_tension = tense >= 0;
+    break;
+  }
+  welds_.release_near_edges(m, d.time);
+  joints_.commit();
+  report.joints = last_status_;
+  report.joints_outside_limits = last_outside_;
+  report.balance = offsets_;
+  for (int s = 0; s < 2; ++s) {
+    report.weld[static_cast<std::size_t>(s)] = welds_.wrench(s);
+    report.weld_active[static_cast<std::size_t>(s)] = welds_.active(m, s);
+  }
+  return report;
+}
+
+double CharacterController::max_orientation_error() const {
+  double worst = 0;
+  for (std::size_t g = 0; g < groups().size(); ++g) {
+    worst = std::max(worst, joints_.orientation_error(sim_->model(), sim_->data(), static_cast<int>(g)));
+  }
+  return worst;
+}
+
+}  // namespace biodyn::controllers

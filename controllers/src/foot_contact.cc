@@ -1,0 +1,265 @@
+#include "biodyn/controllers/foot_contact.h"
+
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "biodyn/models/mjcf.h"
+#include "biodyn/sim/errors.h"
+#include "biodyn/sim/queries.h"
+
+namespace biodyn::controllers {
+namespace {
+
+using Eigen::Matrix3d;
+using Eigen::Vector3d;
+
+Matrix3d rotation_at(const mjtNum* xmat) {
+  Matrix3d R;
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) R(r, c) = xmat[3 * r + c];
+  return R;
+}
+
+Vector3d vec_at(const mjtNum* v) { return Vector3d(v[0], v[1], v[2]); }
+
+// A weld in tension by less than this fraction of body weight is numerical noise of the
+// constraint solver (tolerance 1e-8), not adhesion.
+constexpr double kTensionTolerance = 1e-6;
+
+}  // namespace
+
+Sole find_sole(const mjModel& m, int foot_body) {
+  Sole s;
+  s.x_min = s.y_min = s.z = std::numeric_limits<double>::max();
+  s.x_max = s.y_max = -std::numeric_limits<double>::max();
+  for (int b = 0; b < m.nbody; ++b) {
+    if (b != foot_body && m.body_parentid[b] != foot_body) continue;
+    const Vector3d offset = b == foot_body ? Vector3d::Zero() : vec_at(m.body_pos + 3 * b);
+    for (int g = m.body_geomadr[b]; g < m.body_geomadr[b] + m.body_geomnum[b]; ++g) {
+      if (m.geom_type[g] != mjGEOM_BOX) continue;
+      const Vector3d c = offset + vec_at(m.geom_pos + 3 * g);
+      const Vector3d h = vec_at(m.geom_size + 3 * g);
+      s.x_min = std::min(s.x_min, c.x() - h.x());
+      s.x_max = std::max(s.x_max, c.x() + h.x());
+      s.y_min = std::min(s.y_min, c.y() - h.y());
+      s.y_max = std::max(s.y_max, c.y() + h.y());
+      s.z = std::min(s.z, c.z() - h.z());
+    }
+  }
+  if (s.x_max < s.x_min) {
+    const char* name = mj_id2name(&m, mjOBJ_BODY, foot_body);
+    throw sim::InvalidArgument(std::string("sole: body '") + (name ? name : "?") +
+                               "' and its children have no box geom");
+  }
+  return s;
+}
+
+const char* to_string(WeldMode mode) {
+  switch (mode) {
+    case WeldMode::kOff:
+      return "off";
+    case WeldMode::kHonest:
+      return "honest";
+    case WeldMode::kGlue:
+      return "glue";
+  }
+  return "?";
+}
+
+WeldMode parse_weld_mode(const std::string& text, const std::string& field) {
+  if (text == "off") return WeldMode::kOff;
+  if (text == "honest") return WeldMode::kHonest;
+  if (text == "glue") return WeldMode::kGlue;
+  throw sim::InvalidArgument(field + ": must be 'off', 'honest' or 'glue', got '" + text + "'");
+}
+
+void FootWeldParams::validate() const {
+  const auto fail = [](const std::string& f, const std::string& rule, double v) {
+    throw sim::InvalidArgument("weld." + f + ": " + rule + ", got " + std::to_string(v));
+  };
+  if (!(engage_max_speed_m_s > 0)) fail("engage_max_speed_m_s", "must be > 0", engage_max_speed_m_s);
+  if (!(engage_max_angular_speed_rad_s > 0))
+    fail("engage_max_angular_speed_rad_s", "must be > 0", engage_max_angular_speed_rad_s);
+  if (engage_min_contacts < 1) fail("engage_min_contacts", "must be >= 1", engage_min_contacts);
+  if (!(reengage_delay_s >= 0)) fail("reengage_delay_s", "must be >= 0", reengage_delay_s);
+  if (!(min_load_fraction > 0 && min_load_fraction < 1))
+    fail("min_load_fraction", "must be in (0, 1)", min_load_fraction);
+  if (!(release_margin < engage_margin && engage_margin <= 1))
+    fail("engage_margin", "must be in (release_margin, 1]", engage_margin);
+}
+
+FootWelds::FootWelds(const mjModel& m, FootWeldParams params)
+    : params_(params), qfrc_(static_cast<std::size_t>(m.nv)) {
+  contacts_.reserve(static_cast<std::size_t>(m.nconmax));
+  for (int b = 0; b < m.nbody; ++b) weight_ += m.body_mass[b];
+  weight_ *= std::abs(m.opt.gravity[2]);
+  root_dof_ = m.body_dofadr[root_body_];
+  params_.validate();
+  floor_geom_ = mj_name2id(&m, mjOBJ_GEOM, "floor");
+  const char* sides[2] = {"l", "r"};
+  for (int s = 0; s < 2; ++s) {
+    Foot& f = feet_[static_cast<std::size_t>(s)];
+    f.eq = mj_name2id(&m, mjOBJ_EQUALITY, (std::string(models::kFootWeldPrefix) + sides[s]).c_str());
+    f.body = mj_name2id(&m, mjOBJ_BODY, (std::string("foot_") + sides[s]).c_str());
+    if (f.eq < 0 || f.body < 0 || floor_geom_ < 0) {
+      if (params_.mode == WeldMode::kOff) continue;
+      throw sim::InvalidArgument(std::string("foot welds: the model has no equality '") +
+                                 models::kFootWeldPrefix + sides[s] +
+                                 "', body 'foot_" + sides[s] +
+                                 "' or geom 'floor' (use a generated character, or --weld off)");
+    }
+    f.sole = find_sole(m, f.body);
+    for (int g = 0; g < m.ngeom; ++g) {
+      if (m.geom_bodyid[g] == f.body)
+        f.mu = std::max(m.geom_friction[3 * g], m.geom_friction[3 * floor_geom_]);
+    }
+  }
+}
+
+void FootWelds::set_mode(mjModel& m, WeldMode mode) {
+  params_.mode = mode;
+  if (mode == WeldMode::kOff) {
+    for (Foot& f : feet_)
+      if (f.eq >= 0) m.eq_active[f.eq] = 0;
+  }
+}
+
+void FootWelds::reset(mjModel& m) {
+  for (Foot& f : feet_) {
+    if (f.eq >= 0) m.eq_active[f.eq] = 0;
+    f.stance = true;
+    f.released_at = -1e9;
+  }
+  wrench_ = {};
+}
+
+bool FootWelds::active(const mjModel& m, int side) const {
+  const Foot& f = feet_[static_cast<std::size_t>(side)];
+  return f.eq >= 0 && m.eq_active[f.eq];
+}
+
+void FootWelds::set_stance(mjModel& m, int side, bool stance) {
+  Foot& f = feet_[static_cast<std::size_t>(side)];
+  f.stance = stance;
+  if (!stance && f.eq >= 0) m.eq_active[f.eq] = 0;  // lift-off
+}
+
+void FootWelds::engage(mjModel& m, const mjData& d, Foot& f) {
+  // Anchor: the sole centre. eq_data (2.2.2): [0:3] anchor in body2 (world) frame, [3:6] the
+  // same point in body1 (foot) frame, [6:10] neg(q_foot) * q_world, [10] torque scale.
+  const Vector3d p_B = f.sole.centre_B();
+  const Vector3d p_W = vec_at(d.xpos + 3 * f.body) + rotation_at(d.xmat + 9 * f.body) * p_B;
+  mjtNum* data = m.eq_data + mjNEQDATA * f.eq;
+  for (int k = 0; k < 3; ++k) {
+    data[k] = p_W[k];
+    data[3 + k] = p_B[k];
+  }
+  mjtNum q_neg[4];
+  mju_negQuat(q_neg, d.xquat + 4 * f.body);
+  for (int k = 0; k < 4; ++k) data[6 + k] = q_neg[k];
+  m.eq_active[f.eq] = 1;
+}
+
+void FootWelds::engage_at_strikes(mjModel& m, const mjData& d) {
+  if (params_.mode == WeldMode::kOff) return;
+  for (Foot& f : feet_) {
+    if (f.eq < 0 || !f.stance || m.eq_active[f.eq]) continue;
+    if (d.time < f.released_at + params_.reengage_delay_s) continue;
+    int touching = 0;
+    for (int c = 0; c < d.ncon; ++c) {
+      const mjContact& con = d.contact[c];
+      const int other = con.geom1 == floor_geom_ ? con.geom2 : con.geom2 == floor_geom_ ? con.geom1 : -1;
+      if (other >= 0 && m.geom_bodyid[other] == f.body && con.dist <= 0) ++touching;
+    }
+    if (touching < params_.engage_min_contacts) continue;
+    // Honest: only weld a foot whose contacts alone already hold it well inside the cone, so
+    // the weld shares load the contacts could carry and switching it on changes nothing.
+    const std::size_t side = static_cast<std::size_t>(&f - feet_.data());
+    if (params_.mode == WeldMode::kHonest && wrench_[side].margin < params_.engage_margin) continue;
+    mjtNum vel[6];  // [angular, linear] in world frame
+    mj_objectVelocity(&m, &d, mjOBJ_BODY, f.body, vel, 0);
+    const double w = std::sqrt(vel[0] * vel[0] + vel[1] * vel[1] + vel[2] * vel[2]);
+    const double v = std::sqrt(vel[3] * vel[3] + vel[4] * vel[4] + vel[5] * vel[5]);
+    if (v > params_.engage_max_speed_m_s || w > params_.engage_max_angular_speed_rad_s) continue;
+    engage(m, d, f);
+  }
+}
+
+int FootWelds::measure(const mjModel& m, const mjData& d) {
+  int in_tension = -1;
+  sim::floor_contacts(m, d, floor_geom_, &contacts_);
+  for (int s = 0; s < 2; ++s) {
+    const Foot& f = feet_[static_cast<std::size_t>(s)];
+    WeldWrench& out = wrench_[static_cast<std::size_t>(s)];
+    out = WeldWrench{};
+    if (f.eq < 0) continue;
+    const Matrix3d R_f = rotation_at(d.xmat + 9 * f.body);
+    const Vector3d c_W = vec_at(d.xpos + 3 * f.body) + R_f * f.sole.centre_B();
+    if (m.eq_active[f.eq]) {
+      // Generalized force of this weld's rows; on the free root it is the net wrench.
+      std::fill(qfrc_.begin(), qfrc_.end(), 0.0);
+      for (int r = 0; r < d.nefc; ++r) {
+        if (d.efc_type[r] != mjCNSTR_EQUALITY || d.efc_id[r] != f.eq) continue;
+        const mjtNum* J = d.efc_J + static_cast<std::ptrdiff_t>(r) * m.nv;
+        for (int i = 0; i < m.nv; ++i) qfrc_[static_cast<std::size_t>(i)] += J[i] * d.efc_force[r];
+      }
+      const auto q = [&](int i) { return qfrc_[static_cast<std::size_t>(root_dof_ + i)]; };
+      out.force_W = Vector3d(q(0), q(1), q(2));
+      const Vector3d tau_root = rotation_at(d.xmat + 9 * root_body_) * Vector3d(q(3), q(4), q(5));
+      out.moment_W = tau_root + (vec_at(d.xpos + 3 * root_body_) - c_W).cross(out.force_W);
+    }
+    // Together with the foot's (and toes') contacts, is it a wrench the ground could give
+    // through the sole? Only the net wrench moves the foot, and any net wrench inside this
+    // contact wrench cone can be produced by unilateral frictional contact alone.
+    out.ground_force_W = out.force_W;
+    out.ground_moment_W = out.moment_W;
+    for (const sim::FloorContact& c : contacts_) {
+      if (c.body != f.body && m.body_parentid[c.body] != f.body) continue;
+      const Vector3d fc = c.normal_force * c.normal_W + c.tangential_force_W;
+      out.ground_force_W += fc;
+      out.ground_moment_W += (c.position_W - c_W).cross(fc);
+    }
+    const Vector3d F = R_f.transpose() * out.ground_force_W;
+    const Vector3d M = R_f.transpose() * out.ground_moment_W;
+    const double hx = (f.sole.x_max - f.sole.x_min) / 2, hy = (f.sole.y_max - f.sole.y_min) / 2;
+    const double r = std::hypot(hx, hy);
+    const double ft = std::hypot(F.x(), F.y());
+    const double excess =
+        std::max({-F.z(), ft - f.mu * F.z(), (std::abs(M.y()) - hx * F.z()) / hx,
+                  (std::abs(M.x()) - hy * F.z()) / hy, (std::abs(M.z()) - f.mu * F.z() * r) / r});
+    out.tension_excess_N = std::max(0.0, excess);
+    out.tension = m.eq_active[f.eq] && excess > kTensionTolerance * weight_;
+    // Margin inside the cone, 1 = centred and loaded, <= 0 = at or past an edge.
+    const double load = params_.min_load_fraction * weight_;
+    out.margin = F.z() <= 0 ? -1.0
+                            : std::min({(F.z() - load) / load, 1.0 - std::abs(M.y()) / (hx * F.z()),
+                                        1.0 - std::abs(M.x()) / (hy * F.z()),
+                                        1.0 - ft / (f.mu * F.z()),
+                                        1.0 - std::abs(M.z()) / (f.mu * F.z() * r)});
+    out.margin = std::min(out.margin, 1.0);
+    if (out.tension && in_tension < 0) in_tension = s;
+  }
+  return in_tension;
+}
+
+void FootWelds::release_near_edges(mjModel& m, double t) {
+  if (params_.mode != WeldMode::kHonest) return;
+  for (int s = 0; s < 2; ++s) {
+    Foot& f = feet_[static_cast<std::size_t>(s)];
+    if (f.eq >= 0 && m.eq_active[f.eq] &&
+        wrench_[static_cast<std::size_t>(s)].margin < params_.release_margin) {
+      m.eq_active[f.eq] = 0;
+      f.released_at = t;
+    }
+  }
+}
+
+void FootWelds::release_for_tension(mjModel& m, int side, double t) {
+  Foot& f = feet_[static_cast<std::size_t>(side)];
+  if (f.eq >= 0) m.eq_active[f.eq] = 0;
+  f.released_at = t;
+}
+
+}  // namespace biodyn::controllers

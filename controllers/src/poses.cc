@@ -1,0 +1,199 @@
+#include "biodyn/controllers/poses.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "biodyn/controllers/foot_contact.h"
+#include "biodyn/sim/errors.h"
+
+namespace biodyn::controllers {
+namespace {
+
+using Eigen::Vector2d;
+using Eigen::Vector3d;
+
+constexpr double kDeg = M_PI / 180.0;
+
+// Quiet standing: knees slightly unlocked (a straight knee sits on its limit), the shank and
+// thigh angles split so the trunk stays upright.
+constexpr double kStandKnee_deg = 4, kStandAnkle_deg = 2, kStandHip_deg = 2;
+
+// Sets `joint` (or joint_l and joint_r) if the model has it.
+void set_angles(Pose* p, const std::vector<JointGroup>& groups, const std::string& joint,
+                const Vector3d& deg) {
+  for (const std::string& name : {joint, joint + "_l", joint + "_r"}) {
+    if (find_group(groups, name) >= 0) p->angles_rad[name] = deg * kDeg;
+  }
+}
+
+Pose standing(const std::vector<JointGroup>& groups, const std::string& name, double duration,
+              double reach) {
+  Pose p;
+  p.name = name;
+  p.duration_s = duration;
+  p.reach_time_s = reach;
+  set_angles(&p, groups, "knee", Vector3d(kStandKnee_deg, 0, 0));
+  set_angles(&p, groups, "ankle", Vector3d(kStandAnkle_deg, 0, 0));
+  set_angles(&p, groups, "hip", Vector3d(kStandHip_deg, 0, 0));
+  return p;
+}
+
+bool has(const std::vector<JointGroup>& groups, const std::string& name) {
+  return find_group(groups, name) >= 0;
+}
+
+}  // namespace
+
+std::vector<std::string> pose_scenario_names() { return {"stand", "squat", "reach", "one-leg"}; }
+
+std::vector<Pose> pose_scenario(const std::string& name, const std::vector<JointGroup>& groups,
+                                double duration_s) {
+  std::vector<Pose> poses;
+  if (name == "stand") {
+    poses.push_back(standing(groups, "stand", 1.0, 0.3));
+  } else if (name == "squat") {
+    poses.push_back(standing(groups, "stand", 0.5, 0.3));
+    // A deep squat with heels down: the ankle stops at its 20 deg dorsiflexion limit, so the
+    // trunk leans forward and the arms reach forward to keep the CoM over the feet.
+    Pose down;
+    down.name = "squat down";
+    down.duration_s = 2.5;
+    down.reach_time_s = 1.5;
+    set_angles(&down, groups, "ankle", Vector3d(18, 0, 0));
+    set_angles(&down, groups, "knee", Vector3d(70, 0, 0));
+    set_angles(&down, groups, "hip", Vector3d(90, 0, 0));
+    set_angles(&down, groups, "shoulder", Vector3d(80, 0, 0));
+    poses.push_back(down);
+    Pose up = standing(groups, "stand up", 2.5, 1.5);
+    poses.push_back(up);
+  } else if (name == "reach") {
+    if (!has(groups, "shoulder_r")) {
+      throw sim::InvalidArgument(
+          "scenario reach: the model has no arms (use the full character: --detail full)");
+    }
+    poses.push_back(standing(groups, "stand", 0.5, 0.3));
+    Pose reach = standing(groups, "reach forward", 2.5, 1.2);
+    set_angles(&reach, groups, "shoulder_r", Vector3d(90, 0, 0));
+    set_angles(&reach, groups, "lumbar", Vector3d(8, 0, 0));
+    set_angles(&reach, groups, "thorax", Vector3d(8, 0, 0));
+    poses.push_back(reach);
+    poses.push_back(standing(groups, "arm down", 2.5, 1.2));
+  } else if (name == "one-leg") {
+    poses.push_back(standing(groups, "stand", 0.5, 0.3));
+    Pose shift = standing(groups, "weight on left", 1.5, 1.0);
+    shift.support = Support::kLeft;
+    poses.push_back(shift);
+    Pose lift = standing(groups, "lift right", 3.0, 0.8);
+    lift.support = Support::kLeft;
+    lift.stance = {true, false};
+    set_angles(&lift, groups, "hip_r", Vector3d(30, 0, 0));
+    set_angles(&lift, groups, "knee_r", Vector3d(60, 0, 0));
+    poses.push_back(lift);
+    Pose lower = standing(groups, "lower right", 1.0, 0.8);
+    lower.support = Support::kLeft;
+    lower.stance = {true, false};
+    poses.push_back(lower);
+    Pose both = standing(groups, "both feet", 1.5, 1.0);
+    poses.push_back(both);
+  } else {
+    std::string known;
+    for (const std::string& n : pose_scenario_names()) known += (known.empty() ? "" : ", ") + n;
+    throw sim::InvalidArgument("scenario: must be one of " + known + ", got '" + name + "'");
+  }
+  double total = 0;
+  for (const Pose& p : poses) total += p.duration_s;
+  if (duration_s > total) poses.back().duration_s += duration_s - total;
+  return poses;
+}
+
+void BalanceParams::validate() const {
+  const auto fail = [](const std::string& f, const std::string& rule, double v) {
+    throw sim::InvalidArgument("balance." + f + ": " + rule + ", got " + std::to_string(v));
+  };
+  if (!(proportional >= 0)) fail("proportional", "must be >= 0", proportional);
+  if (!(integral_per_s >= 0)) fail("integral_per_s", "must be >= 0", integral_per_s);
+  if (!(max_tilt_rad > 0 && max_tilt_rad < 1)) fail("max_tilt_rad", "must be in (0, 1) rad", max_tilt_rad);
+  if (!(hip_gain_rad_per_m >= 0)) fail("hip_gain_rad_per_m", "must be >= 0", hip_gain_rad_per_m);
+  if (!(hip_threshold_fraction >= 0)) fail("hip_threshold_fraction", "must be >= 0", hip_threshold_fraction);
+  if (!(max_hip_rad >= 0 && max_hip_rad < 1.5)) fail("max_hip_rad", "must be in [0, 1.5) rad", max_hip_rad);
+}
+
+StandingBalance::StandingBalance(const mjModel& m, BalanceParams params) : params_(params) {
+  params_.validate();
+  pelvis_ = mj_name2id(&m, mjOBJ_BODY, "pelvis");
+  foot_[0] = mj_name2id(&m, mjOBJ_BODY, "foot_l");
+  foot_[1] = mj_name2id(&m, mjOBJ_BODY, "foot_r");
+  if (pelvis_ < 0 || foot_[0] < 0 || foot_[1] < 0) {
+    throw sim::InvalidArgument(
+        "standing balance: the model needs bodies 'pelvis', 'foot_l' and 'foot_r'");
+  }
+  for (int s = 0; s < 2; ++s) {
+    const Sole sole = find_sole(m, foot_[s]);
+    sole_centre_B_[s] = sole.centre_B();
+    foot_half_length_ = (sole.x_max - sole.x_min) / 2;
+  }
+  leg_length_ = m.qpos0[2];  // pelvis (hip-centre) height when standing
+}
+
+void StandingBalance::set_params(const BalanceParams& params) {
+  params.validate();
+  params_ = params;
+}
+
+void StandingBalance::reset() {
+  integral_.setZero();
+  error_.setZero();
+}
+
+BalanceOffsets StandingBalance::update(const mjModel& m, const mjData& d, Support support,
+                                       double dt) {
+  BalanceOffsets out;
+  // Support centre (world, horizontal).
+  Vector2d feet[2];
+  for (int s = 0; s < 2; ++s) {
+    const Eigen::Map<const Eigen::Matrix<mjtNum, 3, 3, Eigen::RowMajor>> R(d.xmat + 9 * foot_[s]);
+    const Vector3d c = Vector3d(d.xpos[3 * foot_[s]], d.xpos[3 * foot_[s] + 1],
+                                d.xpos[3 * foot_[s] + 2]) +
+                       R * sole_centre_B_[s];
+    feet[s] = c.head<2>();
+  }
+  centre_ = support == Support::kBoth ? Vector2d(0.5 * (feet[0] + feet[1]))
+            : support == Support::kLeft ? feet[0]
+                                        : feet[1];
+  // Capture point xi = c + v / omega0 (Pratt et al. 2006).
+  double mass = 0;
+  Vector3d com = Vector3d::Zero(), vel = Vector3d::Zero();
+  mjtNum v6[6];
+  for (int b = 1; b < m.nbody; ++b) {
+    mass += m.body_mass[b];
+    com += m.body_mass[b] * Vector3d(d.xipos[3 * b], d.xipos[3 * b + 1], d.xipos[3 * b + 2]);
+    mj_objectVelocity(&m, &d, mjOBJ_BODY, b, v6, 0);
+    vel += m.body_mass[b] * Vector3d(v6[3], v6[4], v6[5]);
+  }
+  com /= mass;
+  vel /= mass;
+  const double omega0 = std::sqrt(std::abs(m.opt.gravity[2]) / std::max(com.z(), 0.1));
+  const Vector2d xi = com.head<2>() + vel.head<2>() / omega0;
+  // Heading frame: the pelvis x axis on the floor.
+  const double yaw = std::atan2(d.xmat[9 * pelvis_ + 3], d.xmat[9 * pelvis_]);
+  const Eigen::Rotation2Dd to_heading(-yaw);
+  error_ = to_heading * (xi - centre_);
+  if (!params_.enabled) return out;
+
+  const double L = leg_length_;
+  const double integral_limit = params_.max_tilt_rad * L / std::max(params_.integral_per_s, 1e-9);
+  integral_ += error_ * dt;
+  integral_ = integral_.cwiseMax(-integral_limit).cwiseMin(integral_limit);
+  const Vector2d tilt = -(params_.proportional * error_ + params_.integral_per_s * integral_) / L;
+  out.sagittal_tilt = std::clamp(tilt.x(), -params_.max_tilt_rad, params_.max_tilt_rad);
+  out.frontal_tilt = std::clamp(tilt.y(), -params_.max_tilt_rad, params_.max_tilt_rad);
+  const double excess =
+      std::abs(error_.x()) - params_.hip_threshold_fraction * foot_half_length_;
+  if (excess > 0) {
+    out.hip_flexion = std::clamp(std::copysign(params_.hip_gain_rad_per_m * excess, error_.x()),
+                                 -params_.max_hip_rad, params_.max_hip_rad);
+  }
+  return out;
+}
+
+}  // namespace biodyn::controllers

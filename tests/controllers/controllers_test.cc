@@ -1,0 +1,277 @@
+// Joint groups, parameters, swing-twist limits and the contact-consistent whole-body solve.
+#include <cmath>
+#include <random>
+
+#include "biodyn/controllers/character_controller.h"
+#include "biodyn/controllers/controller_params.h"
+#include "biodyn/controllers/joint_groups.h"
+#include "biodyn/controllers/joint_limits.h"
+#include <nlohmann/json.hpp>
+#include "biodyn/models/mjcf.h"
+#include "biodyn/sim/errors.h"
+#include "biodyn/sim/queries.h"
+#include "test_support.h"
+
+using namespace biodyn;
+using controllers::JointGroup;
+
+namespace {
+
+constexpr double kAngleTolerance = 1e-9;  // rad: exact geometry up to rounding
+constexpr double kDeg = M_PI / 180;
+
+sim::Model character(models::Detail detail = models::Detail::kFull) {
+  models::CharacterSpec spec;
+  spec.detail = detail;
+  return testing::load_inline(models::to_mjcf(models::generate_character(spec)));
+}
+
+}  // namespace
+
+TEST_CASE("Joint groups cover every actuated DOF with anatomical names", "[controllers]") {
+  const sim::Model model = character();
+  const mjModel& m = *model.get();
+  const std::vector<JointGroup> groups = controllers::find_joint_groups(m);
+  int dofs = 0;
+  for (const JointGroup& g : groups) dofs += g.dof_count;
+  CHECK(dofs == m.nv - 6);  // everything but the free root
+  for (const char* name : {"hip_l", "knee_r", "ankle_l", "toe_r", "shoulder_l", "elbow_r",
+                           "wrist_l", "lumbar", "thorax", "neck", "head", "clavicle_r"}) {
+    INFO(name);
+    CHECK(controllers::find_group(groups, name) >= 0);
+  }
+}
+
+TEST_CASE("orientation_from_angles matches MuJoCo's kinematics", "[controllers]") {
+  const sim::Model model = character();
+  const mjModel& m = *model.get();
+  sim::Data data(m);
+  mjData& d = *data.get();
+  const std::vector<JointGroup> groups = controllers::find_joint_groups(m);
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> angle(-0.6, 0.6);
+  for (int trial = 0; trial < 20; ++trial) {
+    mj_resetData(&m, &d);
+    std::vector<Eigen::Vector3d> angles(groups.size());
+    for (std::size_t g = 0; g < groups.size(); ++g) {
+      angles[g] = Eigen::Vector3d(angle(rng), angle(rng), angle(rng));
+      const JointGroup& gr = groups[g];
+      const Eigen::Quaterniond q = controllers::orientation_from_angles(gr, angles[g]);
+      if (gr.ball) {
+        const int adr = m.jnt_qposadr[m.dof_jntid[gr.dof_begin]];
+        d.qpos[adr] = q.w(), d.qpos[adr + 1] = q.x(), d.qpos[adr + 2] = q.y(), d.qpos[adr + 3] = q.z();
+      } else {
+        for (int k = 0; k < gr.dof_count; ++k)
+          d.qpos[m.jnt_qposadr[m.dof_jntid[gr.dof_begin + k]]] = angles[g][k];
+      }
+    }
+    mj_forward(&m, &d);
+    for (std::size_t g = 0; g < groups.size(); ++g) {
+      INFO(groups[g].name);
+      const Eigen::Quaterniond want = controllers::orientation_from_angles(groups[g], angles[g]);
+      const Eigen::Quaterniond got = sim::relative_orientation(m, d, groups[g].body);
+      CHECK(controllers::rotation_angle(got.conjugate() * want) < kAngleTolerance);
+      // And back: the angles of the orientation are the angles we put in.
+      const Eigen::Vector3d back = controllers::angles_from_orientation(groups[g], got);
+      for (int k = 0; k < (groups[g].ball ? 3 : groups[g].dof_count); ++k)
+        CHECK(back[k] == Approx(angles[g][k]).margin(1e-9));
+    }
+  }
+}
+
+TEST_CASE("Anatomical signs: hip flexion moves the knee forward on both sides", "[controllers]") {
+  const sim::Model model = character();
+  const std::vector<JointGroup> groups = controllers::find_joint_groups(*model.get());
+  for (const char* hip : {"hip_l", "hip_r"}) {
+    const JointGroup& g = groups[static_cast<std::size_t>(controllers::find_group(groups, hip))];
+    const Eigen::Vector3d down(0, 0, -1);
+    const Eigen::Vector3d flexed = controllers::orientation_from_angles(g, {0.5, 0, 0}) * down;
+    CHECK(flexed.x() > 0.4);  // thigh swings forward
+    const Eigen::Vector3d abducted = controllers::orientation_from_angles(g, {0, 0.5, 0}) * down;
+    CHECK(abducted.y() * g.side > 0.4);  // away from the midline
+  }
+}
+
+TEST_CASE("Swing-twist split of hip orientations", "[controllers]") {
+  const sim::Model model = character();
+  const std::vector<JointGroup> groups = controllers::find_joint_groups(*model.get());
+  const JointGroup& hip = groups[static_cast<std::size_t>(controllers::find_group(groups, "hip_r"))];
+  // Pure twist and pure swing come out as such.
+  const Eigen::Quaterniond twist = controllers::orientation_from_angles(hip, {0, 0, 0.4});
+  const controllers::SwingTwistAngles t = controllers::swing_twist_angles(hip, twist);
+  CHECK(t.internal_rotation == Approx(0.4));
+  CHECK(std::abs(t.flexion) < 1e-12);
+  const Eigen::Quaterniond flex = controllers::orientation_from_angles(hip, {0.7, 0, 0});
+  const controllers::SwingTwistAngles f = controllers::swing_twist_angles(hip, flex);
+  CHECK(f.flexion == Approx(0.7));
+  CHECK(std::abs(f.internal_rotation) < 1e-12);
+  // The default hip limits: 120 deg flexion inside, 40 deg extension outside (30 allowed).
+  const controllers::SwingTwistLimits lim =
+      *controllers::default_params(*model.get(), groups).at("hip_r").swing_twist;
+  CHECK(controllers::swing_ratio(lim, {110 * kDeg, 0, 0}) < 1);
+  CHECK(controllers::swing_ratio(lim, {-40 * kDeg, 0, 0}) > 1);
+  CHECK(controllers::swing_ratio(lim, {0, 40 * kDeg, 0}) < 1);
+  CHECK(controllers::swing_ratio(lim, {0, -40 * kDeg, 0}) > 1);  // adduction limit 30
+}
+
+TEST_CASE("Controller params: defaults from the motors, JSON overrides, clear errors",
+          "[controllers]") {
+  const sim::Model model = character();
+  const mjModel& m = *model.get();
+  const std::vector<JointGroup> groups = controllers::find_joint_groups(m);
+  controllers::ControllerParams p = controllers::default_params(m, groups);
+  const int knee = m.actuator_trnid[2 * mj_name2id(&m, mjOBJ_ACTUATOR, "knee_flexion_l")];
+  (void)knee;
+  const double knee_motor = m.actuator_ctrlrange[2 * mj_name2id(&m, mjOBJ_ACTUATOR, "knee_flexion_l") + 1];
+  CHECK(p.at("knee_l").tau_max_Nm[0] == Approx(knee_motor));
+  CHECK(p.at("knee_l").reaction_time_s == Approx(0.02));  // paper §5.1
+
+  controllers::apply_params_json(
+      R"({"joints": {"all": {"reaction_time_s": 0.1}, "knee": {"tau_max_Nm": 400},
+                     "knee_r": {"reach_time_s": 0.5}}})",
+      "p.json", groups, &p);
+  CHECK(p.at("hip_l").reaction_time_s == Approx(0.1));
+  CHECK(p.at("knee_l").tau_max_Nm[0] == Approx(400));
+  CHECK(p.at("knee_r").tau_max_Nm[0] == Approx(400));
+  CHECK(p.at("knee_r").reach_time_s == Approx(0.5));
+  CHECK(p.at("knee_l").reach_time_s == Approx(0.3));
+
+  // Round trip through JSON.
+  controllers::ControllerParams q = controllers::default_params(m, groups);
+  controllers::apply_params_json(controllers::params_to_json(p, groups).dump(), "x", groups, &q);
+  for (std::size_t g = 0; g < groups.size(); ++g) {
+    CHECK(q.joints[g].tau_max_Nm.isApprox(p.joints[g].tau_max_Nm));
+    CHECK(q.joints[g].reaction_time_s == Approx(p.joints[g].reaction_time_s));
+  }
+
+  const auto error_of = [&](const std::string& json) {
+    controllers::ControllerParams t = controllers::default_params(m, groups);
+    try {
+      controllers::apply_params_json(json, "p.json", groups, &t);
+      t.validate(m.opt.timestep);
+    } catch (const sim::InvalidArgument& e) {
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  CHECK_THAT(error_of(R"({"joints": {"kne": {}}})"), Catch::Contains("p.json: joints.kne"));
+  CHECK_THAT(error_of(R"({"joints": {"hip_l": {"tau_max_Nm": [1, 2]}}})"),
+             Catch::Contains("must have 3 entries"));
+  CHECK_THAT(error_of(R"({"joints": {"knee": {"reaction_time_s": -1}}})"),
+             Catch::Contains("joints.knee_l.reaction_time_s"));
+  CHECK_THAT(error_of(R"({"joints": {"knee": {"speed": 1}}})"), Catch::Contains("unknown key"));
+  CHECK_THAT(error_of("{not json"), Catch::Contains("p.json: not valid JSON"));
+  CHECK_THAT(error_of(R"({"controller": {"velocity_horizon_s": 0.001}})"),
+             Catch::Contains("velocity_horizon_s"));
+}
+
+TEST_CASE("Whole-body solve predicts MuJoCo's own accelerations, root untouched",
+          "[controllers][dynamics]") {
+  testing::MujocoWarningGuard guard;
+  for (const models::Detail detail : {models::Detail::kGait, models::Detail::kFull}) {
+    sim::Simulation sim(character(detail));
+    const mjModel& m = sim.model();
+    const std::vector<JointGroup> groups = controllers::find_joint_groups(m);
+    controllers::JointController ctrl(m, groups, controllers::default_params(m, groups),
+                                      controllers::ControllerKind::kVelocity);
+    sim.forward();
+    ctrl.reset(m, sim.data());
+    // Bend the knees a little so the targets ask for motion with both feet on the ground.
+    for (std::size_t g = 0; g < groups.size(); ++g) {
+      if (groups[g].name.rfind("knee", 0) == 0)
+        ctrl.set_target(static_cast<int>(g), controllers::orientation_from_angles(groups[g], {0.3, 0, 0}), 1.0);
+    }
+    std::vector<mjtNum> torque(static_cast<std::size_t>(m.nv)), zero(static_cast<std::size_t>(m.nv));
+    double worst = 0;
+    int compared = 0;
+    for (int step = 0; step < 200; ++step) {
+      std::vector<mjtNum> predicted;
+      bool saturated = false;
+      sim.step([&](const mjModel& mm, mjData& d) {
+        const controllers::JointControlStatus st = ctrl.compute(mm, d, zero.data(), torque.data());
+        saturated = st.saturated_dofs > 0;
+        for (int i = 0; i < mm.nv; ++i) d.qfrc_applied[i] = torque[static_cast<std::size_t>(i)];
+        predicted = ctrl.predicted_qacc();
+      });
+      ctrl.commit();
+      for (int i = 0; i < 6; ++i) CHECK(torque[static_cast<std::size_t>(i)] == 0.0);  // no hand on the root
+      if (saturated) continue;
+      ++compared;
+      for (int i = 0; i < m.nv; ++i) {
+        worst = std::max(worst, std::abs(sim.data().qacc[i] - predicted[static_cast<std::size_t>(i)]));
+      }
+    }
+    INFO(models::to_string(detail) << ": compared " << compared << " steps");
+    CHECK(compared > 100);
+    // Newton's tolerance is 1e-8 relative; accelerations are O(1-100).
+    CHECK(worst < 1e-4);
+    testing::MujocoWarningGuard::check(sim);
+  }
+}
+
+TEST_CASE("Muscle limits hold exactly: |tau| <= tau_max and the reaction-time ramp",
+          "[controllers]") {
+  sim::Simulation sim(character(models::Detail::kGait));
+  const mjModel& m = sim.model();
+  const std::vector<JointGroup> groups = controllers::find_joint_groups(m);
+  controllers::ControllerParams p = controllers::default_params(m, groups);
+  for (auto& j : p.joints) j.reaction_time_s = 0.1;
+  controllers::JointController ctrl(m, groups, p, controllers::ControllerKind::kVelocity);
+  sim.forward();
+  ctrl.reset(m, sim.data());
+  // An unreachable demand: every joint to a far target immediately.
+  for (std::size_t g = 0; g < groups.size(); ++g)
+    ctrl.set_target(static_cast<int>(g), controllers::orientation_from_angles(groups[g], {1.0, 0.3, 0.2}), 0.0);
+  std::vector<mjtNum> torque(static_cast<std::size_t>(m.nv)), zero(static_cast<std::size_t>(m.nv));
+  std::vector<mjtNum> prev = ctrl.previous_torque();
+  bool saw_saturation = false;
+  for (int step = 0; step < 100; ++step) {
+    sim.step([&](const mjModel& mm, mjData& d) {
+      const auto st = ctrl.compute(mm, d, zero.data(), torque.data());
+      saw_saturation = saw_saturation || st.saturated_dofs > 0;
+      for (int i = 0; i < mm.nv; ++i) d.qfrc_applied[i] = torque[static_cast<std::size_t>(i)];
+    });
+    ctrl.commit();
+    for (int i = 6; i < m.nv; ++i) {
+      const double tau_max = ctrl.tau_max()[static_cast<std::size_t>(i)];
+      const double step_limit = tau_max * m.opt.timestep / 0.1;
+      CHECK(std::abs(torque[static_cast<std::size_t>(i)]) <= tau_max * (1 + 1e-12));
+      CHECK(std::abs(torque[static_cast<std::size_t>(i)] - prev[static_cast<std::size_t>(i)]) <=
+            step_limit * (1 + 1e-9));
+    }
+    prev = ctrl.previous_torque();
+  }
+  CHECK(saw_saturation);
+}
+
+TEST_CASE("Glue weld goes into tension when the body is lifted; honest does not",
+          "[controllers][weld]") {
+  for (const controllers::WeldMode mode :
+       {controllers::WeldMode::kGlue, controllers::WeldMode::kHonest}) {
+    sim::Simulation sim(character(models::Detail::kGait));
+    const mjModel& m = sim.model();
+    const auto groups = controllers::find_joint_groups(m);
+    controllers::CharacterControllerConfig cfg;
+    cfg.weld.mode = mode;
+    controllers::CharacterController ctrl(&sim, controllers::default_params(m, groups), cfg);
+    ctrl.reset();
+    ctrl.set_pose(controllers::pose_scenario("stand", groups, 0).front());
+    double mass = 0;
+    for (int b = 0; b < m.nbody; ++b) mass += m.body_mass[b];
+    // Lift with 1.5x body weight on the pelvis from t = 0.5 s for 0.3 s.
+    sim.schedule_push({mj_name2id(&m, mjOBJ_BODY, "pelvis"), Eigen::Vector3d(0, 0, 1.5 * mass * 9.81), 0.5, 0.3});
+    int tension = 0, welded_before_lift = 0;
+    for (int step = 0; step < 500; ++step) {
+      const controllers::StepReport r = ctrl.step();
+      tension += r.weld_tension;
+      if (sim.data().time < 0.5 && r.weld_active[0] && r.weld_active[1]) ++welded_before_lift;
+    }
+    INFO(controllers::to_string(mode));
+    if (mode == controllers::WeldMode::kGlue) {
+      CHECK(welded_before_lift > 100);
+      CHECK(tension > 0);
+    } else {
+      CHECK(tension == 0);
+    }
+  }
+}
