@@ -53,9 +53,13 @@ Command add_bench_command(CLI::App* app) {
             ctrl.set_pose(controllers::pose_scenario("stand", groups, 0).front());
             const int steps = static_cast<int>(o->duration_s / m.opt.timestep);
 
-            // Controlled steps, keeping every start state for the bare measurement.
+            // Controlled steps, keeping every start state and the torques applied, so the bare
+            // measurement steps the same states with the same forces (only the controller's
+            // own work is missing from it).
             std::vector<std::unique_ptr<sim::StateSnapshot>> states;
+            std::vector<std::vector<mjtNum>> applied;
             states.reserve(static_cast<std::size_t>(steps));
+            applied.reserve(static_cast<std::size_t>(steps));
             double controlled_s = 0;
             {
               ProgressBar bar("bench: controlled steps");
@@ -66,17 +70,19 @@ Command add_bench_command(CLI::App* app) {
                 ctrl.step();
                 controlled_s +=
                     std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+                applied.emplace_back(sim.data().qfrc_applied, sim.data().qfrc_applied + m.nv);
                 if (s % 100 == 0) bar.update(static_cast<double>(s + 1) / steps);
               }
             }
-            // Bare mj_step from the same states, with the same applied torques (zeroed).
+            // Bare mj_step from the same states with the same applied forces.
             double bare_s = 0;
             {
               ProgressBar bar("bench: bare mj_step");
               mjData& d = sim.data();
-              mju_zero(d.qfrc_applied, m.nv);
               for (int s = 0; s < steps; ++s) {
                 states[static_cast<std::size_t>(s)]->restore(sim.mutable_model(), d);
+                const std::vector<mjtNum>& f = applied[static_cast<std::size_t>(s)];
+                std::copy(f.begin(), f.end(), d.qfrc_applied);
                 const auto t0 = std::chrono::steady_clock::now();
                 mj_step(&m, &d);
                 bare_s += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();

@@ -120,14 +120,18 @@ StepReport CharacterController::step() {
   snapshot_.save(m, d);
   const StandingBalance balance_before = balance_;
   bool outside = false;
+  bool released[2] = {false, false};
   for (int attempt = 0;; ++attempt) {
     report.status = sim_->step([&](const mjModel&, mjData& data) { control(data, &outside); });
     const int tense = welds_.measure(m, d);
     if (tense >= 0 && config_.weld.mode == WeldMode::kHonest && attempt < kMaxRedos) {
-      // Undo, switch the offending weld off, and take the step again (foot_contact.h).
+      // Undo, switch the offending weld off (and any released before in this step: the
+      // snapshot has them on), and take the step again (foot_contact.h).
       snapshot_.restore(m, d);
       balance_ = balance_before;
-      welds_.release_for_tension(m, tense, d.time);
+      released[tense] = true;
+      for (int s = 0; s < 2; ++s)
+        if (released[s]) welds_.release_for_tension(m, s, d.time);
       ++report.redone;
       continue;
     }

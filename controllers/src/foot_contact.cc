@@ -197,11 +197,13 @@ int FootWelds::measure(const mjModel& m, const mjData& d) {
     if (f.eq < 0) continue;
     const Matrix3d R_f = rotation_at(d.xmat + 9 * f.body);
     const Vector3d c_W = vec_at(d.xpos + 3 * f.body) + R_f * f.sole.centre_B();
+    bool has_rows = false;  // a weld switched on in this step acts from the next one
     if (m.eq_active[f.eq]) {
       // Generalized force of this weld's rows; on the free root it is the net wrench.
       std::fill(qfrc_.begin(), qfrc_.end(), 0.0);
       for (int r = 0; r < d.nefc; ++r) {
         if (d.efc_type[r] != mjCNSTR_EQUALITY || d.efc_id[r] != f.eq) continue;
+        has_rows = true;
         const mjtNum* J = d.efc_J + static_cast<std::ptrdiff_t>(r) * m.nv;
         for (int i = 0; i < m.nv; ++i) qfrc_[static_cast<std::size_t>(i)] += J[i] * d.efc_force[r];
       }
@@ -219,7 +221,11 @@ int FootWelds::measure(const mjModel& m, const mjData& d) {
       if (c.body != f.body && m.body_parentid[c.body] != f.body) continue;
       const Vector3d fc = c.normal_force * c.normal_W + c.tangential_force_W;
       out.ground_force_W += fc;
-      out.ground_moment_W += (c.position_W - c_W).cross(fc);
+      // Lever arm in the sole plane: the contact point sits inside the soft penetration,
+      // a fraction of a millimetre below the sole, which is not a lever of the foot.
+      Vector3d arm_B = R_f.transpose() * (c.position_W - c_W);
+      arm_B.z() = 0;
+      out.ground_moment_W += (R_f * arm_B).cross(fc);
     }
     const Vector3d F = R_f.transpose() * out.ground_force_W;
     const Vector3d M = R_f.transpose() * out.ground_moment_W;
@@ -230,7 +236,7 @@ int FootWelds::measure(const mjModel& m, const mjData& d) {
         std::max({-F.z(), ft - f.mu * F.z(), (std::abs(M.y()) - hx * F.z()) / hx,
                   (std::abs(M.x()) - hy * F.z()) / hy, (std::abs(M.z()) - f.mu * F.z() * r) / r});
     out.tension_excess_N = std::max(0.0, excess);
-    out.tension = m.eq_active[f.eq] && excess > kTensionTolerance * weight_;
+    out.tension = has_rows && excess > kTensionTolerance * weight_;
     // Margin inside the cone, 1 = centred and loaded, <= 0 = at or past an edge.
     const double load = params_.min_load_fraction * weight_;
     out.margin = F.z() <= 0 ? -1.0

@@ -57,8 +57,8 @@ WeldMode parse_weld_mode(const std::string& text, const std::string& field = "we
 
 struct FootWeldParams {
   WeldMode mode = WeldMode::kHonest;
-  double engage_max_speed_m_s = 0.05;  ///< m/s, foot-origin speed below which a strike counts
-  double engage_max_angular_speed_rad_s = 0.5;  ///< rad/s
+  double engage_max_speed_m_s = 0.005; ///< m/s, foot-origin speed below which a strike counts
+  double engage_max_angular_speed_rad_s = 0.05;  ///< rad/s
   int engage_min_contacts = 3;         ///< floor contact points on the foot body (flat foot)
   double reengage_delay_s = 0.1;       ///< s, after an honest release
   /// Honest mode works with a margin inside the contact wrench cone (WeldWrench::margin):
