@@ -67,7 +67,7 @@ void CharacterController::set_pose(const Pose& pose) {
   for (int s = 0; s < 2; ++s) welds_.set_stance(sim_->mutable_model(), s, pose.stance[static_cast<std::size_t>(s)]);
 }
 
-void CharacterController::apply_targets(const mjData& d) {
+void CharacterController::apply_targets() {
   const std::vector<JointGroup>& gs = groups();
   const double reach_at = pose_start_s_ + pose_.reach_time_s;
   for (std::size_t g = 0; g < gs.size(); ++g) {
@@ -84,7 +84,6 @@ void CharacterController::apply_targets(const mjData& d) {
         angles[1] += side_sign * offsets_.frontal_tilt;
       }
     }
-    (void)d;
     joints_.set_target(static_cast<int>(g), orientation_from_angles(gs[g], angles), reach_at);
   }
 }
@@ -93,7 +92,7 @@ void CharacterController::control(mjData& d, bool* outside) {
   mjModel& m = sim_->mutable_model();
   const int nv = m.nv;
   offsets_ = balance_.update(m, d, pose_.support, m.opt.timestep);
-  apply_targets(d);
+  apply_targets();
   welds_.engage_at_strikes(m, d);
 
   std::fill(qfrc_limit_.begin(), qfrc_limit_.end(), 0.0);

@@ -75,10 +75,10 @@ HybridDynamics::HybridDynamics(const mjModel& m, HybridDynamicsOptions options)
   eq_rows_.reserve(ne_max);
 }
 
-void HybridDynamics::project_on_equalities(const mjModel& m, const mjData& d,
+void HybridDynamics::project_on_equalities(const mjData& d,
                                            const std::uint8_t* actuated,
                                            const mjtNum* qacc_desired) {
-  // Root DOFs are nearly free to change: inverse weight kRootInverseWeight against 1 for actuated DOFs.
+  // Root DOFs are nearly free to change: inverse weight 1e6 against 1 for actuated DOFs.
   constexpr double kRootInverseWeight = 1e6;
   eq_rows_.clear();
   for (int r = 0; r < d.nefc && eq_rows_.size() < eq_rhs_.size(); ++r)
@@ -110,7 +110,6 @@ void HybridDynamics::project_on_equalities(const mjModel& m, const mjData& d,
     const mjtNum lambda = eq_rhs_[static_cast<std::size_t>(r)];
     for (int i = 0; i < nv_; ++i) desired_[static_cast<std::size_t>(i)] -= inv_w(i) * Er[i] * lambda;
   }
-  (void)m;
 }
 
 double HybridDynamics::evaluate(const mjModel& m, mjData& d, const mjtNum* a) {
@@ -205,7 +204,7 @@ HybridDynamicsResult HybridDynamics::solve(const mjModel& m, mjData& d,
                                            mjtNum* force, mjtNum* qacc) {
   HybridDynamicsResult result;
   mj_fullM(&m, M_.data(), d.qM);
-  project_on_equalities(m, d, actuated, qacc_desired);
+  project_on_equalities(d, actuated, qacc_desired);
   qacc_desired = desired_.data();
   for (int i = 0; i < nv_; ++i) {
     const auto k = static_cast<std::size_t>(i);

@@ -78,7 +78,7 @@ class CharacterController {
 
  private:
   void control(mjData& d, bool* outside);
-  void apply_targets(const mjData& d);
+  void apply_targets();
 
   sim::Simulation* sim_;
   CharacterControllerConfig config_;

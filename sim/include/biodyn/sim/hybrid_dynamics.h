@@ -113,7 +113,7 @@ class HybridDynamics {
   std::vector<int> eq_rows_;       // efc rows of equality constraints
 
   // Projects qacc_desired onto the equality rows into desired_.
-  void project_on_equalities(const mjModel& m, const mjData& d, const std::uint8_t* actuated,
+  void project_on_equalities(const mjData& d, const std::uint8_t* actuated,
                              const mjtNum* qacc_desired);
 };
 
