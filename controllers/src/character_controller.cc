@@ -149,12 +149,4 @@ StepReport CharacterController::step() {
   return report;
 }
 
-double CharacterController::max_orientation_error() const {
-  double worst = 0;
-  for (std::size_t g = 0; g < groups().size(); ++g) {
-    worst = std::max(worst, joints_.orientation_error(sim_->model(), sim_->data(), static_cast<int>(g)));
-  }
-  return worst;
-}
-
 }  // namespace biodyn::controllers

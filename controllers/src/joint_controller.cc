@@ -5,6 +5,7 @@
 #include <utility>
 
 #include "biodyn/sim/errors.h"
+#include "biodyn/sim/queries.h"
 
 namespace biodyn::controllers {
 namespace {
@@ -12,17 +13,7 @@ namespace {
 using Eigen::Quaterniond;
 using Eigen::Vector3d;
 
-Quaterniond quat_at(const mjtNum* q) { return Quaterniond(q[0], q[1], q[2], q[3]); }
-
 std::size_t idx(int i) { return static_cast<std::size_t>(i); }
-
-// Rotation vector (angle * axis) of q, the short way round.
-Vector3d rotation_vector(Quaterniond q) {
-  if (q.w() < 0) q.coeffs() = -q.coeffs();
-  const double s = q.vec().norm();
-  if (s < 1e-12) return 2.0 * q.vec();  // small-angle limit
-  return (2.0 * std::atan2(s, q.w()) / s) * q.vec();
-}
 
 }  // namespace
 
@@ -91,19 +82,14 @@ void JointController::set_target(int group, const Quaterniond& orientation, doub
 }
 
 double JointController::orientation_error(const mjModel& m, const mjData& d, int group) const {
-  const JointGroup& g = groups_[idx(group)];
-  const int parent = m.body_parentid[g.body];
-  const Quaterniond q_c =
-      quat_at(d.xquat + 4 * parent).conjugate() * quat_at(d.xquat + 4 * g.body);
+  const Quaterniond q_c = sim::relative_orientation(m, d, groups_[idx(group)].body);
   return rotation_angle(q_c.conjugate() * targets_[idx(group)].orientation);
 }
 
 void JointController::desired_motion(const mjModel& m, const mjData& d) {
   for (std::size_t gi = 0; gi < groups_.size(); ++gi) {
     const JointGroup& g = groups_[gi];
-    const int parent = m.body_parentid[g.body];
-    const Quaterniond q_c =
-        quat_at(d.xquat + 4 * parent).conjugate() * quat_at(d.xquat + 4 * g.body);
+    const Quaterniond q_c = sim::relative_orientation(m, d, g.body);
     // Paper §3.2: q_t = conj(q_c) * q_d; theta v is its rotation vector (body frame).
     const Vector3d e_B = rotation_vector(q_c.conjugate() * targets_[gi].orientation);
     const double t_go = std::max(targets_[gi].reach_at_s - d.time, params_.min_time_to_go_s);
@@ -138,10 +124,7 @@ void JointController::desired_motion(const mjModel& m, const mjData& d) {
 
 void JointController::reset(const mjModel& m, mjData& d) {
   for (std::size_t gi = 0; gi < groups_.size(); ++gi) {
-    const JointGroup& g = groups_[gi];
-    const int parent = m.body_parentid[g.body];
-    targets_[gi].orientation =
-        (quat_at(d.xquat + 4 * parent).conjugate() * quat_at(d.xquat + 4 * g.body)).normalized();
+    targets_[gi].orientation = sim::relative_orientation(m, d, groups_[gi].body);
     targets_[gi].reach_at_s = d.time;
   }
   // PD gains from natural frequency and damping ratio with the joint-space inertia here.
@@ -157,7 +140,6 @@ void JointController::reset(const mjModel& m, mjData& d) {
     }
   }
   // Holding torques: the whole-body solve for zero acceleration, without the rate limit.
-  refresh_limits(m.opt.timestep);
   for (int i = 0; i < nv_; ++i) {
     qacc_des_[idx(i)] = 0;
     lo_[idx(i)] = -tau_max_[idx(i)];
@@ -170,7 +152,6 @@ void JointController::reset(const mjModel& m, mjData& d) {
 
 JointControlStatus JointController::compute(const mjModel& m, mjData& d,
                                             const mjtNum* qfrc_other, mjtNum* torque) {
-  refresh_limits(m.opt.timestep);
   desired_motion(m, d);
   for (int i = 0; i < nv_; ++i) {
     const auto k = idx(i);

@@ -146,25 +146,16 @@ Vector3d angles_from_orientation(const JointGroup& g, const Quaterniond& q) {
   return out;
 }
 
-Vector3d relative_angular_velocity_B(const mjModel& m, const mjData& d, const JointGroup& g) {
-  Vector3d w = Vector3d::Zero();
-  if (g.ball) {
-    for (int k = 0; k < 3; ++k) w[k] = d.qvel[g.dof_begin + k];
-    return w;
-  }
-  // Hinge velocities about their axes, rotated into the body frame.
-  const Eigen::Map<const Eigen::Matrix<mjtNum, 3, 3, Eigen::RowMajor>> R_WB(d.xmat + 9 * g.body);
-  for (int k = 0; k < g.dof_count; ++k) {
-    const int j = m.dof_jntid[g.dof_begin + k];
-    const Vector3d axis_W(d.xaxis[3 * j], d.xaxis[3 * j + 1], d.xaxis[3 * j + 2]);
-    w += R_WB.transpose() * axis_W * d.qvel[g.dof_begin + k];
-  }
-  return w;
-}
-
 double rotation_angle(const Quaterniond& q) {
   const double s = q.vec().norm();
   return 2.0 * std::atan2(s, std::abs(q.w()));
+}
+
+Vector3d rotation_vector(Quaterniond q) {
+  if (q.w() < 0) q.coeffs() = -q.coeffs();
+  const double s = q.vec().norm();
+  if (s < 1e-12) return 2.0 * q.vec();  // small-angle limit
+  return (2.0 * std::atan2(s, q.w()) / s) * q.vec();
 }
 
 }  // namespace biodyn::controllers

@@ -3,13 +3,13 @@
 #include <algorithm>
 #include <cmath>
 
+#include "biodyn/sim/queries.h"
+
 namespace biodyn::controllers {
 namespace {
 
 using Eigen::Quaterniond;
 using Eigen::Vector3d;
-
-Quaterniond quat_at(const mjtNum* q) { return Quaterniond(q[0], q[1], q[2], q[3]); }
 
 // q = swing * twist with twist about z.
 void split(Quaterniond q, Quaterniond* swing, double* twist_angle) {
@@ -19,13 +19,6 @@ void split(Quaterniond q, Quaterniond* swing, double* twist_angle) {
                                      : Quaterniond::Identity();  // swing of 180 deg
   *twist_angle = 2.0 * std::atan2(twist.z(), twist.w());
   *swing = q * twist.conjugate();
-}
-
-Vector3d rotation_vector(Quaterniond q) {
-  if (q.w() < 0) q.coeffs() = -q.coeffs();
-  const double s = q.vec().norm();
-  if (s < 1e-12) return 2.0 * q.vec();
-  return (2.0 * std::atan2(s, q.w()) / s) * q.vec();
 }
 
 }  // namespace
@@ -65,9 +58,7 @@ int SwingTwistLimiter::compute(const mjModel& m, const mjData& d, mjtNum* qfrc) 
   const double w = kLimitFrequency_rad_s;
   for (const Entry& e : entries_) {
     const JointGroup& g = groups_[static_cast<std::size_t>(e.group)];
-    const int parent = m.body_parentid[g.body];
-    const Quaterniond q_rel =
-        (quat_at(d.xquat + 4 * parent).conjugate() * quat_at(d.xquat + 4 * g.body)).normalized();
+    const Quaterniond q_rel = sim::relative_orientation(m, d, g.body);
     const SwingTwistAngles a = swing_twist_angles(g, q_rel);
     const Vector3d omega_B(d.qvel[g.dof_begin], d.qvel[g.dof_begin + 1], d.qvel[g.dof_begin + 2]);
     const Eigen::Matrix3d R_PB = q_rel.toRotationMatrix();

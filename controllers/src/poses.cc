@@ -5,6 +5,7 @@
 
 #include "biodyn/controllers/foot_contact.h"
 #include "biodyn/sim/errors.h"
+#include "biodyn/sim/queries.h"
 
 namespace biodyn::controllers {
 namespace {
@@ -161,17 +162,9 @@ BalanceOffsets StandingBalance::update(const mjModel& m, const mjData& d, Suppor
             : support == Support::kLeft ? feet[0]
                                         : feet[1];
   // Capture point xi = c + v / omega0 (Pratt et al. 2006).
-  double mass = 0;
-  Vector3d com = Vector3d::Zero(), vel = Vector3d::Zero();
-  mjtNum v6[6];
-  for (int b = 1; b < m.nbody; ++b) {
-    mass += m.body_mass[b];
-    com += m.body_mass[b] * Vector3d(d.xipos[3 * b], d.xipos[3 * b + 1], d.xipos[3 * b + 2]);
-    mj_objectVelocity(&m, &d, mjOBJ_BODY, b, v6, 0);
-    vel += m.body_mass[b] * Vector3d(v6[3], v6[4], v6[5]);
-  }
-  com /= mass;
-  vel /= mass;
+  const sim::CenterOfMass cm = sim::center_of_mass(m, d);
+  const Vector3d& com = cm.position_W;
+  const Vector3d& vel = cm.velocity_W;
   const double omega0 = std::sqrt(std::abs(m.opt.gravity[2]) / std::max(com.z(), 0.1));
   const Vector2d xi = com.head<2>() + vel.head<2>() / omega0;
   // Heading frame: the pelvis x axis on the floor.

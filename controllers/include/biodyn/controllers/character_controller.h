@@ -73,9 +73,6 @@ class CharacterController {
   /// One physics step of the simulation with the controllers. No allocation.
   StepReport step();
 
-  /// Largest orientation error over all joints against the current targets, rad.
-  double max_orientation_error() const;
-
  private:
   void control(mjData& d, bool* outside);
   void apply_targets();

@@ -56,11 +56,10 @@ Eigen::Quaterniond orientation_from_angles(const JointGroup& group, const Eigen:
 /// flexion-abduction-rotation decomposition).
 Eigen::Vector3d angles_from_orientation(const JointGroup& group, const Eigen::Quaterniond& q);
 
-/// Relative angular velocity of a group's body in its own frame (rad/s), from qvel.
-Eigen::Vector3d relative_angular_velocity_B(const mjModel& m, const mjData& d,
-                                            const JointGroup& group);
-
 /// Rotation angle of q (w x y z) in [0, pi], rad: the shortest way round.
 double rotation_angle(const Eigen::Quaterniond& q);
+
+/// Rotation vector (angle * unit axis, rad) of q, the short way round.
+Eigen::Vector3d rotation_vector(Eigen::Quaterniond q);
 
 }  // namespace biodyn::controllers
