@@ -8,6 +8,14 @@ namespace biodyn::controllers {
 namespace {
 
 constexpr int kMaxRedos = 2;  // one per foot weld
+// Hinge targets stay this far inside the joint stops: the limit spring starts at the stop
+// and a target on it is never reached exactly.
+constexpr double kTargetLimitMargin_rad = 2.0 * M_PI / 180.0;
+// Hip flexion per radian of ankle tilt the ankle could not take: the trunk (about half the
+// mass, its CoM ~0.3 m above the hips) moves the CoM about a third as far per radian as
+// the whole body leaning about the ankles (CoM ~1 m up), so it needs about three times the
+// angle; 2 keeps it gentler (the balance integrator asks for more if needed).
+constexpr double kUnmetTiltToHip = 2.0;
 
 std::vector<JointGroup> groups_of(const sim::Simulation& sim) {
   return find_joint_groups(sim.model());
@@ -56,6 +64,13 @@ void CharacterController::reset() {
   pose_start_s_ = sim_->data().time;
 }
 
+void CharacterController::reset_in_pose(const Pose& pose) {
+  const double tilt = place_in_pose(sim_->model(), sim_->data(), groups(), pose, balance_.params());
+  reset();
+  balance_.preset_sagittal_tilt(tilt);
+  set_pose(pose);
+}
+
 void CharacterController::set_pose(const Pose& pose) {
   pose_ = pose;
   pose_start_s_ = sim_->data().time;
@@ -70,20 +85,36 @@ void CharacterController::set_pose(const Pose& pose) {
 void CharacterController::apply_targets() {
   const std::vector<JointGroup>& gs = groups();
   const double reach_at = pose_start_s_ + pose_.reach_time_s;
+  // The sagittal tilt leans the stance legs about the ankles; the hips take it back so the
+  // trunk stays upright. Whatever the ankle cannot take (its target would pass the joint
+  // stop, e.g. in a deep squat) becomes hip flexion instead: leaning the trunk forward moves
+  // the CoM the same way, by less per radian (paper §4.1 balances with the hips as well).
+  double applied_tilt[2] = {0, 0}, unmet_tilt[2] = {0, 0};
+  for (int s = 0; s < 2; ++s) {
+    const int g = group_ankle_[s];
+    if (g < 0 || !pose_.stance[static_cast<std::size_t>(s)]) continue;
+    const Eigen::Vector3d& base = base_angles_[static_cast<std::size_t>(g)];
+    Eigen::Vector3d wanted = base;
+    wanted[0] += offsets_.sagittal_tilt;
+    const double reachable = clamp_to_range(gs[static_cast<std::size_t>(g)], wanted, kTargetLimitMargin_rad)[0];
+    applied_tilt[s] = reachable - base[0];
+    unmet_tilt[s] = wanted[0] - reachable;
+  }
   for (std::size_t g = 0; g < gs.size(); ++g) {
     Eigen::Vector3d angles = base_angles_[g];
     for (int s = 0; s < 2; ++s) {
       if (!pose_.stance[static_cast<std::size_t>(s)]) continue;
       const double side_sign = s == 0 ? -1.0 : 1.0;  // frontal tilt: see poses.h
       if (static_cast<int>(g) == group_ankle_[s]) {
-        angles[0] += offsets_.sagittal_tilt;  // dorsiflexion leans the shank forward
+        angles[0] += applied_tilt[s];  // dorsiflexion leans the shank forward
         if (gs[g].dof_count > 1) angles[1] += side_sign * offsets_.frontal_tilt;
       }
       if (static_cast<int>(g) == group_hip_[s]) {
-        angles[0] += -offsets_.sagittal_tilt + offsets_.hip_flexion;  // trunk stays upright
+        angles[0] += -applied_tilt[s] + kUnmetTiltToHip * unmet_tilt[s] + offsets_.hip_flexion;
         angles[1] += side_sign * offsets_.frontal_tilt;
       }
     }
+    angles = clamp_to_range(gs[g], angles, kTargetLimitMargin_rad);
     joints_.set_target(static_cast<int>(g), orientation_from_angles(gs[g], angles), reach_at);
   }
 }

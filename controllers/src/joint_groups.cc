@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <utility>
 
 #include "biodyn/sim/errors.h"
@@ -71,6 +72,9 @@ std::vector<JointGroup> find_joint_groups(const mjModel& m) {
         }
       } else if (m.jnt_type[j] == mjJNT_HINGE) {
         g.dof_names.push_back(joint_name);
+        const double inf = std::numeric_limits<double>::infinity();
+        g.range_rad.push_back(m.jnt_limited[j] ? Eigen::Vector2d(m.jnt_range[2 * j], m.jnt_range[2 * j + 1])
+                                               : Eigen::Vector2d(-inf, inf));
         g.axes_B.push_back(Vector3d(m.jnt_axis[3 * j], m.jnt_axis[3 * j + 1],
                                     m.jnt_axis[3 * j + 2]).normalized());
       } else {
@@ -102,6 +106,16 @@ int find_group(const std::vector<JointGroup>& groups, const std::string& name) {
     if (groups[i].name == name) return static_cast<int>(i);
   }
   return -1;
+}
+
+Vector3d clamp_to_range(const JointGroup& g, Vector3d angles, double margin_rad) {
+  if (g.ball) return angles;
+  for (int k = 0; k < g.dof_count; ++k) {
+    const Eigen::Vector2d& r = g.range_rad[static_cast<std::size_t>(k)];
+    const double margin = std::min(margin_rad, 0.25 * (r[1] - r[0]));
+    angles[k] = std::clamp(angles[k], r[0] + margin, r[1] - margin);
+  }
+  return angles;
 }
 
 Quaterniond orientation_from_angles(const JointGroup& g, const Vector3d& angles) {

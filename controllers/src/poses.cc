@@ -54,16 +54,18 @@ std::vector<Pose> pose_scenario(const std::string& name, const std::vector<Joint
     poses.push_back(standing(groups, "stand", 1.0, 0.3));
   } else if (name == "squat") {
     poses.push_back(standing(groups, "stand", 0.5, 0.3));
-    // A deep squat with heels down: the ankle stops at its 20 deg dorsiflexion limit, so the
+    // A deep squat with heels down: the ankle is near its 20 deg dorsiflexion stop, so the
     // trunk leans forward and the arms reach forward to keep the CoM over the feet.
     Pose down;
     down.name = "squat down";
     down.duration_s = 2.5;
     down.reach_time_s = 1.5;
-    set_angles(&down, groups, "ankle", Vector3d(18, 0, 0));
+    // With these angles the CoM of the default body sits 40% of the foot length in front
+    // of the heel, where the balance holds it (checked statically with the feet flat).
+    set_angles(&down, groups, "ankle", Vector3d(15, 0, 0));
     set_angles(&down, groups, "knee", Vector3d(70, 0, 0));
-    set_angles(&down, groups, "hip", Vector3d(90, 0, 0));
-    set_angles(&down, groups, "shoulder", Vector3d(80, 0, 0));
+    set_angles(&down, groups, "hip", Vector3d(110, 0, 0));
+    set_angles(&down, groups, "shoulder", Vector3d(90, 0, 0));
     poses.push_back(down);
     Pose up = standing(groups, "stand up", 2.5, 1.5);
     poses.push_back(up);
@@ -107,6 +109,104 @@ std::vector<Pose> pose_scenario(const std::string& name, const std::vector<Joint
   return poses;
 }
 
+namespace {
+
+// Joint angles of `pose` with the stance legs leaned by `tilt` into qpos (the root is left).
+void write_pose_angles(const mjModel& m, mjData& d, const std::vector<JointGroup>& groups,
+                       const Pose& pose, double tilt) {
+  for (const JointGroup& g : groups) {
+    const auto it = pose.angles_rad.find(g.name);
+    Vector3d angles = it == pose.angles_rad.end() ? Vector3d::Zero() : it->second;
+    for (int s = 0; s < 2; ++s) {
+      if (!pose.stance[static_cast<std::size_t>(s)]) continue;
+      const std::string side = s == 0 ? "_l" : "_r";
+      if (g.name == "ankle" + side) angles[0] += tilt;
+      if (g.name == "hip" + side) angles[0] -= tilt;
+    }
+    angles = clamp_to_range(g, angles, 0.0);
+    const int first_joint = m.dof_jntid[g.dof_begin];
+    if (g.ball) {
+      const Eigen::Quaterniond q = orientation_from_angles(g, angles);
+      mjtNum* qpos = d.qpos + m.jnt_qposadr[first_joint];
+      qpos[0] = q.w(), qpos[1] = q.x(), qpos[2] = q.y(), qpos[3] = q.z();
+    } else {
+      for (int k = 0; k < g.dof_count; ++k) d.qpos[m.jnt_qposadr[m.dof_jntid[g.dof_begin + k]]] = angles[k];
+    }
+  }
+}
+
+Vector3d sole_point_W(const mjData& d, int foot, const Vector3d& point_B) {
+  const Eigen::Map<const Eigen::Matrix<mjtNum, 3, 3, Eigen::RowMajor>> R(d.xmat + 9 * foot);
+  return Vector3d(d.xpos[3 * foot], d.xpos[3 * foot + 1], d.xpos[3 * foot + 2]) + R * point_B;
+}
+
+}  // namespace
+
+double place_in_pose(const mjModel& m, mjData& d, const std::vector<JointGroup>& groups,
+                     const Pose& pose, const BalanceParams& balance) {
+  balance.validate();
+  const int foot[2] = {mj_name2id(&m, mjOBJ_BODY, "foot_l"), mj_name2id(&m, mjOBJ_BODY, "foot_r")};
+  const int root_joint = m.body_jntadr[mj_name2id(&m, mjOBJ_BODY, "pelvis")];
+  if (foot[0] < 0 || foot[1] < 0 || root_joint < 0 || m.jnt_type[root_joint] != mjJNT_FREE) {
+    throw sim::InvalidArgument(
+        "place_in_pose: the model needs a free-floating 'pelvis' and bodies 'foot_l', 'foot_r'");
+  }
+  mjtNum* root = d.qpos + m.jnt_qposadr[root_joint];
+  const double x0 = root[0], y0 = root[1];
+  Vector3d point_B[2];
+  for (int s = 0; s < 2; ++s) {
+    const Sole sole = find_sole(m, foot[s]);
+    point_B[s] = sole.centre_B();
+    point_B[s].x() = sole.x_min + balance.support_point_fraction * (sole.x_max - sole.x_min);
+  }
+  // Rest height of the soles (the model's own standing state).
+  mju_copy(d.qpos, m.qpos0, m.nq);
+  mj_kinematics(&m, &d);
+  const double sole_z = std::min(sole_point_W(d, foot[0], point_B[0]).z(),
+                                 sole_point_W(d, foot[1], point_B[1]).z());
+  const int stance_foot = pose.stance[0] ? foot[0] : foot[1];
+
+  // CoM x minus support point x for a lean `tilt`, with the feet flat and on the floor.
+  const auto place = [&](double tilt) {
+    mju_copy(d.qpos, m.qpos0, m.nq);
+    write_pose_angles(m, d, groups, pose, tilt);
+    root[3] = 1, root[4] = root[5] = root[6] = 0;
+    mj_kinematics(&m, &d);
+    const Eigen::Quaterniond q_foot(d.xquat[4 * stance_foot], d.xquat[4 * stance_foot + 1],
+                                    d.xquat[4 * stance_foot + 2], d.xquat[4 * stance_foot + 3]);
+    const Eigen::Quaterniond q_root = q_foot.conjugate();  // the stance sole flat
+    root[3] = q_root.w(), root[4] = q_root.x(), root[5] = q_root.y(), root[6] = q_root.z();
+    mj_kinematics(&m, &d);
+    double lowest = 1e9;
+    Vector2d support = Vector2d::Zero();
+    int n = 0;
+    for (int s = 0; s < 2; ++s) {
+      if (!pose.stance[static_cast<std::size_t>(s)]) continue;
+      const Vector3d p = sole_point_W(d, foot[s], point_B[s]);
+      lowest = std::min(lowest, p.z());
+      support += p.head<2>();
+      ++n;
+    }
+    root[0] += x0 - support.x() / n;  // support point under the old root position
+    root[1] += y0 - support.y() / n;
+    root[2] += sole_z - lowest;
+    mj_kinematics(&m, &d);
+    mj_comPos(&m, &d);
+    return d.subtree_com[0] - x0;  // root body 0's subtree: the whole body
+  };
+  // Secant iteration on the lean (the CoM moves ~1 m per radian: a few steps suffice).
+  double t0 = 0, f0 = place(t0);
+  double t1 = -f0 / 1.0, f1 = place(t1);
+  for (int it = 0; it < 8 && std::abs(f1) > 1e-4 && std::abs(f1 - f0) > 1e-12; ++it) {
+    const double t2 = std::clamp(t1 - f1 * (t1 - t0) / (f1 - f0), -balance.max_tilt_rad, balance.max_tilt_rad);
+    t0 = t1, f0 = f1;
+    t1 = t2, f1 = place(t1);
+  }
+  mju_zero(d.qvel, m.nv);
+  mj_forward(&m, &d);
+  return t1;
+}
+
 void BalanceParams::validate() const {
   const auto fail = [](const std::string& f, const std::string& rule, double v) {
     throw sim::InvalidArgument("balance." + f + ": " + rule + ", got " + std::to_string(v));
@@ -117,6 +217,8 @@ void BalanceParams::validate() const {
   if (!(hip_gain_rad_per_m >= 0)) fail("hip_gain_rad_per_m", "must be >= 0", hip_gain_rad_per_m);
   if (!(hip_threshold_fraction >= 0)) fail("hip_threshold_fraction", "must be >= 0", hip_threshold_fraction);
   if (!(max_hip_rad >= 0 && max_hip_rad < 1.5)) fail("max_hip_rad", "must be in [0, 1.5) rad", max_hip_rad);
+  if (!(support_point_fraction >= 0 && support_point_fraction <= 1))
+    fail("support_point_fraction", "must be in [0, 1] (heel to toe tip)", support_point_fraction);
 }
 
 StandingBalance::StandingBalance(const mjModel& m, BalanceParams params) : params_(params) {
@@ -130,7 +232,8 @@ StandingBalance::StandingBalance(const mjModel& m, BalanceParams params) : param
   }
   for (int s = 0; s < 2; ++s) {
     const Sole sole = find_sole(m, foot_[s]);
-    sole_centre_B_[s] = sole.centre_B();
+    support_point_B_[s] = sole.centre_B();
+    support_point_B_[s].x() = sole.x_min + params_.support_point_fraction * (sole.x_max - sole.x_min);
     foot_half_length_ = (sole.x_max - sole.x_min) / 2;
   }
   leg_length_ = m.qpos0[2];  // pelvis (hip-centre) height when standing
@@ -139,6 +242,11 @@ StandingBalance::StandingBalance(const mjModel& m, BalanceParams params) : param
 void StandingBalance::set_params(const BalanceParams& params) {
   params.validate();
   params_ = params;
+}
+
+void StandingBalance::preset_sagittal_tilt(double tilt_rad) {
+  integral_.setZero();
+  if (params_.integral_per_s > 0) integral_.x() = -tilt_rad * leg_length_ / params_.integral_per_s;
 }
 
 void StandingBalance::reset() {
@@ -155,7 +263,7 @@ BalanceOffsets StandingBalance::update(const mjModel& m, const mjData& d, Suppor
     const Eigen::Map<const Eigen::Matrix<mjtNum, 3, 3, Eigen::RowMajor>> R(d.xmat + 9 * foot_[s]);
     const Vector3d c = Vector3d(d.xpos[3 * foot_[s]], d.xpos[3 * foot_[s] + 1],
                                 d.xpos[3 * foot_[s] + 2]) +
-                       R * sole_centre_B_[s];
+                       R * support_point_B_[s];
     feet[s] = c.head<2>();
   }
   centre_ = support == Support::kBoth ? Vector2d(0.5 * (feet[0] + feet[1]))

@@ -20,6 +20,9 @@ constexpr double kRadToDeg = 180.0 / M_PI;
 // Fallen: the pelvis below this fraction of its standing height (references.md: >= 0.7x
 // nominal counts as upright while walking; 0.6 leaves room for the squat).
 constexpr double kFallenPelvisFraction = 0.6;
+// A foot point within this gap of the floor counts as support (a welded or lightly loaded
+// sole hovers a fraction of a millimetre above its contact surface in MuJoCo's soft contact).
+constexpr double kSupportGap_m = 0.002;
 
 double cross(const Vector2d& o, const Vector2d& a, const Vector2d& b) {
   return (a.x() - o.x()) * (b.y() - o.y()) - (a.y() - o.y()) * (b.x() - o.x());
@@ -115,7 +118,7 @@ PoseRunResult run_pose(sim::Simulation* sim, const PoseRunParams& params,
   config.kind = params.kind;
   config.weld.mode = params.weld;
   controllers::CharacterController ctrl(sim, cp, config);
-  ctrl.reset();
+  ctrl.reset_in_pose(poses[0]);  // already standing in the first pose at t = 0
 
   PoseRunResult r;
   r.scenario = params.scenario;
@@ -155,7 +158,6 @@ PoseRunResult run_pose(sim::Simulation* sim, const PoseRunParams& params,
   const int report_every = std::max(1, steps / 100);
   std::size_t pose_index = 0;
   double pose_start = d.time;
-  ctrl.set_pose(poses[0]);
   bool checked = false;
   std::vector<Vector2d> contact_points, hull;
   contact_points.reserve(64);
@@ -239,9 +241,9 @@ PoseRunResult run_pose(sim::Simulation* sim, const PoseRunParams& params,
     for (int c = 0; c < d.ncon; ++c) {
       const mjContact& con = d.contact[c];
       const int other = con.geom1 == floor ? con.geom2 : con.geom2 == floor ? con.geom1 : -1;
-      if (other < 0 || con.dist > 0) continue;
+      if (other < 0 || con.dist > kSupportGap_m) continue;
       if (!foot_body[static_cast<std::size_t>(m.geom_bodyid[other])]) {
-        down = true;
+        if (con.dist <= 0) down = true;
       } else {
         contact_points.emplace_back(con.pos[0], con.pos[1]);
       }

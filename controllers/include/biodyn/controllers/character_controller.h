@@ -67,6 +67,11 @@ class CharacterController {
   /// integrators cleared.
   void reset();
 
+  /// Places the character at rest in `pose` (place_in_pose: feet flat, CoM over the
+  /// support point), then reset(), with the balance integrator holding that lean, and
+  /// set_pose(pose). How every standing scenario starts.
+  void reset_in_pose(const Pose& pose);
+
   /// Starts `pose` now: its targets are due at time() + reach_time_s.
   void set_pose(const Pose& pose);
 

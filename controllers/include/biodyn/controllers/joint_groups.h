@@ -34,7 +34,14 @@ struct JointGroup {
   /// Ball joints: the anatomical angles are (s0*a, s1*b, s2*c) for the intrinsic body-frame
   /// rotation R_y(a) R_x(b) R_z(c); these are s0, s1, s2 (each +-1).
   Eigen::Vector3d ball_signs = Eigen::Vector3d::Ones();
+  /// Hinges: the joint range per DOF, rad (-inf/+inf when the hinge is unlimited; ball
+  /// joints: unused, their limits are swing-twist, joint_limits.h).
+  std::vector<Eigen::Vector2d> range_rad;
 };
+
+/// `angles` with every hinge angle moved inside its range by `margin_rad` (a target beyond a
+/// joint stop cannot be reached and would drive the torque to saturation). Ball joints: as is.
+Eigen::Vector3d clamp_to_range(const JointGroup& group, Eigen::Vector3d angles, double margin_rad);
 
 /// The anatomical joint name of a generated character's body ("thigh_l" -> "hip_l",
 /// "shank_r" -> "knee_r", "trunk" -> "trunk"); empty for the root.

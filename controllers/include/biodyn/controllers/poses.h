@@ -10,7 +10,8 @@
 /// the paper's balance does: the capture point xi = c + v/omega0 (omega0 = sqrt(g/z_c),
 /// Pratt 2006) is compared with the chosen support centre; the error tilts the stance legs
 /// about the ankles (sagittal theta, frontal phi; the trunk is kept upright by the hips) with
-/// proportional-integral feedback, and a large sagittal error adds hip flexion (hip strategy).
+/// proportional-integral feedback (tilt the ankle cannot take goes to hip flexion, see
+/// CharacterController), and a large sagittal error adds hip flexion (hip strategy).
 /// No force acts on the root: the joint controllers turn the new targets into torques.
 
 #include <mujoco/mujoco.h>
@@ -59,8 +60,20 @@ struct BalanceParams {
   double hip_gain_rad_per_m = 4.0;
   double hip_threshold_fraction = 0.5;
   double max_hip_rad = 0.6;
+  /// Where along each sole (0 heel, 1 toe tip) the CoM is held. People stand with the CoM
+  /// about 40% of the foot length in front of the heel (a few cm ahead of the ankle,
+  /// Winter 1995), not over the middle of a sole that includes the toes.
+  double support_point_fraction = 0.4;
   void validate() const;  ///< throws sim::InvalidArgument
 };
+
+/// Puts the character into `pose` at rest, as if it had been standing so before t = 0: joint
+/// angles from the pose (hinges clamped inside their stops), both feet flat with the soles at
+/// their rest height, and the stance legs leaned about the ankles (trunk kept upright by the
+/// hips) so the CoM is over the balance's support point. Keeps the root's x, y; zero
+/// velocities; runs mj_forward. Returns the sagittal lean it chose, rad.
+double place_in_pose(const mjModel& m, mjData& d, const std::vector<JointGroup>& groups,
+                     const Pose& pose, const BalanceParams& balance);
 
 /// Offsets the balance adds to the stance legs, rad.
 struct BalanceOffsets {
@@ -76,6 +89,9 @@ class StandingBalance {
   const BalanceParams& params() const { return params_; }
   void set_params(const BalanceParams& params);
   void reset();
+  /// Starts the integrator so that, with the CoM on its support point, the balance asks for
+  /// this sagittal tilt (after place_in_pose).
+  void preset_sagittal_tilt(double tilt_rad);
   /// Offsets for the current state (after mj_step1) holding the CoM over `support` with the
   /// given feet in stance. Also reports the capture-point error (m, heading frame) and the
   /// support centre (world).
@@ -87,7 +103,7 @@ class StandingBalance {
   BalanceParams params_;
   int foot_[2] = {-1, -1};
   int pelvis_ = -1;
-  Eigen::Vector3d sole_centre_B_[2];  // sole centre in each foot frame (m)
+  Eigen::Vector3d support_point_B_[2];  // balance point on each sole, foot frame (m)
   double foot_half_length_ = 0.1;
   double leg_length_ = 0.9;
   Eigen::Vector2d integral_ = Eigen::Vector2d::Zero();
