@@ -92,7 +92,7 @@ void CharacterController::apply_targets() {
   double applied_tilt[2] = {0, 0}, unmet_tilt[2] = {0, 0};
   for (int s = 0; s < 2; ++s) {
     const int g = group_ankle_[s];
-    if (g < 0 || !pose_.stance[static_cast<std::size_t>(s)]) continue;
+    if (g < 0) continue;
     const Eigen::Vector3d& base = base_angles_[static_cast<std::size_t>(g)];
     Eigen::Vector3d wanted = base;
     wanted[0] += offsets_.sagittal_tilt;
@@ -102,8 +102,10 @@ void CharacterController::apply_targets() {
   }
   for (std::size_t g = 0; g < gs.size(); ++g) {
     Eigen::Vector3d angles = base_angles_[g];
+    // Both legs, stance or lifted: a lifted leg keeps the stance leg's lean (parallel to
+    // it, foot level) instead of swinging back to the pelvis's vertical as it leaves the
+    // floor, which would roll the body onto the foot being lifted.
     for (int s = 0; s < 2; ++s) {
-      if (!pose_.stance[static_cast<std::size_t>(s)]) continue;
       const double side_sign = s == 0 ? -1.0 : 1.0;  // frontal tilt: see poses.h
       if (static_cast<int>(g) == group_ankle_[s]) {
         angles[0] += applied_tilt[s];  // dorsiflexion leans the shank forward

@@ -57,7 +57,7 @@ struct BalanceParams {
   double max_tilt_rad = 0.25;   ///< rad, bound on the sagittal and frontal leg tilts
   /// Hip strategy: hip flexion per metre of sagittal capture-point error beyond
   /// `hip_threshold_fraction` of the half foot length, rad/m.
-  double hip_gain_rad_per_m = 4.0;
+  double hip_gain_rad_per_m = 0.0;
   double hip_threshold_fraction = 0.5;
   double max_hip_rad = 0.6;
   /// Where along each sole (0 heel, 1 toe tip) the CoM is held. People stand with the CoM
