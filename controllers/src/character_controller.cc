@@ -17,6 +17,16 @@ constexpr double kTargetLimitMargin_rad = 2.0 * M_PI / 180.0;
 // angle; 2 keeps it gentler (the balance integrator asks for more if needed).
 constexpr double kUnmetTiltToHip = 2.0;
 
+// A geom of `foot` or of its children (toes) touches a world geom (the floor).
+bool foot_on_floor(const mjModel& m, const mjData& d, int foot) {
+  for (int c = 0; c < d.ncon; ++c) {
+    const int b1 = m.geom_bodyid[d.contact[c].geom1], b2 = m.geom_bodyid[d.contact[c].geom2];
+    const int other = b1 == 0 ? b2 : b2 == 0 ? b1 : -1;
+    if (other == foot || (other > 0 && m.body_parentid[other] == foot)) return true;
+  }
+  return false;
+}
+
 std::vector<JointGroup> groups_of(const sim::Simulation& sim) {
   return find_joint_groups(sim.model());
 }
@@ -38,6 +48,7 @@ CharacterController::CharacterController(sim::Simulation* sim, ControllerParams 
       torque_(static_cast<std::size_t>(sim->model().nv)) {
   const char* sides[2] = {"_l", "_r"};
   for (int s = 0; s < 2; ++s) {
+    foot_[s] = mj_name2id(&sim->model(), mjOBJ_BODY, (std::string("foot") + sides[s]).c_str());
     group_ankle_[s] = find_group(groups(), std::string("ankle") + sides[s]);
     group_hip_[s] = find_group(groups(), std::string("hip") + sides[s]);
   }
@@ -57,7 +68,8 @@ void CharacterController::reset() {
   welds_.reset(sim_->mutable_model());
   balance_.reset();
   sim_->forward();
-  joints_.reset(sim_->model(), sim_->data());
+  // The PD gains see the feet as supports (the character starts standing on both).
+  joints_.reset(sim_->model(), sim_->data(), {foot_[0], foot_[1]});
   pose_ = Pose{};
   pose_.name = "initial";
   std::fill(base_angles_.begin(), base_angles_.end(), Eigen::Vector3d::Zero());
@@ -137,6 +149,12 @@ void CharacterController::control(mjData& d, bool* outside) {
     const mjtNum* f = d.xfrc_applied + 6 * b;
     if (f[0] == 0 && f[1] == 0 && f[2] == 0 && f[3] == 0 && f[4] == 0 && f[5] == 0) continue;
     mj_applyFT(&m, &d, f, f + 3, d.xipos + 3 * b, b, qfrc_other_.data());
+  }
+  if (joints_.kind() == ControllerKind::kPd) {
+    int supports[2], n = 0;
+    for (int s = 0; s < 2; ++s)
+      if (foot_on_floor(m, d, foot_[s])) supports[n++] = foot_[s];
+    joints_.update_pd_gains(m, d, supports, n);
   }
   last_status_ = joints_.compute(m, d, qfrc_other_.data(), torque_.data());
   for (int i = 0; i < nv; ++i) {

@@ -16,9 +16,10 @@ constexpr double kDeg = M_PI / 180.0;
 
 // Paper §3.2 / §5.1: every muscle group reacts in 20 ms.
 constexpr double kPaperReactionTime_s = 0.02;
-// Default PD natural frequencies: the stance-leg joints must hold the body against gravity
-// with the inertia of their own distal segments (kp = I w^2 > m g l at the ankle).
-constexpr double kPdLegFrequency_hz = 15.0;
+// Default PD natural frequencies. A stance-leg joint turns the rest of the body (I ~ 80 kg m^2
+// about the ankle): 2 Hz gives kp = I w^2 ~ 12 kN m/rad, well above the m g h ~ 0.8 kN m/rad
+// that toppling needs, and kd dt / I << 1 keeps the explicitly applied damping stable.
+constexpr double kPdLegFrequency_hz = 2.0;
 constexpr double kPdUpperBodyFrequency_hz = 5.0;
 
 // Bounds checked by validate().

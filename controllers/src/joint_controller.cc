@@ -15,6 +15,44 @@ using Eigen::Vector3d;
 
 std::size_t idx(int i) { return static_cast<std::size_t>(i); }
 
+bool in_subtree(const mjModel& m, int body, int root) {
+  for (int b = body; b > 0; b = m.body_parentid[b])
+    if (b == root) return true;
+  return false;
+}
+
+// Moment of inertia about the axis of DOF `dof` (a line through the joint's anchor) of the
+// side of the body the joint moves: its own subtree, or, when that subtree holds a support
+// (a stance foot), everything else. MuJoCo's qM diagonal is always the subtree's inertia —
+// a stance ankle would get the foot's 0.01 kg m^2 instead of the body's ~80 kg m^2 it
+// actually turns, and a PD on that gain cannot even hold the body up.
+double pd_inertia(const mjModel& m, const mjData& d, int joint_body, int dof,
+                  const int* support_bodies, int n_supports) {
+  const int j = m.dof_jntid[dof];
+  const Vector3d p(d.xanchor[3 * j], d.xanchor[3 * j + 1], d.xanchor[3 * j + 2]);
+  // Axis: a hinge's own; a ball DOF's body-frame axis.
+  Vector3d a;
+  if (m.jnt_type[j] == mjJNT_BALL) {
+    const int k = dof - m.jnt_dofadr[j];
+    a = Vector3d(d.xmat[9 * joint_body + k], d.xmat[9 * joint_body + 3 + k], d.xmat[9 * joint_body + 6 + k]);
+  } else {
+    a = Vector3d(d.xaxis[3 * j], d.xaxis[3 * j + 1], d.xaxis[3 * j + 2]);
+  }
+  bool support_below = false;
+  for (int s = 0; s < n_supports; ++s)
+    support_below = support_below || in_subtree(m, support_bodies[s], joint_body);
+  double inertia = 0;
+  for (int b = 1; b < m.nbody; ++b) {
+    if (in_subtree(m, b, joint_body) == support_below) continue;
+    const Vector3d c(d.xipos[3 * b], d.xipos[3 * b + 1], d.xipos[3 * b + 2]);
+    const Eigen::Map<const Eigen::Matrix<mjtNum, 3, 3, Eigen::RowMajor>> R(d.ximat + 9 * b);
+    const Vector3d a_B = R.transpose() * a;
+    const Vector3d I_B(m.body_inertia[3 * b], m.body_inertia[3 * b + 1], m.body_inertia[3 * b + 2]);
+    inertia += m.body_mass[b] * a.cross(c - p).squaredNorm() + a_B.cwiseProduct(a_B).dot(I_B);
+  }
+  return inertia + m.dof_armature[dof];
+}
+
 }  // namespace
 
 const char* to_string(ControllerKind kind) {
@@ -122,23 +160,28 @@ void JointController::desired_motion(const mjModel& m, const mjData& d) {
   }
 }
 
-void JointController::reset(const mjModel& m, mjData& d) {
-  for (std::size_t gi = 0; gi < groups_.size(); ++gi) {
-    targets_[gi].orientation = sim::relative_orientation(m, d, groups_[gi].body);
-    targets_[gi].reach_at_s = d.time;
-  }
-  // PD gains from natural frequency and damping ratio with the joint-space inertia here.
+void JointController::update_pd_gains(const mjModel& m, const mjData& d, const int* support_bodies,
+                                      int n_supports) {
+  // PD gains from natural frequency and damping ratio with the inertia each DOF moves now.
   for (std::size_t gi = 0; gi < groups_.size(); ++gi) {
     const JointGroup& g = groups_[gi];
     const JointParams& p = params_.joints[gi];
     const double wn = 2 * M_PI * p.pd_natural_frequency_hz;
     for (int k = 0; k < g.dof_count; ++k) {
       const int i = g.dof_begin + k;
-      const double inertia = d.qM[m.dof_Madr[i]];
+      const double inertia = pd_inertia(m, d, g.body, i, support_bodies, n_supports);
       kp_[idx(i)] = inertia * wn * wn;
       kd_[idx(i)] = 2 * p.pd_damping_ratio * wn * inertia;
     }
   }
+}
+
+void JointController::reset(const mjModel& m, mjData& d, const std::vector<int>& support_bodies) {
+  for (std::size_t gi = 0; gi < groups_.size(); ++gi) {
+    targets_[gi].orientation = sim::relative_orientation(m, d, groups_[gi].body);
+    targets_[gi].reach_at_s = d.time;
+  }
+  update_pd_gains(m, d, support_bodies.data(), static_cast<int>(support_bodies.size()));
   // Holding torques: the whole-body solve for zero acceleration, without the rate limit.
   for (int i = 0; i < nv_; ++i) {
     qacc_des_[idx(i)] = 0;

@@ -95,6 +95,7 @@ class CharacterController {
   BalanceOffsets offsets_;
   std::vector<mjtNum> qfrc_limit_, qfrc_other_, torque_;
   int group_ankle_[2] = {-1, -1}, group_hip_[2] = {-1, -1};
+  int foot_[2] = {-1, -1};  // body ids of foot_l, foot_r
   JointControlStatus last_status_;
   int last_outside_ = 0;
 };

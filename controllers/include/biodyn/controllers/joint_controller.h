@@ -69,8 +69,15 @@ class JointController {
 
   /// Targets = the current pose, reach now; tau_prev = the torques that hold the current
   /// state still (the character was already standing before t = 0: its muscles carry the
-  /// static load). `d` must have mj_forward run. Same for both kinds.
-  void reset(const mjModel& m, mjData& d);
+  /// static load). `d` must have mj_forward run. Same for both kinds. `support_bodies`
+  /// (the stance feet) choose the PD inertia: a joint with a support below it moves the rest
+  /// of the body, not its own subtree.
+  void reset(const mjModel& m, mjData& d, const std::vector<int>& support_bodies = {});
+
+  /// PD kind: gains for the current supports (the feet on the ground now; the controller
+  /// calls this each step, as a foot that leaves the floor no longer carries the body and a
+  /// stance gain on its light subtree would be unstable). No allocation.
+  void update_pd_gains(const mjModel& m, const mjData& d, const int* support_bodies, int n_supports);
 
   /// Torques for the current state (call after mj_step1). `qfrc_other` (nv): every other
   /// generalized force that acts in this step (joint-limit forces, mapped pushes). Writes
