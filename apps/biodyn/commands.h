@@ -19,6 +19,8 @@ Command add_model_command(CLI::App* app);
 Command add_drop_command(CLI::App* app);
 /// `biodyn pose`: stand, squat, reach or one-leg balance under the joint controllers.
 Command add_pose_command(CLI::App* app);
+/// `biodyn stand-push`: largest standing push survived, per direction and weld mode.
+Command add_stand_push_command(CLI::App* app);
 /// `biodyn bench`: controller cost against the bare physics step.
 Command add_bench_command(CLI::App* app);
 

@@ -280,12 +280,8 @@ BalanceOffsets StandingBalance::update(const mjModel& m, const mjData& d, Suppor
   const Vector2d tilt = -(params_.proportional * error_ + params_.integral_per_s * integral_) / L;
   out.sagittal_tilt = std::clamp(tilt.x(), -params_.max_tilt_rad, params_.max_tilt_rad);
   out.frontal_tilt = std::clamp(tilt.y(), -params_.max_tilt_rad, params_.max_tilt_rad);
-  const double excess =
-      std::abs(error_.x()) - params_.hip_threshold_fraction * foot_half_length_;
-  if (excess > 0) {
-    out.hip_flexion = std::clamp(std::copysign(params_.hip_gain_rad_per_m * excess, error_.x()),
-                                 -params_.max_hip_rad, params_.max_hip_rad);
-  }
+  const double excess = error_.x() - params_.hip_threshold_fraction * foot_half_length_;
+  if (excess > 0) out.hip_flexion = std::min(params_.hip_gain_rad_per_m * excess, params_.max_hip_rad);
   return out;
 }
 

@@ -23,6 +23,9 @@ constexpr double kFallenPelvisFraction = 0.6;
 // A foot point within this gap of the floor counts as support (a welded or lightly loaded
 // sole hovers a fraction of a millimetre above its contact surface in MuJoCo's soft contact).
 constexpr double kSupportGap_m = 0.002;
+// A push counts as survived without stepping only if no foot moved this far (a standing
+// controller never steps, but a foot can slide or pivot away).
+constexpr double kNoStepFootMove_m = 0.03;
 
 double cross(const Vector2d& o, const Vector2d& a, const Vector2d& b) {
   return (a.x() - o.x()) * (b.y() - o.y()) - (a.y() - o.y()) * (b.x() - o.x());
@@ -285,8 +288,49 @@ PoseRunResult run_pose(sim::Simulation* sim, const PoseRunParams& params,
   r.simulated_s = r.steps * dt;
   r.realtime_factor = r.wall_s > 0 ? r.simulated_s / r.wall_s : 0;
   r.weld_active_fraction = r.steps > 0 ? weld_active_steps / (2.0 * r.steps) : 0;
-  r.survived_push = params.push.has_value() && !r.fallen;
+  r.survived_push =
+      params.push.has_value() && !r.fallen && r.max_foot_displacement_m < kNoStepFootMove_m;
   return r;
+}
+
+StandingPushScan scan_standing_push(sim::Simulation* sim, const PoseRunParams& base,
+                                    double direction_deg, const PushScanParams& scan,
+                                    const std::function<void(double)>& progress) {
+  if (!(scan.resolution_N > 0)) {
+    throw sim::InvalidArgument("push scan resolution: must be > 0 N, got " + std::to_string(scan.resolution_N));
+  }
+  if (!(scan.max_force_N >= scan.resolution_N)) {
+    throw sim::InvalidArgument("push scan max force: must be >= the resolution, got " +
+                               std::to_string(scan.max_force_N) + " N");
+  }
+  StandingPushScan out;
+  out.direction_deg = direction_deg;
+  out.weld = controllers::to_string(base.weld);
+  PoseRunParams run = base;
+  run.scenario = "stand";
+  run.trace = nullptr;
+  run.duration_s = scan.onset_s + scan.duration_s + scan.settle_s;
+  const int n = static_cast<int>(std::floor(scan.max_force_N / scan.resolution_N + 1e-9));
+  for (int i = 1; i <= n; ++i) {
+    PosePush push;
+    push.force_N = i * scan.resolution_N;
+    push.duration_s = scan.duration_s;
+    push.direction_deg = direction_deg;
+    push.onset_s = scan.onset_s;
+    push.body = scan.body;
+    run.push = push;
+    const PoseRunResult r = run_pose(sim, run);
+    ++out.runs;
+    if (!r.survived_push) {
+      out.first_failure_N = push.force_N;
+      out.failure = r.fallen ? "fell" : "feet moved " + std::to_string(r.max_foot_displacement_m * 100).substr(0, 4) + " cm";
+      break;
+    }
+    out.max_survived_N = push.force_N;
+    if (progress) progress(static_cast<double>(i) / n);
+  }
+  if (progress) progress(1.0);
+  return out;
 }
 
 }  // namespace biodyn::scenarios

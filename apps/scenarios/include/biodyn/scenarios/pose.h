@@ -75,12 +75,41 @@ struct PoseRunResult {
   int joints_outside_limits_steps = 0;
   bool solver_converged = true;
   sim::WarningCounts warnings;
-  bool survived_push = false;  ///< a push was given and the character did not fall
+  /// A push was given, the character did not fall and no foot moved 3 cm or more (no step).
+  bool survived_push = false;
 };
 
 /// Builds and runs the scenario on `sim` (a generated character, reset inside). Progress is
 /// reported as a fraction. Throws sim::InvalidArgument for bad params.
 PoseRunResult run_pose(sim::Simulation* sim, const PoseRunParams& params,
                        const std::function<void(double)>& progress = {});
+
+/// Standing push scan (issue 3): pushes of growing force on a quietly standing character.
+struct PushScanParams {
+  double duration_s = 0.2;     ///< s, push length
+  double resolution_N = 10;    ///< N, force step of the upward scan
+  double max_force_N = 1000;   ///< N, the scan stops here
+  double onset_s = 1.0;        ///< s, push onset after the start
+  double settle_s = 3.0;       ///< s, watched after the push ends
+  std::string body = "pelvis";
+};
+
+struct StandingPushScan {
+  double direction_deg = 0;
+  std::string weld;
+  /// N, the largest force of the upward scan below the first failure: every force up to it
+  /// (at the resolution) was survived — the guaranteed envelope (references.md: survival
+  /// is not monotonic in force, so no bisection).
+  double max_survived_N = 0;
+  double first_failure_N = -1;  ///< N, -1 if the scan reached max_force_N
+  std::string failure;          ///< "fell" or "feet moved ... cm"
+  int runs = 0;
+};
+
+/// Scans forces resolution, 2 resolution, ... in one direction (deg, 0 forward, 90 left) with
+/// the stand scenario and `base`'s controller, weld and t_r, until the first failure.
+StandingPushScan scan_standing_push(sim::Simulation* sim, const PoseRunParams& base,
+                                    double direction_deg, const PushScanParams& scan,
+                                    const std::function<void(double)>& progress = {});
 
 }  // namespace biodyn::scenarios
