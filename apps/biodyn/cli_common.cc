@@ -1,6 +1,7 @@
 #include "cli_common.h"
 
 #include <algorithm>
+#include <exception>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
@@ -114,6 +115,14 @@ void ProgressBar::update(double fraction) {
   std::cerr << "\r" << label_ << " [" << std::string(static_cast<size_t>(filled), '#')
             << std::string(static_cast<size_t>(kWidth - filled), '.') << "] " << percent << "%"
             << std::flush;
+}
+
+ProgressBar::~ProgressBar() {
+  if (std::uncaught_exceptions() == 0) {
+    finish();
+  } else if (tty_ && last_percent_ >= 0 && !done_) {
+    std::cerr << "\n";
+  }
 }
 
 void ProgressBar::finish() {

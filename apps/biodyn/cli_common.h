@@ -49,7 +49,9 @@ class ProgressBar {
   void update(double fraction);
   /// Prints the final state and a newline (idempotent).
   void finish();
-  ~ProgressBar() { finish(); }
+  /// Finishes, unless an exception is unwinding: then the bar only ends its line, so the
+  /// error message stays the one line the user reads.
+  ~ProgressBar();
 
  private:
   std::string label_;

@@ -136,3 +136,80 @@ TEST_CASE("Outputs to devices and through symlinks leave them in place", "[apps]
   CHECK_THAT(slurp(dir / "stdout.txt"), Catch::Contains("\"total_mass_kg\""));
   CHECK(fs::symlink_status("/dev/stdout").type() == stdout_type);
 }
+
+TEST_CASE("biodyn pose, stand-push and bench write the fields the issue names", "[apps][cli][pose]") {
+  const fs::path dir = fresh_dir("pose");
+  {
+    const Run r = run_biodyn("pose --scenario squat --reaction-time 0.1 --json squat.json", dir);
+    INFO(r.err);
+    REQUIRE(r.exit_code == 0);
+    CHECK_THAT(r.out, Catch::Contains("weld honest") && Catch::Contains("stayed up"));
+    const auto j = nlohmann::json::parse(slurp(dir / "squat.json"));
+    CHECK(j["fallen"] == false);
+    CHECK(j["weld"] == "honest");
+    CHECK(j["weld_tension_steps"] == 0);
+    CHECK(j["max_orientation_error_deg"].get<double>() < 3);
+    CHECK(j["max_torque_ratio"].get<double>() <= 1.0 + 1e-9);
+    CHECK(j["realtime_factor"].get<double>() > 0);
+    CHECK(j["targets"].size() == 3);
+  }
+  {
+    // Every output says which weld mode produced it.
+    const Run r = run_biodyn("pose --duration 2 --weld glue --controller pd --json glue.json", dir);
+    INFO(r.err);
+    REQUIRE(r.exit_code == 0);
+    CHECK_THAT(r.out, Catch::Contains("weld glue") && Catch::Contains("pd controller"));
+    const auto j = nlohmann::json::parse(slurp(dir / "glue.json"));
+    CHECK(j["weld"] == "glue");
+    CHECK(j["controller"] == "pd");
+  }
+  {
+    const Run r = run_biodyn(
+        "stand-push --directions 0 --welds honest --resolution 150 --max-force 300 --json push.json",
+        dir);
+    INFO(r.err);
+    REQUIRE(r.exit_code == 0);
+    const auto j = nlohmann::json::parse(slurp(dir / "push.json"));
+    REQUIRE(j["results"].size() == 1);
+    CHECK(j["results"][0]["max_survived_N"].get<double>() == 150);
+    CHECK(j["results"][0]["first_failure_N"].get<double>() == 300);
+    CHECK(j["results"][0]["weld"] == "honest");
+  }
+  {
+    const Run r = run_biodyn("bench --detail gait --duration 0.5 --json bench.json", dir);
+    INFO(r.err);
+    REQUIRE(r.exit_code == 0);
+    const auto j = nlohmann::json::parse(slurp(dir / "bench.json"));
+    CHECK(j["bare_steps_per_second"].get<double>() > 0);
+    CHECK(j["controlled_steps_per_second"].get<double>() > 0);
+    CHECK(j["ratio"].get<double>() ==
+          Approx(j["controlled_steps_per_second"].get<double>() / j["bare_steps_per_second"].get<double>()));
+  }
+}
+
+TEST_CASE("Bad pose options exit 2 with one line naming the value, nothing written",
+          "[apps][cli][pose]") {
+  const fs::path dir = fresh_dir("pose_bad");
+  std::ofstream(dir / "bad_params.json") << R"({"joints": {"knee": {"reaction_time_s": -1}}})";
+  const std::pair<const char*, const char*> cases[] = {
+      {"pose --scenario cartwheel", "cartwheel"},
+      {"pose --controller fuzzy", "fuzzy"},
+      {"pose --weld tape", "tape"},
+      {"pose --push 100,0.2", "100,0.2"},
+      {"pose --params bad_params.json", "bad_params.json"},
+      {"pose --reaction-time 5", "5"},
+      {"stand-push --directions north", "north"},
+      {"stand-push --welds superglue", "superglue"},
+      {"stand-push --resolution 0", "resolution"},
+      {"bench --weld tape", "tape"},
+  };
+  for (const auto& [args, value] : cases) {
+    INFO(args);
+    const Run r = run_biodyn(std::string(args) + " --json out.json", dir);
+    INFO(r.err);
+    CHECK(r.exit_code == 2);
+    CHECK(std::count(r.err.begin(), r.err.end(), '\n') == 1);
+    CHECK_THAT(r.err, Catch::Contains(value));
+    CHECK(!fs::exists(dir / "out.json"));
+  }
+}

@@ -106,6 +106,11 @@ PoseRunResult run_pose(sim::Simulation* sim, const PoseRunParams& params,
   controllers::ControllerParams cp = controllers::default_params(m, groups);
   if (!params.params_json.empty()) {
     controllers::apply_params_json(params.params_json, params.params_source, groups, &cp);
+    try {
+      cp.validate(m.opt.timestep);
+    } catch (const sim::InvalidArgument& e) {
+      throw sim::InvalidArgument(params.params_source + ": " + e.what());
+    }
   }
   if (params.reaction_time_s > 0) {
     for (controllers::JointParams& j : cp.joints) j.reaction_time_s = params.reaction_time_s;
@@ -297,11 +302,14 @@ StandingPushScan scan_standing_push(sim::Simulation* sim, const PoseRunParams& b
                                     double direction_deg, const PushScanParams& scan,
                                     const std::function<void(double)>& progress) {
   if (!(scan.resolution_N > 0)) {
-    throw sim::InvalidArgument("push scan resolution: must be > 0 N, got " + std::to_string(scan.resolution_N));
+    std::ostringstream msg;
+    msg << "push scan resolution: must be > 0 N, got " << scan.resolution_N;
+    throw sim::InvalidArgument(msg.str());
   }
   if (!(scan.max_force_N >= scan.resolution_N)) {
-    throw sim::InvalidArgument("push scan max force: must be >= the resolution, got " +
-                               std::to_string(scan.max_force_N) + " N");
+    std::ostringstream msg;
+    msg << "push scan max force: must be >= the resolution, got " << scan.max_force_N << " N";
+    throw sim::InvalidArgument(msg.str());
   }
   StandingPushScan out;
   out.direction_deg = direction_deg;
