@@ -13,6 +13,29 @@
 
 namespace biodyn::apps {
 
+std::vector<std::string> split_commas(const std::string& text) {
+  std::vector<std::string> out;
+  std::stringstream in(text);
+  std::string part;
+  while (std::getline(in, part, ',')) out.push_back(part);
+  return out;
+}
+
+std::vector<double> parse_number_list(const std::string& text, const std::string& option,
+                                      const std::string& expected) {
+  std::vector<double> out;
+  for (const std::string& part : split_commas(text)) {
+    try {
+      std::size_t used = 0;
+      out.push_back(std::stod(part, &used));
+      if (used != part.size()) throw std::invalid_argument(part);
+    } catch (const std::exception&) {
+      throw sim::InvalidArgument(option + ": expected " + expected + ", got '" + text + "'");
+    }
+  }
+  return out;
+}
+
 void CharacterOptions::add_to(CLI::App* cmd, bool with_overrides) {
   cmd->add_option("--height", height_m, "Standing height, m")->capture_default_str();
   cmd->add_option("--mass", mass_kg, "Body mass, kg")->capture_default_str();

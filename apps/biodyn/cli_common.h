@@ -4,6 +4,7 @@
 
 #include <CLI/CLI.hpp>
 #include <string>
+#include <vector>
 
 #include "biodyn/models/character.h"
 
@@ -23,6 +24,14 @@ struct CharacterOptions {
   /// validates the values. Throws sim::InvalidArgument naming the field and value.
   models::CharacterSpec to_spec() const;
 };
+
+/// Splits "a,b,c" at the commas (an empty text gives no items).
+std::vector<std::string> split_commas(const std::string& text);
+
+/// Numbers separated by commas, e.g. "150,0.2,0"; throws sim::InvalidArgument
+/// "<option>: expected <expected>, got '<text>'" on anything else.
+std::vector<double> parse_number_list(const std::string& text, const std::string& option,
+                                      const std::string& expected);
 
 /// Reads a whole text file; throws sim::InvalidArgument naming the path if it can't.
 std::string read_text_file(const std::string& path);

@@ -18,23 +18,9 @@ namespace {
 
 // "N,dur,deg" -> push.
 scenarios::PosePush parse_push(const std::string& text, double onset_s) {
-  std::stringstream in(text);
-  std::string part;
-  std::vector<double> v;
-  while (std::getline(in, part, ',')) {
-    try {
-      std::size_t used = 0;
-      v.push_back(std::stod(part, &used));
-      if (used != part.size()) throw std::invalid_argument(part);
-    } catch (const std::exception&) {
-      throw sim::InvalidArgument("--push: expected N,duration_s,direction_deg (e.g. 150,0.2,0), got '" +
-                                 text + "'");
-    }
-  }
-  if (v.size() != 3) {
-    throw sim::InvalidArgument("--push: expected 3 numbers N,duration_s,direction_deg, got '" +
-                               text + "'");
-  }
+  const std::string expected = "3 numbers N,duration_s,direction_deg (e.g. 150,0.2,0)";
+  const std::vector<double> v = parse_number_list(text, "--push", expected);
+  if (v.size() != 3) throw sim::InvalidArgument("--push: expected " + expected + ", got '" + text + "'");
   scenarios::PosePush p;
   p.force_N = v[0];
   p.duration_s = v[1];

@@ -16,27 +16,10 @@
 namespace biodyn::apps {
 namespace {
 
-std::vector<std::string> split_commas(const std::string& text) {
-  std::vector<std::string> out;
-  std::stringstream in(text);
-  std::string part;
-  while (std::getline(in, part, ',')) out.push_back(part);
-  return out;
-}
-
 std::vector<double> parse_directions(const std::string& text) {
-  std::vector<double> out;
-  for (const std::string& part : split_commas(text)) {
-    try {
-      std::size_t used = 0;
-      out.push_back(std::stod(part, &used));
-      if (used != part.size()) throw std::invalid_argument(part);
-    } catch (const std::exception&) {
-      throw sim::InvalidArgument("--directions: expected degrees separated by commas (0 forward, 90 left), got '" +
-                                 text + "'");
-    }
-  }
-  if (out.empty()) throw sim::InvalidArgument("--directions: at least one direction, got '" + text + "'");
+  const std::string expected = "degrees separated by commas (0 forward, 90 left)";
+  std::vector<double> out = parse_number_list(text, "--directions", expected);
+  if (out.empty()) throw sim::InvalidArgument("--directions: expected " + expected + ", got '" + text + "'");
   return out;
 }
 
