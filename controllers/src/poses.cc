@@ -157,6 +157,8 @@ double place_in_pose(const mjModel& m, mjData& d, const std::vector<JointGroup>&
   const double sole_z = std::min(sole_point_W(d, foot[0], point_B[0]).z(),
                                  sole_point_W(d, foot[1], point_B[1]).z());
   const int stance_foot = pose.stance[0] ? foot[0] : foot[1];
+  // Feet that carry the body (both if the pose names none).
+  const bool carries[2] = {pose.stance[0] || !pose.stance[1], pose.stance[1] || !pose.stance[0]};
 
   // CoM x minus support point x for a lean `tilt`, with the feet flat and on the floor.
   const auto place = [&](double tilt) {
@@ -173,7 +175,7 @@ double place_in_pose(const mjModel& m, mjData& d, const std::vector<JointGroup>&
     Vector2d support = Vector2d::Zero();
     int n = 0;
     for (int s = 0; s < 2; ++s) {
-      if (!pose.stance[static_cast<std::size_t>(s)]) continue;
+      if (!carries[s]) continue;
       const Vector3d p = sole_point_W(d, foot[s], point_B[s]);
       lowest = std::min(lowest, p.z());
       support += p.head<2>();

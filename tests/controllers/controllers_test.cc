@@ -275,3 +275,48 @@ TEST_CASE("Glue weld goes into tension when the body is lifted; honest does not"
     }
   }
 }
+
+TEST_CASE("Hinge targets are clamped inside the joint stops; ball joints are left alone",
+          "[controllers]") {
+  const sim::Model model = character();
+  const std::vector<JointGroup> groups = controllers::find_joint_groups(*model.get());
+  const JointGroup& knee = groups[static_cast<std::size_t>(controllers::find_group(groups, "knee_l"))];
+  REQUIRE(knee.range_rad.size() == 1);
+  const double margin = 2 * kDeg;
+  CHECK(controllers::clamp_to_range(knee, Eigen::Vector3d(-0.3, 0, 0), margin)[0] ==
+        Approx(knee.range_rad[0][0] + margin));
+  CHECK(controllers::clamp_to_range(knee, Eigen::Vector3d(9, 0, 0), margin)[0] ==
+        Approx(knee.range_rad[0][1] - margin));
+  CHECK(controllers::clamp_to_range(knee, Eigen::Vector3d(1, 0, 0), margin)[0] == 1);
+  const JointGroup& hip = groups[static_cast<std::size_t>(controllers::find_group(groups, "hip_l"))];
+  CHECK(controllers::clamp_to_range(hip, Eigen::Vector3d(9, 9, 9), margin) == Eigen::Vector3d(9, 9, 9));
+}
+
+TEST_CASE("place_in_pose: feet flat at rest height, CoM over the support point, at rest",
+          "[controllers]") {
+  sim::Simulation sim(character());
+  const mjModel& m = sim.model();
+  mjData& d = sim.data();
+  const std::vector<JointGroup> groups = controllers::find_joint_groups(m);
+  const int foot[2] = {mj_name2id(&m, mjOBJ_BODY, "foot_l"), mj_name2id(&m, mjOBJ_BODY, "foot_r")};
+  const controllers::Sole sole = controllers::find_sole(m, foot[0]);
+  const double rest_sole_z = d.xpos[3 * foot[0] + 2] + sole.z;  // after reset: qpos0
+  for (const std::string scenario : {"stand", "squat"}) {
+    const std::vector<controllers::Pose> poses = controllers::pose_scenario(scenario, groups, 0);
+    const controllers::Pose& pose = scenario == "stand" ? poses[0] : poses[1];  // squat: down
+    controllers::BalanceParams balance;
+    sim.reset();
+    const double lean = controllers::place_in_pose(m, d, groups, pose, balance);
+    INFO(scenario << ", lean " << lean);
+    CHECK(std::abs(lean) < balance.max_tilt_rad);
+    double support_x = 0;
+    for (int s = 0; s < 2; ++s) {
+      // Flat: the foot frame's z axis is vertical, and the sole at its rest height.
+      CHECK(d.xmat[9 * foot[s] + 8] == Approx(1).margin(1e-9));
+      CHECK(d.xpos[3 * foot[s] + 2] + sole.z == Approx(rest_sole_z).margin(1e-9));
+      support_x += d.xpos[3 * foot[s]] + sole.x_min + balance.support_point_fraction * (sole.x_max - sole.x_min);
+    }
+    CHECK(d.subtree_com[0] == Approx(support_x / 2).margin(1e-3));
+    for (int i = 0; i < m.nv; ++i) CHECK(d.qvel[i] == 0);
+  }
+}
