@@ -140,7 +140,8 @@ TEST_CASE("Outputs to devices and through symlinks leave them in place", "[apps]
 TEST_CASE("biodyn pose, stand-push and bench write the fields the issue names", "[apps][cli][pose]") {
   const fs::path dir = fresh_dir("pose");
   {
-    const Run r = run_biodyn("pose --scenario squat --reaction-time 0.1 --json squat.json", dir);
+    const Run r = run_biodyn(
+        "pose --scenario squat --reaction-time 0.1 --json squat.json --csv squat.csv", dir);
     INFO(r.err);
     REQUIRE(r.exit_code == 0);
     CHECK_THAT(r.out, Catch::Contains("weld honest") && Catch::Contains("stayed up"));
@@ -152,6 +153,19 @@ TEST_CASE("biodyn pose, stand-push and bench write the fields the issue names", 
     CHECK(j["max_torque_ratio"].get<double>() <= 1.0 + 1e-9);
     CHECK(j["realtime_factor"].get<double>() > 0);
     CHECK(j["targets"].size() == 3);
+    // The per-step trace logs the weld force; every line has the header's columns.
+    std::istringstream csv(slurp(dir / "squat.csv"));
+    std::string header, line;
+    std::getline(csv, header);
+    CHECK_THAT(header, Catch::Contains("weld_fz_l") && Catch::Contains("tension_excess_r"));
+    int lines = 0;
+    while (std::getline(csv, line)) {
+      ++lines;
+      if (std::count(line.begin(), line.end(), ',') != std::count(header.begin(), header.end(), ',')) {
+        FAIL("line " << lines << " has a different number of columns: " << line);
+      }
+    }
+    CHECK(lines == j["steps"].get<int>());
   }
   {
     // Every output says which weld mode produced it.

@@ -177,6 +177,7 @@ PoseRunResult run_pose(sim::Simulation* sim, const PoseRunParams& params,
   if (params.trace) {
     *params.trace << "time_s,pose,com_x,com_y,com_z,pelvis_z,cp_error_x,cp_error_y,"
                      "sagittal_tilt_rad,frontal_tilt_rad,hip_flexion_rad,weld_l,weld_r,"
+                     "weld_fx_l,weld_fy_l,weld_fz_l,weld_fx_r,weld_fy_r,weld_fz_r,"
                      "ground_fz_l,ground_fz_r,tension_excess_l,tension_excess_r,"
                      "max_torque_ratio,saturated_dofs,redone\n";
   }
@@ -210,6 +211,9 @@ PoseRunResult run_pose(sim::Simulation* sim, const PoseRunParams& params,
                     << e.x() << ',' << e.y() << ',' << rep.balance.sagittal_tilt << ','
                     << rep.balance.frontal_tilt << ',' << rep.balance.hip_flexion << ','
                     << rep.weld_active[0] << ',' << rep.weld_active[1] << ','
+                    << rep.weld[0].force_W.x() << ',' << rep.weld[0].force_W.y() << ','
+                    << rep.weld[0].force_W.z() << ',' << rep.weld[1].force_W.x() << ','
+                    << rep.weld[1].force_W.y() << ',' << rep.weld[1].force_W.z() << ','
                     << rep.weld[0].ground_force_W.z() << ',' << rep.weld[1].ground_force_W.z()
                     << ',' << rep.weld[0].tension_excess_N << ',' << rep.weld[1].tension_excess_N
                     << ',' << rep.joints.max_torque_ratio << ',' << rep.joints.saturated_dofs

@@ -35,8 +35,9 @@ struct PoseRunParams {
   /// Joint-velocity RMS is reported per window of this length (stability check), s.
   double velocity_window_s = 5.0;
   /// If set, one CSV line per step is written here (header first): time, CoM, pelvis
-  /// height, capture-point error, balance offsets, welds (on, ground force, tension
-  /// excess), torque ratio, saturated DOFs, honest-mode redos.
+  /// height, capture-point error, balance offsets, welds (on, weld force on each foot in
+  /// world x y z, total ground force z, tension excess), torque ratio, saturated DOFs,
+  /// honest-mode redos.
   std::ostream* trace = nullptr;
   void validate() const;  ///< throws sim::InvalidArgument
 };
