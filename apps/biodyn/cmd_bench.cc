@@ -49,8 +49,7 @@ Command add_bench_command(CLI::App* app) {
             const auto groups = controllers::find_joint_groups(m);
             controllers::CharacterController ctrl(&sim, controllers::default_params(m, groups),
                                                   config);
-            ctrl.reset();
-            ctrl.set_pose(controllers::pose_scenario("stand", groups, 0).front());
+            ctrl.reset_in_pose(controllers::pose_scenario("stand", groups, 0).front());
             const int steps = static_cast<int>(o->duration_s / m.opt.timestep);
 
             // Controlled steps, keeping every start state and the torques applied, so the bare

@@ -3,6 +3,9 @@
 #include <algorithm>
 #include <cassert>
 #include <cmath>
+#include <limits>
+
+#include "biodyn/sim/queries.h"
 
 namespace biodyn::controllers {
 namespace {
@@ -17,12 +20,13 @@ constexpr double kTargetLimitMargin_rad = 2.0 * M_PI / 180.0;
 // angle; 2 keeps it gentler (the balance integrator asks for more if needed).
 constexpr double kUnmetTiltToHip = 2.0;
 
-// A geom of `foot` or of its children (toes) touches a world geom (the floor).
-bool foot_on_floor(const mjModel& m, const mjData& d, int foot) {
-  for (int c = 0; c < d.ncon; ++c) {
-    const int b1 = m.geom_bodyid[d.contact[c].geom1], b2 = m.geom_bodyid[d.contact[c].geom2];
-    const int other = b1 == 0 ? b2 : b2 == 0 ? b1 : -1;
-    if (other == foot || (other > 0 && m.body_parentid[other] == foot)) return true;
+// A geom of `foot` or of its children (toes) has a contact with the floor (any MuJoCo lists,
+// margin included).
+bool foot_on_floor(const mjModel& m, const mjData& d, int floor_geom, int foot) {
+  constexpr double kAnyDistance = std::numeric_limits<double>::infinity();
+  for (int b = foot; b < m.nbody; ++b) {
+    if (b != foot && m.body_parentid[b] != foot) continue;
+    if (sim::floor_contact_count(m, d, floor_geom, b, kAnyDistance) > 0) return true;
   }
   return false;
 }
@@ -46,6 +50,7 @@ CharacterController::CharacterController(sim::Simulation* sim, ControllerParams 
       qfrc_limit_(static_cast<std::size_t>(sim->model().nv)),
       qfrc_other_(static_cast<std::size_t>(sim->model().nv)),
       torque_(static_cast<std::size_t>(sim->model().nv)) {
+  floor_geom_ = mj_name2id(&sim->model(), mjOBJ_GEOM, "floor");
   const char* sides[2] = {"_l", "_r"};
   for (int s = 0; s < 2; ++s) {
     foot_[s] = mj_name2id(&sim->model(), mjOBJ_BODY, (std::string("foot") + sides[s]).c_str());
@@ -153,7 +158,7 @@ void CharacterController::control(mjData& d, bool* outside) {
   if (joints_.kind() == ControllerKind::kPd) {
     int supports[2], n = 0;
     for (int s = 0; s < 2; ++s)
-      if (foot_on_floor(m, d, foot_[s])) supports[n++] = foot_[s];
+      if (foot_on_floor(m, d, floor_geom_, foot_[s])) supports[n++] = foot_[s];
     joints_.update_pd_gains(m, d, supports, n);
   }
   last_status_ = joints_.compute(m, d, qfrc_other_.data(), torque_.data());

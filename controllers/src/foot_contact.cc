@@ -167,13 +167,7 @@ void FootWelds::engage_at_strikes(mjModel& m, const mjData& d) {
   for (Foot& f : feet_) {
     if (f.eq < 0 || !f.stance || m.eq_active[f.eq]) continue;
     if (d.time < f.released_at + params_.reengage_delay_s) continue;
-    int touching = 0;
-    for (int c = 0; c < d.ncon; ++c) {
-      const mjContact& con = d.contact[c];
-      const int other = con.geom1 == floor_geom_ ? con.geom2 : con.geom2 == floor_geom_ ? con.geom1 : -1;
-      if (other >= 0 && m.geom_bodyid[other] == f.body && con.dist <= 0) ++touching;
-    }
-    if (touching < params_.engage_min_contacts) continue;
+    if (sim::floor_contact_count(m, d, floor_geom_, f.body) < params_.engage_min_contacts) continue;
     // Honest: only weld a foot whose contacts alone already hold it well inside the cone, so
     // the weld shares load the contacts could carry and switching it on changes nothing.
     const std::size_t side = static_cast<std::size_t>(&f - feet_.data());

@@ -127,6 +127,14 @@ void write_pose_angles(const mjModel& m, mjData& d, const std::vector<JointGroup
   }
 }
 
+// The balance's support point on a sole, foot frame: `fraction` of the way from heel to toe
+// tip, on the sole's centre line and plane.
+Vector3d balance_point_B(const Sole& sole, double fraction) {
+  Vector3d p = sole.centre_B();
+  p.x() = sole.x_min + fraction * (sole.x_max - sole.x_min);
+  return p;
+}
+
 Vector3d sole_point_W(const mjData& d, int foot, const Vector3d& point_B) {
   const Eigen::Map<const Eigen::Matrix<mjtNum, 3, 3, Eigen::RowMajor>> R(d.xmat + 9 * foot);
   return Vector3d(d.xpos[3 * foot], d.xpos[3 * foot + 1], d.xpos[3 * foot + 2]) + R * point_B;
@@ -146,11 +154,7 @@ double place_in_pose(const mjModel& m, mjData& d, const std::vector<JointGroup>&
   mjtNum* root = d.qpos + m.jnt_qposadr[root_joint];
   const double x0 = root[0], y0 = root[1];
   Vector3d point_B[2];
-  for (int s = 0; s < 2; ++s) {
-    const Sole sole = find_sole(m, foot[s]);
-    point_B[s] = sole.centre_B();
-    point_B[s].x() = sole.x_min + balance.support_point_fraction * (sole.x_max - sole.x_min);
-  }
+  for (int s = 0; s < 2; ++s) point_B[s] = balance_point_B(find_sole(m, foot[s]), balance.support_point_fraction);
   // Rest height of the soles (the model's own standing state).
   mju_copy(d.qpos, m.qpos0, m.nq);
   mj_kinematics(&m, &d);
@@ -226,8 +230,7 @@ StandingBalance::StandingBalance(const mjModel& m, BalanceParams params) : param
   }
   for (int s = 0; s < 2; ++s) {
     const Sole sole = find_sole(m, foot_[s]);
-    support_point_B_[s] = sole.centre_B();
-    support_point_B_[s].x() = sole.x_min + params_.support_point_fraction * (sole.x_max - sole.x_min);
+    support_point_B_[s] = balance_point_B(sole, params_.support_point_fraction);
     foot_half_length_ = (sole.x_max - sole.x_min) / 2;
   }
   leg_length_ = m.qpos0[2];  // pelvis (hip-centre) height when standing
@@ -253,13 +256,7 @@ BalanceOffsets StandingBalance::update(const mjModel& m, const mjData& d, Suppor
   BalanceOffsets out;
   // Support centre (world, horizontal).
   Vector2d feet[2];
-  for (int s = 0; s < 2; ++s) {
-    const Eigen::Map<const Eigen::Matrix<mjtNum, 3, 3, Eigen::RowMajor>> R(d.xmat + 9 * foot_[s]);
-    const Vector3d c = Vector3d(d.xpos[3 * foot_[s]], d.xpos[3 * foot_[s] + 1],
-                                d.xpos[3 * foot_[s] + 2]) +
-                       R * support_point_B_[s];
-    feet[s] = c.head<2>();
-  }
+  for (int s = 0; s < 2; ++s) feet[s] = sole_point_W(d, foot_[s], support_point_B_[s]).head<2>();
   centre_ = support == Support::kBoth ? Vector2d(0.5 * (feet[0] + feet[1]))
             : support == Support::kLeft ? feet[0]
                                         : feet[1];

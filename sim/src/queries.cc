@@ -62,6 +62,17 @@ void floor_contacts(const mjModel& m, const mjData& d, int floor_geom,
   }
 }
 
+int floor_contact_count(const mjModel& m, const mjData& d, int floor_geom, int body,
+                        double max_distance_m) {
+  int count = 0;
+  for (int i = 0; i < d.ncon; ++i) {
+    const mjContact& c = d.contact[i];
+    const int other = c.geom1 == floor_geom ? c.geom2 : c.geom2 == floor_geom ? c.geom1 : -1;
+    if (other >= 0 && m.geom_bodyid[other] == body && c.dist <= max_distance_m) ++count;
+  }
+  return count;
+}
+
 Pose body_pose(const mjModel& m, const mjData& d, int body) {
   if (body < 0 || body >= m.nbody) {
     throw InvalidArgument("body_pose: body id " + std::to_string(body) + " out of range");

@@ -96,6 +96,7 @@ class CharacterController {
   std::vector<mjtNum> qfrc_limit_, qfrc_other_, torque_;
   int group_ankle_[2] = {-1, -1}, group_hip_[2] = {-1, -1};
   int foot_[2] = {-1, -1};  // body ids of foot_l, foot_r
+  int floor_geom_ = -1;
   JointControlStatus last_status_;
   int last_outside_ = 0;
 };

@@ -40,6 +40,12 @@ struct FloorContact {
 void floor_contacts(const mjModel& m, const mjData& d, int floor_geom,
                     std::vector<FloorContact>* out);
 
+/// Number of contacts between `floor_geom` and the geoms of `body` whose signed distance is
+/// at most `max_distance_m` (0: touching or penetrating; larger counts contacts MuJoCo keeps
+/// within the geoms' margin). No allocation.
+int floor_contact_count(const mjModel& m, const mjData& d, int floor_geom, int body,
+                        double max_distance_m = 0.0);
+
 /// Pose of a body frame in the world.
 struct Pose {
   Eigen::Vector3d position_W = Eigen::Vector3d::Zero();  ///< m
