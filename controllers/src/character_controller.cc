@@ -138,11 +138,31 @@ void CharacterController::apply_targets() {
   }
 }
 
+void CharacterController::set_joint_target(int group, const Eigen::Quaterniond& orientation,
+                                           double reach_at_s) {
+  joints_.set_target(group, orientation, reach_at_s);
+}
+
+void CharacterController::set_joint_angles(int group, Eigen::Vector3d angles_rad, double reach_at_s) {
+  const JointGroup& g = groups()[static_cast<std::size_t>(group)];
+  angles_rad = clamp_to_range(g, angles_rad, kTargetLimitMargin_rad);
+  joints_.set_target(group, orientation_from_angles(g, angles_rad), reach_at_s);
+}
+
+void CharacterController::set_stance(int side, bool stance) {
+  if (welds_.stance(side) != stance) welds_.set_stance(sim_->mutable_model(), side, stance);
+}
+
 void CharacterController::control(mjData& d, bool* outside) {
   mjModel& m = sim_->mutable_model();
   const int nv = m.nv;
-  offsets_ = balance_.update(m, d, pose_.support, m.opt.timestep);
-  apply_targets();
+  if (driver_ != nullptr) {
+    offsets_ = BalanceOffsets{};
+    driver_->drive(*this, m, d);
+  } else {
+    offsets_ = balance_.update(m, d, pose_.support, m.opt.timestep);
+    apply_targets();
+  }
   welds_.engage_at_strikes(m, d);
 
   std::fill(qfrc_limit_.begin(), qfrc_limit_.end(), 0.0);
@@ -202,6 +222,7 @@ StepReport CharacterController::step() {
     report.weld[static_cast<std::size_t>(s)] = welds_.wrench(s);
     report.weld_active[static_cast<std::size_t>(s)] = welds_.active(m, s);
   }
+  last_report_ = report;
   return report;
 }
 

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <utility>
 
 #include "biodyn/sim/errors.h"
@@ -85,6 +86,8 @@ JointController::JointController(const mjModel& m, std::vector<JointGroup> group
   for (auto* v : {&tau_max_, &rate_, &tau_prev_, &tau_, &lo_, &hi_, &qacc_des_, &qacc_pred_,
                   &error_dof_, &vel_dof_, &kp_, &kd_, &zero_})
     v->assign(nv, 0.0);
+  window_lo_.assign(nv, -std::numeric_limits<double>::infinity());
+  window_hi_.assign(nv, std::numeric_limits<double>::infinity());
   for (const JointGroup& g : groups_)
     for (int k = 0; k < g.dof_count; ++k) actuated_[idx(g.dof_begin + k)] = 1;
   refresh_limits(m.opt.timestep);
@@ -117,6 +120,11 @@ void JointController::set_target(int group, const Quaterniond& orientation, doub
   JointTarget& t = targets_[idx(group)];
   t.orientation = orientation.normalized();
   t.reach_at_s = reach_at_s;
+}
+
+void JointController::limit_torque_once(int dof, double lo, double hi) {
+  window_lo_[idx(dof)] = std::max(window_lo_[idx(dof)], lo);
+  window_hi_[idx(dof)] = std::min(window_hi_[idx(dof)], hi);
 }
 
 double JointController::orientation_error(const mjModel& m, const mjData& d, int group) const {
@@ -201,6 +209,20 @@ JointControlStatus JointController::compute(const mjModel& m, mjData& d,
     lo_[k] = std::max(-tau_max_[k], tau_prev_[k] - rate_[k]);
     hi_[k] = std::min(tau_max_[k], tau_prev_[k] + rate_[k]);
     qacc_des_[k] = 0;
+    // A window from limit_torque_once: intersect, or the muscle's nearest reachable torque.
+    const mjtNum w_lo = window_lo_[k], w_hi = window_hi_[k];
+    if (w_lo > lo_[k] || w_hi < hi_[k]) {
+      if (w_lo > hi_[k]) {
+        lo_[k] = hi_[k];
+      } else if (w_hi < lo_[k]) {
+        hi_[k] = lo_[k];
+      } else {
+        lo_[k] = std::max(lo_[k], w_lo);
+        hi_[k] = std::min(hi_[k], w_hi);
+      }
+    }
+    window_lo_[k] = -std::numeric_limits<double>::infinity();
+    window_hi_[k] = std::numeric_limits<double>::infinity();
   }
   JointControlStatus status;
   if (kind_ == ControllerKind::kVelocity) {

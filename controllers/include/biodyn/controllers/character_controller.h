@@ -26,6 +26,18 @@
 
 namespace biodyn::controllers {
 
+class CharacterController;
+
+/// Something that sets the joint targets each step in place of the pose and standing balance
+/// (the gait controller). Called inside the step (after mj_step1, before the torques); in
+/// honest weld mode a step may be taken again from the same state, so drive() must give the
+/// same targets when called twice at the same time. No allocation.
+class TargetDriver {
+ public:
+  virtual ~TargetDriver() = default;
+  virtual void drive(CharacterController& controller, const mjModel& m, const mjData& d) = 0;
+};
+
 /// Choices fixed for a run.
 struct CharacterControllerConfig {
   ControllerKind kind = ControllerKind::kVelocity;
@@ -78,6 +90,23 @@ class CharacterController {
   /// One physics step of the simulation with the controllers. No allocation.
   StepReport step();
 
+  /// Hands the targets to `driver` (nullptr: back to the pose and standing balance). The
+  /// driver must outlive its use.
+  void set_driver(TargetDriver* driver) { driver_ = driver; }
+  TargetDriver* driver() const { return driver_; }
+
+  // For drivers (inside drive()):
+  /// Group `group`'s target, due at `reach_at_s`; hinge angles are clamped inside the stops
+  /// when given as angles (set_joint_angles).
+  void set_joint_target(int group, const Eigen::Quaterniond& orientation, double reach_at_s);
+  void set_joint_angles(int group, Eigen::Vector3d angles_rad, double reach_at_s);
+  /// Foot `side` (0 left, 1 right) wanted in stance (may weld at strike) or swing (released).
+  void set_stance(int side, bool stance);
+  /// See JointController::limit_torque_once.
+  void limit_torque_once(int dof, double lo, double hi) { joints_.limit_torque_once(dof, lo, hi); }
+  sim::Simulation& simulation() { return *sim_; }
+  const StepReport& last_report() const { return last_report_; }
+
  private:
   void control(mjData& d, bool* outside);
   void apply_targets();
@@ -98,6 +127,8 @@ class CharacterController {
   int foot_[2] = {-1, -1};  // body ids of foot_l, foot_r
   int floor_geom_ = -1;
   JointControlStatus last_status_;
+  TargetDriver* driver_ = nullptr;
+  StepReport last_report_;
   int last_outside_ = 0;
 };
 

@@ -65,6 +65,12 @@ class JointController {
   void set_params(const ControllerParams& params);
 
   void set_target(int group, const Eigen::Quaterniond& orientation, double reach_at_s);
+
+  /// Narrows DOF `dof`'s torque bounds to [lo, hi] for the next compute() only, on top of the
+  /// muscle limits (e.g. a stance ankle held to what the centre of pressure under the foot
+  /// can give). If the muscle's reachable range misses the window, the torque goes to the
+  /// end of that range nearest to it. No allocation.
+  void limit_torque_once(int dof, double lo, double hi);
   const JointTarget& target(int group) const { return targets_[static_cast<std::size_t>(group)]; }
 
   /// Targets = the current pose, reach now; tau_prev = the torques that hold the current
@@ -114,6 +120,7 @@ class JointController {
   std::vector<mjtNum> tau_max_, rate_, tau_prev_, tau_, lo_, hi_;
   std::vector<mjtNum> qacc_des_, qacc_pred_, error_dof_, vel_dof_;
   std::vector<mjtNum> kp_, kd_;
+  std::vector<mjtNum> window_lo_, window_hi_;  // limit_torque_once, +-inf when unset
   std::vector<mjtNum> zero_;
 };
 

@@ -1,0 +1,170 @@
+// The walking pieces that stand on their own: the IK triangle, the base-polygon rule, the
+// gait parameters as data, torque windows and the gait driver's state machine and targets.
+#include <cmath>
+#include <nlohmann/json.hpp>
+#include <random>
+
+#include "biodyn/controllers/character_controller.h"
+#include "biodyn/controllers/gait_controller.h"
+#include "biodyn/controllers/gait_params.h"
+#include "biodyn/models/mjcf.h"
+#include "biodyn/sim/errors.h"
+#include "test_support.h"
+
+using namespace biodyn;
+using Catch::Matchers::Contains;
+
+namespace {
+
+constexpr double kDeg = M_PI / 180;
+
+sim::Model character() {
+  return testing::load_inline(models::to_mjcf(models::generate_character(models::CharacterSpec{})));
+}
+
+}  // namespace
+
+TEST_CASE("The IK triangle puts the ankle on a reachable target", "[gait]") {
+  const double l1 = 0.44, l2 = 0.45;
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> forward(-0.4, 0.5), down(-0.85, -0.6);
+  for (int trial = 0; trial < 50; ++trial) {
+    const Eigen::Vector3d r(forward(rng), 0.0, down(rng));
+    if (r.norm() > std::sqrt(l1 * l1 + l2 * l2 + 2 * l1 * l2 * std::cos(5 * kDeg))) continue;
+    const controllers::LegTriangle leg = controllers::solve_leg_triangle(l1, l2, r, 1.0, 5 * kDeg);
+    INFO("target " << r.transpose());
+    REQUIRE(leg.reachable);
+    CHECK(leg.knee_flexion_rad >= 5 * kDeg - 1e-12);
+    // Forward kinematics in the sagittal plane: thigh at hip flexion, shank knee-flexed back.
+    const double a = leg.hip_flexion_rad, b = leg.hip_flexion_rad - leg.knee_flexion_rad;
+    const Eigen::Vector3d ankle(l1 * std::sin(a) + l2 * std::sin(b), 0.0, -l1 * std::cos(a) - l2 * std::cos(b));
+    CHECK((ankle - r).norm() < 1e-9);
+  }
+}
+
+TEST_CASE("The IK triangle gives the closest reachable pose for a target out of reach", "[gait]") {
+  const double l1 = 0.44, l2 = 0.45;
+  const Eigen::Vector3d far(0.9, 0.0, -0.7);  // 1.14 m away, the leg is 0.89 m
+  const controllers::LegTriangle leg = controllers::solve_leg_triangle(l1, l2, far, 1.0, 5 * kDeg);
+  CHECK_FALSE(leg.reachable);
+  CHECK(leg.knee_flexion_rad == Approx(5 * kDeg));
+  const double a = leg.hip_flexion_rad, b = leg.hip_flexion_rad - leg.knee_flexion_rad;
+  const Eigen::Vector3d ankle(l1 * std::sin(a) + l2 * std::sin(b), 0.0, -l1 * std::cos(a) - l2 * std::cos(b));
+  // Pointing at the target, as long as the leg can be.
+  CHECK(ankle.normalized().dot(far.normalized()) == Approx(1.0).epsilon(1e-9));
+  CHECK(ankle.norm() == Approx(std::sqrt(l1 * l1 + l2 * l2 + 2 * l1 * l2 * std::cos(5 * kDeg))));
+  // Sideways: abduction leans the leg outward for either side.
+  const Eigen::Vector3d out_left(0.0, 0.1, -0.8), out_right(0.0, -0.1, -0.8);
+  CHECK(controllers::solve_leg_triangle(l1, l2, out_left, 1.0, 0).hip_abduction_rad > 0);
+  CHECK(controllers::solve_leg_triangle(l1, l2, out_right, -1.0, 0).hip_abduction_rad > 0);
+}
+
+TEST_CASE("The base-polygon step puts the CoM on the new tolerance edge (paper 4.3)", "[gait]") {
+  const double foot = 0.26;
+  for (double com_from_rear : {0.3, 0.5, 0.8}) {
+    const double step = controllers::base_polygon_step(com_from_rear, foot);
+    // New polygon: stance heel (rear) to the new foot's toe.
+    const double length = step + foot;
+    CHECK(com_from_rear / length == Approx(0.75));
+  }
+}
+
+TEST_CASE("Gait parameters round-trip through JSON and reject bad input by name", "[gait]") {
+  const controllers::GaitParams defaults = controllers::default_gait_params();
+  REQUIRE_NOTHROW(defaults.validate());
+  const nlohmann::json j = controllers::gait_to_json(defaults);
+  controllers::GaitParams back;
+  back.states.clear();
+  controllers::apply_gait_json(j.dump(), "test.json", &back);
+  CHECK(controllers::gait_to_json(back) == j);
+
+  controllers::GaitParams p = defaults;
+  controllers::apply_gait_json(R"({"placement": {"capture_gain": 1.3}})", "g.json", &p);
+  CHECK(p.placement.capture_gain == 1.3);
+  CHECK(p.states.size() == defaults.states.size());
+
+  const auto fails = [&](const std::string& text, const std::string& expected) {
+    controllers::GaitParams q = defaults;
+    INFO(text);
+    CHECK_THROWS_WITH(controllers::apply_gait_json(text, "g.json", &q), Contains(expected));
+    CHECK(controllers::gait_to_json(q) == j);  // untouched on error
+  };
+  fails(R"({"placement": {"capture_gian": 1}})", "g.json.placement.capture_gian: unknown key");
+  fails(R"({"placement": {"capture_gain": "big"}})", "g.json.placement.capture_gain: must be a number");
+  fails(R"({"placement": {"tolerance_fraction": 0.9}})", "gait.placement.tolerance_fraction: must be in (0, 0.5]");
+  fails(R"({"states": [{"name": "a", "duration_s": 0.2}]})", "must end at the strike");
+  fails(R"({"states": [{"duration_s": 0.2, "end": "strike"}]})", "g.json.states[0].name: is required");
+  fails(R"({"states": [{"name": "a", "end": "later"}]})", "g.json.states[0].end: must be \"time\" or \"strike\"");
+  fails(R"({"posture": {"cadence_steps_per_min": [100]}})", "needs one cadence per speed");
+  fails("{", "g.json: not valid JSON");
+}
+
+TEST_CASE("A torque window narrows one DOF's torque for one step", "[gait]") {
+  const sim::Model model = character();
+  const mjModel& m = *model.get();
+  sim::Data data(m);
+  mjData& d = *data.get();
+  mj_forward(&m, &d);
+  const std::vector<controllers::JointGroup> groups = controllers::find_joint_groups(m);
+  controllers::JointController joints(m, groups, controllers::default_params(m, groups),
+                                      controllers::ControllerKind::kVelocity);
+  joints.reset(m, d);
+  const int dof = groups[static_cast<std::size_t>(controllers::find_group(groups, "knee_l"))].dof_begin;
+  std::vector<mjtNum> zero(static_cast<std::size_t>(m.nv), 0.0), torque(static_cast<std::size_t>(m.nv));
+  mj_step1(&m, &d);
+  joints.limit_torque_once(dof, 3.0, 4.0);
+  joints.compute(m, d, zero.data(), torque.data());
+  CHECK(torque[static_cast<std::size_t>(dof)] >= 3.0 - 1e-9);
+  CHECK(torque[static_cast<std::size_t>(dof)] <= 4.0 + 1e-9);
+  // A window the muscle cannot reach this step (rate limit): the nearest reachable torque.
+  joints.commit();
+  const double prev = joints.previous_torque()[static_cast<std::size_t>(dof)];
+  const double rate = joints.tau_max()[static_cast<std::size_t>(dof)] * m.opt.timestep /
+                      joints.params().joints[0].reaction_time_s;
+  joints.limit_torque_once(dof, prev + 10 * rate, prev + 20 * rate);
+  joints.compute(m, d, zero.data(), torque.data());
+  CHECK(torque[static_cast<std::size_t>(dof)] == Approx(prev + rate));
+  // Only once: the next compute is free of it again.
+  joints.compute(m, d, zero.data(), torque.data());
+  CHECK(torque[static_cast<std::size_t>(dof)] != Approx(prev + rate));
+}
+
+TEST_CASE("The gait driver runs its states on time and sets the tabled targets", "[gait]") {
+  sim::Simulation sim(character());
+  const std::vector<controllers::JointGroup> groups = controllers::find_joint_groups(sim.model());
+  controllers::CharacterController ctrl(&sim, controllers::default_params(sim.model(), groups), {});
+  ctrl.reset_in_pose(controllers::pose_scenario("stand", groups, 0).front());
+  controllers::GaitParams params = controllers::default_gait_params();
+  controllers::GaitController gait(sim.model(), groups, params);
+  controllers::GaitCommand command;
+  command.speed_m_s = 0.0;
+  gait.set_command(command);
+  gait.reset(sim.model(), sim.data());
+  ctrl.set_driver(&gait);
+  // From standing the first state is the lift of the right foot (left in stance).
+  REQUIRE(gait.state_name() == "lift");
+  CHECK(gait.stance_side() == 0);
+  ctrl.step();
+  const int knee_r = controllers::find_group(groups, "knee_r");
+  const Eigen::Quaterniond want = controllers::orientation_from_angles(
+      groups[static_cast<std::size_t>(knee_r)], params.states[1].targets_rad.at("swing_knee"));
+  CHECK(controllers::rotation_angle(ctrl.joints().target(knee_r).orientation.conjugate() * want) < 1e-9);
+  // The right foot is released (swing), the left wanted in stance.
+  CHECK_FALSE(ctrl.welds().stance(1));
+  CHECK(ctrl.welds().stance(0));
+  // The lift lasts its duration scaled to the cadence at this speed, then the swing starts.
+  const double lift = params.states[1].duration_s * params.posture.reference_cadence_steps_per_min /
+                      params.cadence(0.0);
+  while (sim.data().time < lift - 1e-9) ctrl.step();
+  ctrl.step();
+  CHECK(gait.state_name() == "swing");
+}
+
+TEST_CASE("The gait driver names a target role the model does not have", "[gait]") {
+  const sim::Model model = character();
+  const std::vector<controllers::JointGroup> groups = controllers::find_joint_groups(*model.get());
+  controllers::GaitParams params = controllers::default_gait_params();
+  params.states[0].targets_rad["swing_tail"] = Eigen::Vector3d::Zero();
+  CHECK_THROWS_WITH(controllers::GaitController(*model.get(), groups, params),
+                    Contains("targets_deg.swing_tail: the model has no joint 'tail_r'"));
+}
