@@ -5,6 +5,7 @@
 #include <sstream>
 
 #include "biodyn/sim/errors.h"
+#include "json_fields.h"
 
 namespace biodyn::controllers {
 namespace {
@@ -45,22 +46,9 @@ bool is_leg(const std::string& group) {
          starts_with(group, "ankle") || starts_with(group, "toe");
 }
 
-std::string number_text(double v) {
-  std::ostringstream s;
-  s << v;
-  return s.str();
-}
-
-[[noreturn]] void fail(const std::string& where, const std::string& rule, const std::string& got) {
-  throw InvalidArgument(where + ": " + rule + ", got " + got);
-}
-
-double read_number(const Json& j, const std::string& where) {
-  if (!j.is_number()) fail(where, "must be a number", j.dump());
-  const double v = j.get<double>();
-  if (!std::isfinite(v)) fail(where, "must be finite", j.dump());
-  return v;
-}
+using json_fields::fail;
+using json_fields::number_text;
+using json_fields::read_number;
 
 void check_range(double v, double lo, double hi, const std::string& where, const char* unit) {
   if (!(v >= lo && v <= hi)) {

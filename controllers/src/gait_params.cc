@@ -4,9 +4,9 @@
 #include <cmath>
 #include <functional>
 #include <nlohmann/json.hpp>
-#include <sstream>
 
 #include "biodyn/sim/errors.h"
+#include "json_fields.h"
 
 namespace biodyn::controllers {
 namespace {
@@ -15,26 +15,14 @@ using Json = nlohmann::json;
 using sim::InvalidArgument;
 constexpr double kDeg = M_PI / 180.0;
 
-std::string text_of(double v) {
-  std::ostringstream s;
-  s << v;
-  return s.str();
-}
-
-[[noreturn]] void fail(const std::string& where, const std::string& rule, const std::string& got) {
-  throw InvalidArgument(where + ": " + rule + ", got " + got);
-}
+using json_fields::fail;
+const auto text_of = json_fields::number_text;
 
 void check(bool ok, const std::string& where, const std::string& rule, double v) {
   if (!ok) fail(where, rule, text_of(v));
 }
 
-double number(const Json& j, const std::string& where) {
-  if (!j.is_number()) fail(where, "must be a number", j.dump());
-  const double v = j.get<double>();
-  if (!std::isfinite(v)) fail(where, "must be finite", j.dump());
-  return v;
-}
+const auto number = json_fields::read_number;
 
 bool boolean(const Json& j, const std::string& where) {
   if (!j.is_boolean()) fail(where, "must be true or false", j.dump());
@@ -221,8 +209,6 @@ void GaitParams::validate() const {
         "gait.placement.min_width_fraction", "must be in [0, step_width_fraction]", f.min_width_fraction);
   check(f.strike_knee_deg >= 0 && f.strike_knee_deg <= 90, "gait.placement.strike_knee_deg", "must be in [0, 90]",
         f.strike_knee_deg);
-  check(f.clearance_fraction >= 0 && f.clearance_fraction <= 0.3, "gait.placement.clearance_fraction",
-        "must be in [0, 0.3]", f.clearance_fraction);
   check(f.tolerance_fraction > 0 && f.tolerance_fraction <= 0.5, "gait.placement.tolerance_fraction",
         "must be in (0, 0.5]", f.tolerance_fraction);
   check(f.min_swing_fraction >= 0 && f.min_swing_fraction < 1, "gait.placement.min_swing_fraction",
@@ -278,7 +264,6 @@ void apply_gait_json(const std::string& json_text, const std::string& source, Ga
                        {"step_width_fraction", num(&f.step_width_fraction)},
                        {"min_width_fraction", num(&f.min_width_fraction)},
                        {"strike_knee_deg", num(&f.strike_knee_deg)},
-                       {"clearance_fraction", num(&f.clearance_fraction)},
                        {"tolerance_fraction", num(&f.tolerance_fraction)},
                        {"base_polygon_rule", [&](const Json& b, const std::string& wb) { f.base_polygon_rule = boolean(b, wb); }},
                        {"min_swing_fraction", num(&f.min_swing_fraction)},
@@ -311,7 +296,6 @@ Json gait_to_json(const GaitParams& p) {
             {"step_width_fraction", f.step_width_fraction},
             {"min_width_fraction", f.min_width_fraction},
             {"strike_knee_deg", f.strike_knee_deg},
-            {"clearance_fraction", f.clearance_fraction},
             {"tolerance_fraction", f.tolerance_fraction},
             {"base_polygon_rule", f.base_polygon_rule},
             {"min_swing_fraction", f.min_swing_fraction},

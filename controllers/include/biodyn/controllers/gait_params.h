@@ -61,9 +61,6 @@ struct FootPlacementParams {
   double min_width_fraction = 0.5;
   /// Knee flexion at strike, deg (in the IK triangle).
   double strike_knee_deg = 5.0;
-  /// The swing foot's target is raised by this above the floor until the planned strike
-  /// is near (toe clearance), m per m of leg length.
-  double clearance_fraction = 0.0;
   /// Base polygon balance (paper §4.3): tolerance polygon = support polygon scaled about
   /// its centre so that its edges lie this fraction of the polygon's extent from the centre.
   double tolerance_fraction = 0.25;
