@@ -125,8 +125,6 @@ GaitController::GaitController(const mjModel& m, const std::vector<JointGroup>& 
   l_shank_ = vec_at(m.body_pos + 3 * foot).norm();
   const Sole sole = find_sole(m, foot);
   ankle_height_ = -sole.z;
-  sole_x_min_ = sole.x_min;
-  sole_x_max_ = sole.x_max;
   foot_length_ = sole.x_max - sole.x_min;
   foot_width_ = sole.y_max - sole.y_min;
   weight_ = 0;
@@ -343,7 +341,8 @@ void GaitController::plan_foot(const mjData& d, const sim::CenterOfMass& com) {
     const double outer = sigma > 0 ? right : left;
     const double lateral = sigma * (c.y() - outer);
     if (lateral > 0) {
-      const double min_width = 4.0 * lateral / 3.0 - foot_width_;
+      // Same rule across: the new polygon spans stance outer edge to new foot's outer edge.
+      const double min_width = base_polygon_step(lateral, foot_width_);
       if (sigma * (y - s.y()) < min_width) {
         y = s.y() + sigma * min_width;
         rule_active_ = true;

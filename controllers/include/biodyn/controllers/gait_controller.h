@@ -166,7 +166,6 @@ class GaitController : public TargetDriver {
   int pelvis_ = -1, floor_geom_ = -1;
   double l_thigh_ = 0.43, l_shank_ = 0.45, ankle_height_ = 0.07, foot_length_ = 0.26,
          foot_width_ = 0.1, hip_spacing_ = 0.17, weight_ = 785;
-  double sole_x_min_ = 0, sole_x_max_ = 0;  // foot frame, heel and toe tip (with toes)
 
   // State machine.
   int stance_ = 0, state_ = 0;
