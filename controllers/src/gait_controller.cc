@@ -369,11 +369,22 @@ void GaitController::set_targets(CharacterController& c, const mjData& d) {
   const Quaterniond q_pelvis_goal = q_heading * Quaterniond(Eigen::AngleAxisd(pitch, Vector3d::UnitY()));
   const Quaterniond q_stance_thigh = quat_at(d.xquat + 4 * thigh_[stance_]);
   c.set_joint_target(hip_[stance_], q_pelvis_goal.conjugate() * q_stance_thigh, tracking_at);
+  const Quaterniond q_pelvis = quat_at(d.xquat + 4 * pelvis_);
+  const Vector3d w_pelvis = vec_at(d.cvel + 6 * pelvis_);  // world angular velocities
+  if (foot_touches_now_[stance_]) {
+    // The pelvis's world angular velocity goes to e/t (e its world orientation error); the
+    // hip's relative velocity that gives it feeds the thigh's own rotation forward. Only
+    // with the stance foot on the floor: a thigh in the air turns with the hip instead, and
+    // feeding its rotation forward would spin it up.
+    const Vector3d w_wanted = rotation_vector(q_pelvis_goal * q_pelvis.conjugate()) /
+                              params_.posture.world_tracking_time_s;
+    const Vector3d w_thigh = vec_at(d.cvel + 6 * thigh_[stance_]);
+    c.set_velocity_once(hip_[stance_], q_stance_thigh.conjugate() * (w_thigh - w_wanted));
+  }
 
   // Swing hip: the swing thigh in the heading frame.
   const int swing = 1 - stance_;
   const JointGroup& hip = groups_[static_cast<std::size_t>(hip_[swing])];
-  const Quaterniond q_pelvis = quat_at(d.xquat + 4 * pelvis_);
   Vector3d thigh_angles = Vector3d::Zero();
   bool have = false;
   if (st.foot_placement) {
@@ -393,9 +404,46 @@ void GaitController::set_targets(CharacterController& c, const mjData& d) {
     thigh_angles = swing_hip_[static_cast<std::size_t>(state_)];
     have = true;
   }
+  if (!st.swing_foot_down && !foot_touches_now_[swing]) {
+    // The swing foot level in the heading frame (toes up by a few degrees), whatever the
+    // shank does: a foot that followed the shank back would scuff with its toes.
+    const double toe_up = params_.placement.swing_toe_up_deg * kDeg;
+    const int shank = groups_[static_cast<std::size_t>(knee_[swing])].body;
+    const Quaterniond q_shank = quat_at(d.xquat + 4 * shank);
+    const Quaterniond q_foot_goal = q_heading * Quaterniond(Eigen::AngleAxisd(-toe_up, Vector3d::UnitY()));
+    const JointGroup& ankle = groups_[static_cast<std::size_t>(ankle_[swing])];
+    c.set_joint_angles(ankle_[swing], angles_from_orientation(ankle, q_shank.conjugate() * q_foot_goal),
+                       d.time + 0.05);
+  }
+  if (!st.swing_foot_down) {
+    // Foot clearance: the swing knee bends at least enough that the ankle stays `clearance`
+    // above its standing height for the thigh where it is now (a leg swinging through the
+    // vertical with its knee already straight would scuff the floor). The clearance goes to
+    // zero over the state that ends at the strike.
+    const double c0 = params_.placement.swing_clearance_m;
+    const double phase = std::clamp((d.time - state_start_s_) / state_duration(state_), 0.0, 1.0);
+    const double clearance = st.ends_at_strike ? c0 * (1 - phase) : c0;
+    const Vector3d hip_W = vec_at(d.xpos + 3 * thigh_[swing]);
+    const int shank = groups_[static_cast<std::size_t>(knee_[swing])].body;
+    const Vector3d knee_W = vec_at(d.xpos + 3 * shank);
+    const Vector2d thigh_h = rotate((knee_W - hip_W).head<2>(), -heading_);
+    const double alpha = std::atan2(thigh_h.x(), hip_W.z() - knee_W.z());
+    const double ratio = (knee_W.z() - ankle_height_ - clearance) / l_shank_;
+    if (ratio < 1) {
+      const double knee_min = alpha + std::acos(std::max(ratio, -1.0));
+      const JointTarget& now = c.joints().target(knee_[swing]);
+      const double knee_target = 2 * std::atan2(now.orientation.vec().norm(), now.orientation.w());
+      if (knee_min > knee_target) c.set_joint_angles(knee_[swing], Vector3d(knee_min, 0, 0), d.time + 0.03);
+    }
+  }
   if (have) {
     const Quaterniond q_thigh_goal = q_heading * orientation_from_angles(hip, thigh_angles);
     c.set_joint_target(hip_[swing], q_pelvis.conjugate() * q_thigh_goal, reach_at);
+    // Same in the world frame: the thigh's world velocity to e/t_go, the pelvis's fed forward.
+    const Quaterniond q_thigh = quat_at(d.xquat + 4 * thigh_[swing]);
+    const double t_go = std::max(reach_at - d.time, params_.posture.world_tracking_time_s);
+    const Vector3d w_wanted = rotation_vector(q_thigh_goal * q_thigh.conjugate()) / t_go;
+    c.set_velocity_once(hip_[swing], q_thigh.conjugate() * (w_wanted - w_pelvis));
   } else {
     c.set_joint_angles(hip_[swing], Vector3d::Zero(), reach_at);
   }
@@ -446,9 +494,31 @@ void GaitController::limit_ankles(CharacterController& c, const mjModel& m, cons
         c.limit_torque_once(dof, tau, tau);
       } else {
         // The ankle follows its target within what the CoP inside the contacts can give.
-        c.limit_torque_once(dof, -load * (mid + half), -load * (mid - half));
+        // Zero torque is always allowed: a foot already rolled onto its toes (or heel) has
+        // every CoP-consistent torque on one side, and forcing it would push the body up.
+        c.limit_torque_once(dof, std::min(-load * (mid + half), 0.0), std::max(-load * (mid - half), 0.0));
       }
     }
+  }
+}
+
+void GaitController::apply_compliance(CharacterController& c) const {
+  const LegComplianceParams& k = params_.compliance;
+  const double mgl = weight_ * (l_thigh_ + l_shank_);  // N m per rad at k = 1
+  const auto spring = [&](int group, double stiffness) {
+    if (stiffness > 0) c.set_compliant_once(group, stiffness * mgl, stiffness * mgl * k.damping_time_s);
+  };
+  // Only with the foot on the floor: a leg in the air has the small inertia of its own
+  // segments, and a spring stiff enough to carry the body would be unstable on it.
+  if (foot_touches_now_[stance_]) {
+    spring(knee_[stance_], k.stance_knee);
+    spring(ankle_[stance_], k.stance_ankle);
+  }
+  const int swing = 1 - stance_;
+  if (foot_touches_now_[swing]) {
+    spring(hip_[swing], k.trailing_leg);
+    spring(knee_[swing], k.trailing_leg);
+    spring(ankle_[swing], k.trailing_leg);
   }
 }
 
@@ -458,10 +528,12 @@ void GaitController::drive(CharacterController& c, const mjModel& m, const mjDat
     last_time_s_ = d.time;
   }
   support_polygons(m, d);
+  for (int s = 0; s < 2; ++s) foot_touches_now_[s] = foot_touches(m, d, s);
   const sim::CenterOfMass com = sim::center_of_mass(m, d);
   plan_foot(d, com);
   set_targets(c, d);
   limit_ankles(c, m, d);
+  apply_compliance(c);
   const int swing = 1 - stance_;
   c.set_stance(stance_, true);
   c.set_stance(swing, params_.states[static_cast<std::size_t>(state_)].swing_foot_down);

@@ -215,6 +215,17 @@ void GaitParams::validate() const {
         "must be in [0, 1)", f.min_swing_fraction);
   check(f.max_swing_factor >= 1 && f.max_swing_factor <= 10, "gait.placement.max_swing_factor", "must be in [1, 10]",
         f.max_swing_factor);
+  check(f.swing_clearance_m >= 0 && f.swing_clearance_m <= 0.3, "gait.placement.swing_clearance_m",
+        "must be in [0, 0.3] m", f.swing_clearance_m);
+  check(std::abs(f.swing_toe_up_deg) <= 45, "gait.placement.swing_toe_up_deg", "must be within +-45",
+        f.swing_toe_up_deg);
+  const LegComplianceParams& c = compliance;
+  for (const auto& [name, v] : {std::pair<const char*, double>{"stance_knee", c.stance_knee},
+                                {"stance_ankle", c.stance_ankle},
+                                {"trailing_leg", c.trailing_leg}})
+    check(v >= 0 && v <= 50, std::string("gait.compliance.") + name, "must be in [0, 50]", v);
+  check(c.damping_time_s >= 0 && c.damping_time_s <= 1, "gait.compliance.damping_time_s", "must be in [0, 1] s",
+        c.damping_time_s);
   const GaitPostureParams& p = posture;
   if (p.cadence_speeds_m_s.size() != p.cadence_steps_per_min.size() || p.cadence_speeds_m_s.empty())
     fail("gait.posture.cadence_steps_per_min", "needs one cadence per speed in cadence_speeds_m_s",
@@ -267,7 +278,17 @@ void apply_gait_json(const std::string& json_text, const std::string& source, Ga
                        {"tolerance_fraction", num(&f.tolerance_fraction)},
                        {"base_polygon_rule", [&](const Json& b, const std::string& wb) { f.base_polygon_rule = boolean(b, wb); }},
                        {"min_swing_fraction", num(&f.min_swing_fraction)},
-                       {"max_swing_factor", num(&f.max_swing_factor)}});
+                       {"max_swing_factor", num(&f.max_swing_factor)},
+                       {"swing_clearance_m", num(&f.swing_clearance_m)},
+                       {"swing_toe_up_deg", num(&f.swing_toe_up_deg)}});
+        }},
+       {"compliance", [&](const Json& v, const std::string& w) {
+          LegComplianceParams& c = p.compliance;
+          read_object(v, w,
+                      {{"stance_knee", num(&c.stance_knee)},
+                       {"stance_ankle", num(&c.stance_ankle)},
+                       {"trailing_leg", num(&c.trailing_leg)},
+                       {"damping_time_s", num(&c.damping_time_s)}});
         }},
        {"posture", [&](const Json& v, const std::string& w) {
           read_object(v, w,
@@ -299,7 +320,14 @@ Json gait_to_json(const GaitParams& p) {
             {"tolerance_fraction", f.tolerance_fraction},
             {"base_polygon_rule", f.base_polygon_rule},
             {"min_swing_fraction", f.min_swing_fraction},
-            {"max_swing_factor", f.max_swing_factor}}},
+            {"max_swing_factor", f.max_swing_factor},
+            {"swing_clearance_m", f.swing_clearance_m},
+            {"swing_toe_up_deg", f.swing_toe_up_deg}}},
+          {"compliance",
+           {{"stance_knee", p.compliance.stance_knee},
+            {"stance_ankle", p.compliance.stance_ankle},
+            {"trailing_leg", p.compliance.trailing_leg},
+            {"damping_time_s", p.compliance.damping_time_s}}},
           {"posture",
            {{"cadence_speeds_m_s", q.cadence_speeds_m_s},
             {"cadence_steps_per_min", q.cadence_steps_per_min},

@@ -88,6 +88,10 @@ JointController::JointController(const mjModel& m, std::vector<JointGroup> group
     v->assign(nv, 0.0);
   window_lo_.assign(nv, -std::numeric_limits<double>::infinity());
   window_hi_.assign(nv, std::numeric_limits<double>::infinity());
+  compliant_kp_.assign(nv, 0.0);
+  compliant_kd_.assign(nv, 0.0);
+  velocity_once_.assign(nv, 0.0);
+  has_velocity_once_.assign(nv, 0);
   for (const JointGroup& g : groups_)
     for (int k = 0; k < g.dof_count; ++k) actuated_[idx(g.dof_begin + k)] = 1;
   refresh_limits(m.opt.timestep);
@@ -125,6 +129,23 @@ void JointController::set_target(int group, const Quaterniond& orientation, doub
 void JointController::limit_torque_once(int dof, double lo, double hi) {
   window_lo_[idx(dof)] = std::max(window_lo_[idx(dof)], lo);
   window_hi_[idx(dof)] = std::min(window_hi_[idx(dof)], hi);
+}
+
+void JointController::set_compliant_once(int group, double stiffness, double damping) {
+  const JointGroup& g = groups_[idx(group)];
+  for (int k = 0; k < g.dof_count; ++k) {
+    compliant_kp_[idx(g.dof_begin + k)] = std::max(stiffness, 0.0);
+    compliant_kd_[idx(g.dof_begin + k)] = std::max(damping, 0.0);
+  }
+}
+
+void JointController::set_velocity_once(int group, const Vector3d& w_body) {
+  const JointGroup& g = groups_[idx(group)];
+  if (!g.ball) return;
+  for (int k = 0; k < 3; ++k) {
+    velocity_once_[idx(g.dof_begin + k)] = w_body[k];
+    has_velocity_once_[idx(g.dof_begin + k)] = 1;
+  }
 }
 
 double JointController::orientation_error(const mjModel& m, const mjData& d, int group) const {
@@ -223,13 +244,20 @@ JointControlStatus JointController::compute(const mjModel& m, mjData& d,
     }
     window_lo_[k] = -std::numeric_limits<double>::infinity();
     window_hi_[k] = std::numeric_limits<double>::infinity();
+    // A compliant DOF: its spring-damper torque, held to the bounds, is given to the solve.
+    if (compliant_kp_[k] > 0 || compliant_kd_[k] > 0) {
+      const mjtNum tau = std::clamp(compliant_kp_[k] * error_dof_[k] - compliant_kd_[k] * d.qvel[i], lo_[k], hi_[k]);
+      lo_[k] = hi_[k] = tau;
+      compliant_kp_[k] = compliant_kd_[k] = 0;
+    }
   }
   JointControlStatus status;
   if (kind_ == ControllerKind::kVelocity) {
     for (const JointGroup& g : groups_) {
       for (int k = 0; k < g.dof_count; ++k) {
         const auto i = idx(g.dof_begin + k);
-        qacc_des_[i] = (vel_dof_[i] - d.qvel[i]) / params_.velocity_horizon_s;
+        const mjtNum w = has_velocity_once_[i] ? velocity_once_[i] : vel_dof_[i];
+        qacc_des_[i] = (w - d.qvel[i]) / params_.velocity_horizon_s;
       }
     }
     const sim::HybridDynamicsResult r =
@@ -244,6 +272,7 @@ JointControlStatus JointController::compute(const mjModel& m, mjData& d,
                              : 0.0;
     }
   }
+  std::fill(has_velocity_once_.begin(), has_velocity_once_.end(), 0);
   for (int i = 0; i < nv_; ++i) {
     const auto k = idx(i);
     torque[i] = tau_[k];

@@ -68,6 +68,7 @@ HybridDynamics::HybridDynamics(const mjModel& m, HybridDynamicsOptions options)
   g_.resize(nv);
   step_.resize(nv);
   row_.resize(nv);
+  cone_rows_.resize(static_cast<std::size_t>(6 * nv));
   desired_.resize(nv);
   const auto ne_max = static_cast<std::size_t>(6 * std::max(m.neq, 1));
   eq_lhs_.resize(ne_max * ne_max);
@@ -146,9 +147,37 @@ int HybridDynamics::minimize(const mjModel& m, mjData& d, bool* converged) {
         H_[static_cast<std::size_t>(r * n + c)] =
             M_[static_cast<std::size_t>(unknown_[static_cast<std::size_t>(r)] * nv_ +
                                         unknown_[static_cast<std::size_t>(c)])];
+    // The cone zone's exact Hessian (MuJoCo's, per contact: J_c' H_c J_c); with the
+    // quadratic zone's D J'J in its place Newton converged only linearly (hundreds of N of
+    // residual after 20 iterations with the feet on an edge).
+    mj_constraintUpdate(&m, &d, jar_.data(), nullptr, 1);
     for (int e = 0; e < d.nefc; ++e) {
       const int state = d.efc_state[e];
-      if (state != mjCNSTRSTATE_QUADRATIC && state != mjCNSTRSTATE_CONE) continue;
+      if (state == mjCNSTRSTATE_CONE) {
+        const mjContact& con = d.contact[d.efc_id[e]];
+        const int dim = con.dim;
+        for (int k = 0; k < dim; ++k) {
+          const mjtNum* J = d.efc_J + static_cast<std::ptrdiff_t>(e + k) * nv_;
+          for (int u = 0; u < n; ++u)
+            cone_rows_[static_cast<std::size_t>(k * n + u)] = J[unknown_[static_cast<std::size_t>(u)]];
+        }
+        for (int k = 0; k < dim; ++k) {
+          for (int l = 0; l < dim; ++l) {
+            const mjtNum h = con.H[k * dim + l];
+            if (h == 0) continue;
+            const mjtNum* rk = cone_rows_.data() + static_cast<std::ptrdiff_t>(k * n);
+            const mjtNum* rl = cone_rows_.data() + static_cast<std::ptrdiff_t>(l * n);
+            for (int r = 0; r < n; ++r) {
+              const mjtNum wr = h * rk[r];
+              if (wr == 0) continue;
+              for (int c = 0; c <= r; ++c) H_[static_cast<std::size_t>(r * n + c)] += wr * rl[c];
+            }
+          }
+        }
+        e += dim - 1;  // the contact's other rows are in H_c
+        continue;
+      }
+      if (state != mjCNSTRSTATE_QUADRATIC) continue;
       const mjtNum* J = d.efc_J + static_cast<std::ptrdiff_t>(e) * nv_;
       bool any = false;
       for (int u = 0; u < n; ++u) {
@@ -211,6 +240,12 @@ HybridDynamicsResult HybridDynamics::solve(const mjModel& m, mjData& d,
     b_[k] = d.qfrc_passive[i] - d.qfrc_bias[i] + qfrc_other[i];
     mode_[k] = actuated[i] ? kPrescribedAcc : kZeroForce;
     fixed_[k] = 0;
+    // A DOF whose bounds meet is torque-specified: held there from the start, never
+    // released (its acceleration wish means nothing, and testing it would cycle).
+    if (actuated[i] && force_min[i] >= force_max[i]) {
+      mode_[k] = kAtMin;
+      fixed_[k] = force_min[i];
+    }
     // Warm start: MuJoCo's last accelerations for the unknowns, the wish for the others.
     a_[k] = actuated[i] ? qacc_desired[i] : d.qacc_warmstart[i];
   }
@@ -255,7 +290,7 @@ HybridDynamicsResult HybridDynamics::solve(const mjModel& m, mjData& d,
           break;
         case kAtMin:
           force[i] = force_min[i];
-          if (a_[k] < qacc_desired[i]) {
+          if (force_min[i] < force_max[i] && a_[k] < qacc_desired[i]) {
             mode_[k] = kPrescribedAcc;
             changed = true;
           }

@@ -82,6 +82,10 @@ TEST_CASE("Gait parameters round-trip through JSON and reject bad input by name"
   controllers::apply_gait_json(R"({"placement": {"capture_gain": 1.3}})", "g.json", &p);
   CHECK(p.placement.capture_gain == 1.3);
   CHECK(p.states.size() == defaults.states.size());
+  controllers::apply_gait_json(R"({"compliance": {"stance_knee": 2.5}, "placement": {"swing_clearance_m": 0.08}})",
+                               "g.json", &p);
+  CHECK(p.compliance.stance_knee == 2.5);
+  CHECK(p.placement.swing_clearance_m == 0.08);
 
   const auto fails = [&](const std::string& text, const std::string& expected) {
     controllers::GaitParams q = defaults;
@@ -96,6 +100,9 @@ TEST_CASE("Gait parameters round-trip through JSON and reject bad input by name"
   fails(R"({"states": [{"duration_s": 0.2, "end": "strike"}]})", "g.json.states[0].name: is required");
   fails(R"({"states": [{"name": "a", "end": "later"}]})", "g.json.states[0].end: must be \"time\" or \"strike\"");
   fails(R"({"posture": {"cadence_steps_per_min": [100]}})", "needs one cadence per speed");
+  fails(R"({"compliance": {"stance_knee": -1}})", "gait.compliance.stance_knee: must be in [0, 50]");
+  fails(R"({"compliance": {"stiffness": 1}})", "g.json.compliance.stiffness: unknown key");
+  fails(R"({"placement": {"swing_clearance_m": 0.5}})", "gait.placement.swing_clearance_m: must be in [0, 0.3] m");
   fails("{", "g.json: not valid JSON");
 }
 
@@ -167,4 +174,104 @@ TEST_CASE("The gait driver names a target role the model does not have", "[gait]
   params.states[0].targets_rad["swing_tail"] = Eigen::Vector3d::Zero();
   CHECK_THROWS_WITH(controllers::GaitController(*model.get(), groups, params),
                     Contains("targets_deg.swing_tail: the model has no joint 'tail_r'"));
+}
+
+TEST_CASE("Torque-specified DOFs: the solve holds them, converges and predicts mj_step2",
+          "[gait][dynamics]") {
+  // The gait makes the legs on the floor springs (lo == hi bounds). The active set used to
+  // test them for release like saturated DOFs and cycled to its pass limit.
+  testing::MujocoWarningGuard guard;
+  sim::Simulation sim(character());
+  const mjModel& m = sim.model();
+  const std::vector<controllers::JointGroup> groups = controllers::find_joint_groups(m);
+  controllers::JointController joints(m, groups, controllers::default_params(m, groups),
+                                      controllers::ControllerKind::kVelocity);
+  sim.forward();
+  joints.reset(m, sim.data());
+  std::vector<int> springs;
+  for (const char* name : {"knee_l", "ankle_l", "hip_r", "knee_r", "ankle_r"})
+    springs.push_back(controllers::find_group(groups, name));
+  const int hip_l = controllers::find_group(groups, "hip_l");
+  joints.set_target(hip_l, controllers::orientation_from_angles(groups[static_cast<std::size_t>(hip_l)], {0.2, 0, 0}), 0.5);
+  std::vector<mjtNum> zero(static_cast<std::size_t>(m.nv), 0.0), torque(static_cast<std::size_t>(m.nv));
+  double worst = 0;
+  for (int step = 0; step < 100; ++step) {
+    std::vector<mjtNum> predicted, expected(static_cast<std::size_t>(m.nv), 0.0);
+    controllers::JointControlStatus st;
+    sim.step([&](const mjModel& mm, mjData& d) {
+      for (const int g : springs) joints.set_compliant_once(g, 400.0, 40.0);
+      st = joints.compute(mm, d, zero.data(), torque.data());
+      predicted = joints.predicted_qacc();
+      for (int i = 0; i < mm.nv; ++i) d.qfrc_applied[i] = torque[static_cast<std::size_t>(i)];
+    });
+    REQUIRE(st.converged);
+    joints.commit();
+    for (int i = 0; i < m.nv; ++i)
+      worst = std::max(worst, std::abs(sim.data().qacc[i] - predicted[static_cast<std::size_t>(i)]));
+  }
+  CHECK(worst < 1e-4);
+  testing::MujocoWarningGuard::check(sim);
+}
+
+TEST_CASE("A compliant group gets its spring-damper torque for one step", "[gait]") {
+  const sim::Model model = character();
+  const mjModel& m = *model.get();
+  sim::Data data(m);
+  mjData& d = *data.get();
+  mj_forward(&m, &d);
+  const std::vector<controllers::JointGroup> groups = controllers::find_joint_groups(m);
+  controllers::ControllerParams params = controllers::default_params(m, groups);
+  for (auto& j : params.joints) j.reaction_time_s = 1.0;  // a slow ramp the test can see
+  controllers::JointController joints(m, groups, params, controllers::ControllerKind::kVelocity);
+  joints.reset(m, d);
+  const int knee = controllers::find_group(groups, "knee_l");
+  const int dof = groups[static_cast<std::size_t>(knee)].dof_begin;
+  const auto k = static_cast<std::size_t>(dof);
+  d.qvel[dof] = 0.2;
+  mj_step1(&m, &d);
+  std::vector<mjtNum> zero(static_cast<std::size_t>(m.nv), 0.0), torque(static_cast<std::size_t>(m.nv));
+  const double prev = joints.previous_torque()[k];
+  const double rate = joints.tau_max()[k] * m.opt.timestep / 1.0;
+  // A target whose spring torque is within this step's ramp (half a step above tau_prev).
+  const double kp = 100.0, kd = 5.0;
+  const double spring = prev + 0.5 * rate;
+  const double e = d.qpos[m.jnt_qposadr[m.dof_jntid[dof]]];
+  const double target = e + (spring + kd * 0.2) / kp;
+  joints.set_target(knee, controllers::orientation_from_angles(groups[static_cast<std::size_t>(knee)], {target, 0, 0}), 1.0);
+  joints.set_compliant_once(knee, kp, kd);
+  joints.compute(m, d, zero.data(), torque.data());
+  CHECK(torque[k] == Approx(spring).margin(1e-6));
+  // Stiff gains: held to the reaction-time ramp.
+  joints.set_compliant_once(knee, 1e5, 0.0);
+  joints.compute(m, d, zero.data(), torque.data());
+  CHECK(torque[k] == Approx(prev + rate));
+  // Once only: without a new call the next compute prescribes the knee's acceleration
+  // again, and the whole-body solve asks for another torque than the spring's.
+  joints.compute(m, d, zero.data(), torque.data());
+  CHECK(torque[k] != Approx(spring).margin(1e-6));
+}
+
+TEST_CASE("A velocity wish replaces w = theta v / t for one step", "[gait]") {
+  const sim::Model model = character();
+  const mjModel& m = *model.get();
+  sim::Data data(m);
+  mjData& d = *data.get();
+  mj_forward(&m, &d);
+  const std::vector<controllers::JointGroup> groups = controllers::find_joint_groups(m);
+  controllers::JointController joints(m, groups, controllers::default_params(m, groups),
+                                      controllers::ControllerKind::kVelocity);
+  joints.reset(m, d);
+  const int hip = controllers::find_group(groups, "hip_r");
+  const int dof = groups[static_cast<std::size_t>(hip)].dof_begin;
+  mj_step1(&m, &d);
+  std::vector<mjtNum> zero(static_cast<std::size_t>(m.nv), 0.0), torque(static_cast<std::size_t>(m.nv));
+  const Eigen::Vector3d w(0.3, -0.2, 0.1);
+  joints.set_velocity_once(hip, w);
+  joints.compute(m, d, zero.data(), torque.data());
+  const double horizon = joints.params().velocity_horizon_s;
+  for (int k = 0; k < 3; ++k)
+    CHECK(joints.desired_qacc()[static_cast<std::size_t>(dof + k)] == Approx((w[k] - d.qvel[dof + k]) / horizon));
+  // At rest on target the next step asks for nothing.
+  joints.compute(m, d, zero.data(), torque.data());
+  for (int k = 0; k < 3; ++k) CHECK(joints.desired_qacc()[static_cast<std::size_t>(dof + k)] == Approx(0.0).margin(1e-9));
 }

@@ -104,6 +104,12 @@ class CharacterController {
   void set_stance(int side, bool stance);
   /// See JointController::limit_torque_once.
   void limit_torque_once(int dof, double lo, double hi) { joints_.limit_torque_once(dof, lo, hi); }
+  /// See JointController::set_compliant_once.
+  void set_compliant_once(int group, double stiffness, double damping) {
+    joints_.set_compliant_once(group, stiffness, damping);
+  }
+  /// See JointController::set_velocity_once.
+  void set_velocity_once(int group, const Eigen::Vector3d& w_body) { joints_.set_velocity_once(group, w_body); }
   sim::Simulation& simulation() { return *sim_; }
   const StepReport& last_report() const { return last_report_; }
 

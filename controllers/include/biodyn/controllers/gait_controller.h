@@ -163,6 +163,8 @@ class GaitController : public TargetDriver {
   std::vector<bool> has_swing_hip_;
   int hip_[2] = {-1, -1}, knee_[2] = {-1, -1}, ankle_[2] = {-1, -1};
   int foot_[2] = {-1, -1}, toes_[2] = {-1, -1}, thigh_[2] = {-1, -1};
+  void apply_compliance(CharacterController& c) const;
+  bool foot_touches_now_[2] = {false, false};  // this step's contacts, per side
   int pelvis_ = -1, floor_geom_ = -1;
   double l_thigh_ = 0.43, l_shank_ = 0.45, ankle_height_ = 0.07, foot_length_ = 0.26,
          foot_width_ = 0.1, hip_spacing_ = 0.17, weight_ = 785;

@@ -70,6 +70,23 @@ struct FootPlacementParams {
   double min_swing_fraction = 0.4;
   /// A swing that has not struck after this multiple of its planned time is ended anyway.
   double max_swing_factor = 2.5;
+  /// m, the swing ankle is kept at least this much above its standing height (the swing
+  /// knee bends as far as needed for the thigh where it is); goes to zero over the state that
+  /// ends at the strike.
+  double swing_clearance_m = 0.05;
+  /// deg, the swing foot's sole is held level in the heading frame, toes up by this much.
+  double swing_toe_up_deg = 5.0;
+};
+
+/// Legs with a foot on the floor (other than the stance hip) as springs: their torques are
+/// tau = k m g L (e - damping_time * omega) (m the body mass, L the leg length, e the error to
+/// the state's target), not prescribed accelerations; see JointController::set_compliant_once.
+/// Dimensionless stiffness k; 0 prescribes that joint's acceleration as everywhere else.
+struct LegComplianceParams {
+  double stance_knee = 1.0;
+  double stance_ankle = 1.0;
+  double trailing_leg = 0.5;  ///< hip, knee and ankle of the swing leg while its foot touches
+  double damping_time_s = 0.1;
 };
 
 /// Posture and speed.
@@ -99,6 +116,7 @@ struct GaitParams {
   std::vector<GaitState> states;
   FootPlacementParams placement;
   GaitPostureParams posture;
+  LegComplianceParams compliance;
   /// Throws sim::InvalidArgument naming the field, rule and value.
   void validate() const;
   /// Cadence at `speed_m_s` (steps/min) from the table.

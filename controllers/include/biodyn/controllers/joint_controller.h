@@ -71,6 +71,19 @@ class JointController {
   /// can give). If the muscle's reachable range misses the window, the torque goes to the
   /// end of that range nearest to it. No allocation.
   void limit_torque_once(int dof, double lo, double hi);
+  /// For the next compute() only, group `group` is compliant: its torque is the spring-damper
+  /// tau = stiffness * e - damping * omega (e the DOF's share of the rotation to the target,
+  /// N m/rad and N m s/rad) inside the muscle limits and any torque window, instead of what
+  /// a prescribed acceleration needs. For a leg whose foot is on the floor: prescribing its
+  /// joints' accelerations closes a kinematic loop through the ground, and the solve meets
+  /// them by moving the whole body (SIMBICON's stance leg is a spring for the same reason,
+  /// Yin et al. 2007). No allocation.
+  void set_compliant_once(int group, double stiffness, double damping);
+  /// For the next compute() only, a ball group's desired relative angular velocity (its
+  /// body frame, rad/s) in place of w = theta v / t_go: for targets held in the world frame,
+  /// where the parent's own rotation must be fed forward (e.g. the stance hip that holds the
+  /// pelvis's world posture while the thigh turns under it). No allocation.
+  void set_velocity_once(int group, const Eigen::Vector3d& w_body);
   const JointTarget& target(int group) const { return targets_[static_cast<std::size_t>(group)]; }
 
   /// Targets = the current pose, reach now; tau_prev = the torques that hold the current
@@ -121,6 +134,9 @@ class JointController {
   std::vector<mjtNum> qacc_des_, qacc_pred_, error_dof_, vel_dof_;
   std::vector<mjtNum> kp_, kd_;
   std::vector<mjtNum> window_lo_, window_hi_;  // limit_torque_once, +-inf when unset
+  std::vector<mjtNum> compliant_kp_, compliant_kd_;  // set_compliant_once, 0 when unset
+  std::vector<mjtNum> velocity_once_;                // set_velocity_once, per DOF
+  std::vector<std::uint8_t> has_velocity_once_;
   std::vector<mjtNum> zero_;
 };
 

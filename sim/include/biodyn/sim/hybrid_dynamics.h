@@ -35,8 +35,8 @@
 /// velocity change of a damped DOF by M/(M + h b) (< 4% for the lightest biodyn joints);
 /// (2) contacts that appear during the step (the contact set is that of mj_step1);
 /// (3) actuator forces from `ctrl` (the caller owns the torques; keep ctrl at zero or pass
-/// them in qfrc_other). The cone zone uses the quadratic Hessian (a Gauss-Newton step with
-/// exact forces and a backtracking line search), which converges to the same minimum.
+/// them in qfrc_other). Newton uses MuJoCo's exact cone-zone Hessian (mj_constraintUpdate with
+/// flg_coneHessian) and a backtracking line search.
 ///
 /// No allocation after construction; call after mj_step1 (or mj_forward) on the data that
 /// will be stepped, before mj_step2. It overwrites efc_force, efc_state and
@@ -107,6 +107,7 @@ class HybridDynamics {
   std::vector<mjtNum> g_;          // gradient on the unknowns
   std::vector<mjtNum> step_;       // Newton step on the unknowns
   std::vector<mjtNum> row_;        // one Jacobian row restricted to the unknowns
+  std::vector<mjtNum> cone_rows_;  // one elliptic contact's rows (<= 6) on the unknowns
   std::vector<mjtNum> desired_;    // projected desired accelerations, nv
   std::vector<mjtNum> eq_lhs_;     // projection system, (6 neq)^2
   std::vector<mjtNum> eq_rhs_;     // 6 neq
