@@ -22,6 +22,33 @@ sim::Model character() {
   return testing::load_inline(models::to_mjcf(models::generate_character(models::CharacterSpec{})));
 }
 
+// The default character at rest with joint controllers reset on it (velocity kind); a
+// positive `reaction_time_s` replaces every joint's.
+struct JointsAtRest {
+  explicit JointsAtRest(double reaction_time_s = 0)
+      : model(character()),
+        m(*model.get()),
+        data(m),
+        d(*data.get()),
+        groups((mj_forward(&m, &d), controllers::find_joint_groups(m))),
+        joints(m, groups, params(m, groups, reaction_time_s), controllers::ControllerKind::kVelocity) {
+    joints.reset(m, d);
+  }
+  static controllers::ControllerParams params(const mjModel& mm, const std::vector<controllers::JointGroup>& g,
+                                              double reaction_time_s) {
+    controllers::ControllerParams p = controllers::default_params(mm, g);
+    if (reaction_time_s > 0)
+      for (auto& j : p.joints) j.reaction_time_s = reaction_time_s;
+    return p;
+  }
+  sim::Model model;
+  const mjModel& m;
+  sim::Data data;
+  mjData& d;
+  std::vector<controllers::JointGroup> groups;
+  controllers::JointController joints;
+};
+
 }  // namespace
 
 TEST_CASE("The IK triangle puts the ankle on a reachable target", "[gait]") {
@@ -107,15 +134,11 @@ TEST_CASE("Gait parameters round-trip through JSON and reject bad input by name"
 }
 
 TEST_CASE("A torque window narrows one DOF's torque for one step", "[gait]") {
-  const sim::Model model = character();
-  const mjModel& m = *model.get();
-  sim::Data data(m);
-  mjData& d = *data.get();
-  mj_forward(&m, &d);
-  const std::vector<controllers::JointGroup> groups = controllers::find_joint_groups(m);
-  controllers::JointController joints(m, groups, controllers::default_params(m, groups),
-                                      controllers::ControllerKind::kVelocity);
-  joints.reset(m, d);
+  JointsAtRest rig;
+  const mjModel& m = rig.m;
+  mjData& d = rig.d;
+  const std::vector<controllers::JointGroup>& groups = rig.groups;
+  controllers::JointController& joints = rig.joints;
   const int dof = groups[static_cast<std::size_t>(controllers::find_group(groups, "knee_l"))].dof_begin;
   std::vector<mjtNum> zero(static_cast<std::size_t>(m.nv), 0.0), torque(static_cast<std::size_t>(m.nv));
   mj_step1(&m, &d);
@@ -214,16 +237,11 @@ TEST_CASE("Torque-specified DOFs: the solve holds them, converges and predicts m
 }
 
 TEST_CASE("A compliant group gets its spring-damper torque for one step", "[gait]") {
-  const sim::Model model = character();
-  const mjModel& m = *model.get();
-  sim::Data data(m);
-  mjData& d = *data.get();
-  mj_forward(&m, &d);
-  const std::vector<controllers::JointGroup> groups = controllers::find_joint_groups(m);
-  controllers::ControllerParams params = controllers::default_params(m, groups);
-  for (auto& j : params.joints) j.reaction_time_s = 1.0;  // a slow ramp the test can see
-  controllers::JointController joints(m, groups, params, controllers::ControllerKind::kVelocity);
-  joints.reset(m, d);
+  JointsAtRest rig(1.0);  // a slow reaction-time ramp the test can see
+  const mjModel& m = rig.m;
+  mjData& d = rig.d;
+  const std::vector<controllers::JointGroup>& groups = rig.groups;
+  controllers::JointController& joints = rig.joints;
   const int knee = controllers::find_group(groups, "knee_l");
   const int dof = groups[static_cast<std::size_t>(knee)].dof_begin;
   const auto k = static_cast<std::size_t>(dof);
@@ -252,15 +270,11 @@ TEST_CASE("A compliant group gets its spring-damper torque for one step", "[gait
 }
 
 TEST_CASE("A velocity wish replaces w = theta v / t for one step", "[gait]") {
-  const sim::Model model = character();
-  const mjModel& m = *model.get();
-  sim::Data data(m);
-  mjData& d = *data.get();
-  mj_forward(&m, &d);
-  const std::vector<controllers::JointGroup> groups = controllers::find_joint_groups(m);
-  controllers::JointController joints(m, groups, controllers::default_params(m, groups),
-                                      controllers::ControllerKind::kVelocity);
-  joints.reset(m, d);
+  JointsAtRest rig;
+  const mjModel& m = rig.m;
+  mjData& d = rig.d;
+  const std::vector<controllers::JointGroup>& groups = rig.groups;
+  controllers::JointController& joints = rig.joints;
   const int hip = controllers::find_group(groups, "hip_r");
   const int dof = groups[static_cast<std::size_t>(hip)].dof_begin;
   mj_step1(&m, &d);
