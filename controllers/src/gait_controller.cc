@@ -16,6 +16,11 @@ using Eigen::Vector3d;
 constexpr double kGravity = 9.81;
 constexpr double kDeg = M_PI / 180.0;
 const char* const kSide[2] = {"_l", "_r"};
+// s, how soon the swing foot's level sole and the clearance knee are due: short, as they
+// follow the leg from step to step (the sole within a few degrees, the knee before the foot
+// reaches the floor).
+constexpr double kSoleTracking_s = 0.05;
+constexpr double kClearanceTracking_s = 0.03;
 
 Vector3d vec_at(const mjtNum* p) { return {p[0], p[1], p[2]}; }
 Quaterniond quat_at(const mjtNum* q) { return {q[0], q[1], q[2], q[3]}; }
@@ -413,7 +418,7 @@ void GaitController::set_targets(CharacterController& c, const mjData& d) {
     const Quaterniond q_foot_goal = q_heading * Quaterniond(Eigen::AngleAxisd(-toe_up, Vector3d::UnitY()));
     const JointGroup& ankle = groups_[static_cast<std::size_t>(ankle_[swing])];
     c.set_joint_angles(ankle_[swing], angles_from_orientation(ankle, q_shank.conjugate() * q_foot_goal),
-                       d.time + 0.05);
+                       d.time + kSoleTracking_s);
   }
   if (!st.swing_foot_down) {
     // Foot clearance: the swing knee bends at least enough that the ankle stays `clearance`
@@ -433,7 +438,7 @@ void GaitController::set_targets(CharacterController& c, const mjData& d) {
       const double knee_min = alpha + std::acos(std::max(ratio, -1.0));
       const JointTarget& now = c.joints().target(knee_[swing]);
       const double knee_target = 2 * std::atan2(now.orientation.vec().norm(), now.orientation.w());
-      if (knee_min > knee_target) c.set_joint_angles(knee_[swing], Vector3d(knee_min, 0, 0), d.time + 0.03);
+      if (knee_min > knee_target) c.set_joint_angles(knee_[swing], Vector3d(knee_min, 0, 0), d.time + kClearanceTracking_s);
     }
   }
   if (have) {
