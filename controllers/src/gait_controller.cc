@@ -238,7 +238,7 @@ void GaitController::reset(const mjModel& m, const mjData& d) {
   rule_active_ = false;
 }
 
-void GaitController::advance(const mjModel& m, const mjData& d) {
+void GaitController::advance(const mjData& d) {
   const double dt = d.time - last_time_s_;
   heading_ += command_.heading_rate_rad_s * dt;
   const double ramp = params_.posture.speed_ramp_m_s2 * dt;
@@ -255,7 +255,7 @@ void GaitController::advance(const mjModel& m, const mjData& d) {
     return;
   }
   const int swing = 1 - stance_;
-  const bool touched = in_state >= params_.placement.min_swing_fraction * duration && foot_touches(m, d, swing);
+  const bool touched = in_state >= params_.placement.min_swing_fraction * duration && foot_touches_now_[swing];
   const bool timed_out = in_state >= params_.placement.max_swing_factor * duration;
   if (!touched && !timed_out) return;
   // The swing foot struck: it becomes the stance foot.
@@ -437,7 +437,7 @@ void GaitController::set_targets(CharacterController& c, const mjData& d) {
     if (ratio < 1) {
       const double knee_min = alpha + std::acos(std::max(ratio, -1.0));
       const JointTarget& now = c.joints().target(knee_[swing]);
-      const double knee_target = 2 * std::atan2(now.orientation.vec().norm(), now.orientation.w());
+      const double knee_target = rotation_angle(now.orientation);
       if (knee_min > knee_target) c.set_joint_angles(knee_[swing], Vector3d(knee_min, 0, 0), d.time + kClearanceTracking_s);
     }
   }
@@ -528,12 +528,12 @@ void GaitController::apply_compliance(CharacterController& c) const {
 }
 
 void GaitController::drive(CharacterController& c, const mjModel& m, const mjData& d) {
+  for (int s = 0; s < 2; ++s) foot_touches_now_[s] = foot_touches(m, d, s);
   if (d.time > last_time_s_ + 1e-12) {
-    advance(m, d);
+    advance(d);
     last_time_s_ = d.time;
   }
   support_polygons(m, d);
-  for (int s = 0; s < 2; ++s) foot_touches_now_[s] = foot_touches(m, d, s);
   const sim::CenterOfMass com = sim::center_of_mass(m, d);
   plan_foot(d, com);
   set_targets(c, d);

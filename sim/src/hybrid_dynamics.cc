@@ -118,7 +118,8 @@ double HybridDynamics::evaluate(const mjModel& m, mjData& d, const mjtNum* a) {
   mj_mulJacVec(&m, &d, jar_.data(), a);
   for (int r = 0; r < d.nefc; ++r) jar_[static_cast<std::size_t>(r)] -= d.efc_aref[r];
   mjtNum constraint_cost = 0;
-  mj_constraintUpdate(&m, &d, jar_.data(), &constraint_cost, 0);
+  // With the cone Hessians: the last point evaluated is the one Newton builds its next step at.
+  mj_constraintUpdate(&m, &d, jar_.data(), &constraint_cost, 1);
   mjtNum cost = constraint_cost;
   for (int i = 0; i < nv_; ++i) {
     const auto k = static_cast<std::size_t>(i);
@@ -147,10 +148,9 @@ int HybridDynamics::minimize(const mjModel& m, mjData& d, bool* converged) {
         H_[static_cast<std::size_t>(r * n + c)] =
             M_[static_cast<std::size_t>(unknown_[static_cast<std::size_t>(r)] * nv_ +
                                         unknown_[static_cast<std::size_t>(c)])];
-    // The cone zone's exact Hessian (MuJoCo's, per contact: J_c' H_c J_c); with the
-    // quadratic zone's D J'J in its place Newton converged only linearly (hundreds of N of
-    // residual after 20 iterations with the feet on an edge).
-    mj_constraintUpdate(&m, &d, jar_.data(), nullptr, 1);
+    // The cone zone's exact Hessian (MuJoCo's, per contact: J_c' H_c J_c, set by evaluate at
+    // a_); with the quadratic zone's D J'J in its place Newton converged only linearly
+    // (hundreds of N of residual after 20 iterations with the feet on an edge).
     for (int e = 0; e < d.nefc; ++e) {
       const int state = d.efc_state[e];
       if (state == mjCNSTRSTATE_CONE) {

@@ -145,7 +145,7 @@ class GaitController : public TargetDriver {
   };
   void compile_roles();
   double state_duration(int state) const;
-  void advance(const mjModel& m, const mjData& d);
+  void advance(const mjData& d);
   void plan_foot(const mjData& d, const sim::CenterOfMass& com);
   void support_polygons(const mjModel& m, const mjData& d);
   void set_targets(CharacterController& c, const mjData& d);
