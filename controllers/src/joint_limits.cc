@@ -62,10 +62,15 @@ int SwingTwistLimiter::compute(const mjModel& m, const mjData& d, mjtNum* qfrc) 
     const SwingTwistAngles a = swing_twist_angles(g, q_rel);
     const Vector3d omega_B(d.qvel[g.dof_begin], d.qvel[g.dof_begin + 1], d.qvel[g.dof_begin + 2]);
     const Eigen::Matrix3d R_PB = q_rel.toRotationMatrix();
-    // Inertia per axis from the mass matrix diagonal of this ball joint.
-    double inertia = 0;
-    for (int k = 0; k < 3; ++k) inertia += d.qM[m.dof_Madr[g.dof_begin + k]] / 3.0;
-    const double stiffness = inertia * w * w, damping = 2.0 * inertia * w;
+    // Inertia from the mass matrix diagonal of this ball joint: the swing axes' mean for the
+    // swing limit, the bone axis's own for the twist. The twist inertia of a thigh is a tenth
+    // of its swing inertia: damping sized by the mean made the explicit twist damper unstable
+    // (2 zeta w_eff dt > 2) and the limit torque grew without bound in walking.
+    const double swing_inertia =
+        (d.qM[m.dof_Madr[g.dof_begin]] + d.qM[m.dof_Madr[g.dof_begin + 1]]) / 2.0;
+    const double twist_inertia = d.qM[m.dof_Madr[g.dof_begin + 2]];
+    const double stiffness = swing_inertia * w * w, damping = 2.0 * swing_inertia * w;
+    const double twist_stiffness = twist_inertia * w * w, twist_damping = 2.0 * twist_inertia * w;
     Vector3d torque_P = Vector3d::Zero();
     Vector3d torque_B = Vector3d::Zero();
     bool out = false;
@@ -86,11 +91,11 @@ int SwingTwistLimiter::compute(const mjModel& m, const mjData& d, mjtNum* qfrc) 
     const double internal_speed = g.ball_signs[2] * omega_B.z();
     if (over_internal > 0) {
       out = true;
-      const double push = std::max(0.0, stiffness * over_internal + damping * internal_speed);
+      const double push = std::max(0.0, twist_stiffness * over_internal + twist_damping * internal_speed);
       torque_B.z() -= g.ball_signs[2] * push;
     } else if (over_external > 0) {
       out = true;
-      const double push = std::max(0.0, stiffness * over_external - damping * internal_speed);
+      const double push = std::max(0.0, twist_stiffness * over_external - twist_damping * internal_speed);
       torque_B.z() += g.ball_signs[2] * push;
     }
     torque_B += R_PB.transpose() * torque_P;

@@ -1,0 +1,114 @@
+#pragma once
+/// Walking by joint torques: SIMBICON (Yin, Loken & van de Panne 2007) on the generated
+/// character, with the torso torque distributed as in Coros et al. 2010. This is the walker
+/// that walks; the velocity-based GaitController (gait_controller.h) still falls (see
+/// controllers/README.md, "Walking").
+///
+/// Per step (a TargetDriver: every DOF's torque is set with limit_torque_once, so the joint
+/// controller's muscle limits tau_max and reaction-time rate limit still apply):
+///  - Two target states per step: "early swing" for swing_time_s, then "late swing" until the
+///    swing foot touches the floor (after having left it), which swaps the legs.
+///  - Every joint except the hips: PD towards its state target, tau = kp (theta_d - theta) -
+///    kp damping_time omega. The swing ankle holds the sole level in the heading frame (toes
+///    up by toe_up), so the foot neither scuffs nor stubs whatever the shank does.
+///  - Swing hip: PD on the swing thigh's orientation in the heading frame, its pitch and roll
+///    given by the balance feedback theta = theta_0 + c_d d + c_v v (d, v: CoM position
+///    relative to the stance ankle and CoM velocity, heading frame) in both planes.
+///  - Stance hip: the pelvis's orientation in the world (upright, pitched pelvis_pitch, facing
+///    the heading) by a virtual torso torque tau_torso; the stance hip takes
+///    tau_stance = -tau_torso - tau_swing - tau_lumbar so that the joints' reactions on the
+///    pelvis sum to tau_torso (the lumbar's reaction included: the upper body is half the mass).
+/// Gains are for an 80 kg body and scale with the body mass. Nothing acts on the root: the
+/// torso torque is made by the hips against the legs, and the feet hold by contact only.
+
+#include <mujoco/mujoco.h>
+
+#include <Eigen/Core>
+#include <vector>
+
+#include "biodyn/controllers/character_controller.h"
+#include "biodyn/controllers/joint_groups.h"
+
+namespace biodyn::controllers {
+
+/// Parameters of the torque walker; angles in rad, gains in N m/rad for an 80 kg body. The
+/// defaults were found by a cross-entropy search on the default character (10 s walks at
+/// 1 m/s, from standing and with sideways disturbances; controllers/README.md).
+struct TorqueGaitParams {
+  double swing_time_s = 0.386;         ///< length of the early-swing state
+  double swing_hip_early_rad = 0.773;  ///< swing thigh pitch forward of vertical, early swing
+  double swing_hip_late_rad = 0.255;   ///< ... late swing
+  double sagittal_cd = 0.155;          ///< rad/m of CoM ahead of the stance ankle
+  double sagittal_cv = 0.116;          ///< rad per m/s of forward CoM velocity
+  double frontal_cd = 0.119;           ///< rad/m of CoM beside the stance ankle
+  double frontal_cv = 0.353;           ///< rad per m/s of sideways CoM velocity
+  double swing_hip_out_rad = -0.008;   ///< swing thigh roll outwards (the step width offset)
+  double swing_knee_early_rad = 1.459;
+  double swing_knee_late_rad = 0.079;
+  double stance_knee_rad = 0.215;
+  double stance_ankle_rad = -0.041;     ///< dorsiflexion positive
+  double swing_ankle_early_rad = 0.300;  ///< added to the level sole in early swing
+  double toe_up_rad = 0.148;             ///< swing sole pitch, toes up
+  double pelvis_pitch_rad = 0.110;       ///< forward lean of the pelvis in the world
+  double start_pitch_rad = 0.108;          ///< extra lean for the first start_time_s (from standing)
+  double start_time_s = 1.304;
+  double torso_kp = 1106;
+  double hip_kp = 855;
+  double knee_kp = 247;
+  double ankle_kp = 88;
+  double toe_kp = 30;
+  double trunk_kp = 600;    ///< lumbar, thorax
+  double arm_kp = 100;      ///< shoulders, clavicles
+  double distal_kp = 50;    ///< neck, head, elbows, forearms, wrists
+  double damping_time_s = 0.1;  ///< kd = kp damping_time_s
+  void validate() const;  ///< throws sim::InvalidArgument naming the field
+};
+
+/// One strike of the torque walker.
+struct TorqueGaitStrike {
+  double time_s = 0;
+  int side = 0;                 ///< the foot that struck (0 left, 1 right)
+  double step_length_m = 0;     ///< along the heading, ankle to ankle
+  double step_width_m = 0;      ///< across it
+};
+
+class TorqueGait : public TargetDriver {
+ public:
+  /// For a generated character (bodies pelvis, thigh/shank/foot/toes_l/r; joint groups
+  /// hip, knee, ankle, toe _l/_r, lumbar). Throws sim::InvalidArgument if one is missing or
+  /// the params are invalid.
+  TorqueGait(const mjModel& m, const std::vector<JointGroup>& groups, TorqueGaitParams params);
+
+  /// Starts from the current state: left foot in stance, early swing of the right leg,
+  /// heading from the pelvis yaw. Needs positions computed (mj_forward).
+  void reset(const mjModel& m, const mjData& d);
+  void set_heading_rate(double rad_s) { heading_rate_ = rad_s; }
+  void drive(CharacterController& controller, const mjModel& m, const mjData& d) override;
+
+  const TorqueGaitParams& params() const { return params_; }
+  int stance_side() const { return stance_; }
+  bool early_swing() const { return early_; }
+  int strike_count() const { return strikes_; }
+  const TorqueGaitStrike& last_strike() const { return last_strike_; }
+  double heading_rad() const { return heading_; }
+
+ private:
+  void hinge_pd(CharacterController& c, const mjModel& m, const mjData& d, int dof, double target, double kp) const;
+  void hip_torque(CharacterController& c, const mjData& d, int side, const Eigen::Vector3d& torque_W) const;
+
+  TorqueGaitParams params_;
+  std::vector<JointGroup> groups_;
+  double gain_scale_ = 1;  // body mass / 80 kg
+  int pelvis_ = -1, floor_geom_ = -1;
+  int thigh_[2] = {-1, -1}, shank_[2] = {-1, -1}, foot_[2] = {-1, -1}, toes_[2] = {-1, -1};
+  int hip_[2] = {-1, -1}, knee_[2] = {-1, -1}, ankle_[2] = {-1, -1}, toe_[2] = {-1, -1};
+  int lumbar_ = -1;
+  std::vector<double> kp_;  // per group, the PD gain of the non-leg groups
+
+  int stance_ = 0, strikes_ = 0;
+  bool early_ = true, lifted_ = false;
+  double state_start_s_ = 0, start_s_ = 0, heading_ = 0, heading_rate_ = 0, last_time_s_ = 0;
+  TorqueGaitStrike last_strike_;
+};
+
+}  // namespace biodyn::controllers

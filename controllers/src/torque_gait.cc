@@ -1,0 +1,215 @@
+#include "biodyn/controllers/torque_gait.h"
+
+#include <algorithm>
+#include <cmath>
+#include <string>
+
+#include "biodyn/sim/errors.h"
+#include "biodyn/sim/queries.h"
+
+namespace biodyn::controllers {
+namespace {
+
+using Eigen::AngleAxisd;
+using Eigen::Quaterniond;
+using Eigen::Vector3d;
+
+constexpr double kReferenceMass_kg = 80.0;
+const char* const kSide[2] = {"_l", "_r"};
+
+Vector3d vec_at(const mjtNum* p) { return {p[0], p[1], p[2]}; }
+Quaterniond quat_at(const mjtNum* q) { return {q[0], q[1], q[2], q[3]}; }
+
+int require_body(const mjModel& m, const std::string& name) {
+  const int id = mj_name2id(&m, mjOBJ_BODY, name.c_str());
+  if (id < 0) throw sim::InvalidArgument("torque gait: the model has no body '" + name + "'");
+  return id;
+}
+
+int require_group(const std::vector<JointGroup>& groups, const std::string& name) {
+  const int g = find_group(groups, name);
+  if (g < 0) throw sim::InvalidArgument("torque gait: the model has no joint group '" + name + "'");
+  return g;
+}
+
+void check(bool ok, const char* field, const char* rule, double value) {
+  if (!ok) {
+    throw sim::InvalidArgument(std::string("torque gait: ") + field + " " + rule + ", got " +
+                               std::to_string(value));
+  }
+}
+
+}  // namespace
+
+void TorqueGaitParams::validate() const {
+  check(swing_time_s > 0.05 && swing_time_s <= 2, "swing_time_s", "must be in (0.05, 2] s", swing_time_s);
+  check(start_time_s >= 0 && start_time_s <= 10, "start_time_s", "must be in [0, 10] s", start_time_s);
+  check(damping_time_s >= 0 && damping_time_s <= 1, "damping_time_s", "must be in [0, 1] s", damping_time_s);
+  for (double a : {swing_hip_early_rad, swing_hip_late_rad, swing_hip_out_rad, swing_knee_early_rad,
+                   swing_knee_late_rad, stance_knee_rad, stance_ankle_rad, swing_ankle_early_rad, toe_up_rad,
+                   pelvis_pitch_rad, start_pitch_rad})
+    check(std::abs(a) <= M_PI, "angle", "must be within +-pi rad", a);
+  for (double k : {torso_kp, hip_kp, knee_kp, ankle_kp, toe_kp, trunk_kp, arm_kp, distal_kp})
+    check(k >= 0 && k <= 1e5, "gain", "must be in [0, 1e5] N m/rad", k);
+  for (double c : {sagittal_cd, sagittal_cv, frontal_cd, frontal_cv})
+    check(std::abs(c) <= 10, "balance feedback gain", "must be within +-10", c);
+}
+
+TorqueGait::TorqueGait(const mjModel& m, const std::vector<JointGroup>& groups, TorqueGaitParams params)
+    : params_(params), groups_(groups) {
+  params_.validate();
+  pelvis_ = require_body(m, "pelvis");
+  floor_geom_ = mj_name2id(&m, mjOBJ_GEOM, "floor");
+  for (int s = 0; s < 2; ++s) {
+    thigh_[s] = require_body(m, std::string("thigh") + kSide[s]);
+    shank_[s] = require_body(m, std::string("shank") + kSide[s]);
+    foot_[s] = require_body(m, std::string("foot") + kSide[s]);
+    toes_[s] = mj_name2id(&m, mjOBJ_BODY, (std::string("toes") + kSide[s]).c_str());
+    hip_[s] = require_group(groups_, std::string("hip") + kSide[s]);
+    knee_[s] = require_group(groups_, std::string("knee") + kSide[s]);
+    ankle_[s] = require_group(groups_, std::string("ankle") + kSide[s]);
+    toe_[s] = find_group(groups_, std::string("toe") + kSide[s]);
+  }
+  lumbar_ = require_group(groups_, "lumbar");
+  double mass = 0;
+  for (int b = 1; b < m.nbody; ++b) mass += m.body_mass[b];
+  gain_scale_ = mass / kReferenceMass_kg;
+  // Non-leg groups hold the standing pose (zero angles) by PD.
+  kp_.assign(groups_.size(), 0.0);
+  for (std::size_t g = 0; g < groups_.size(); ++g) {
+    const std::string& n = groups_[g].name;
+    const auto starts = [&](const char* p) { return n.rfind(p, 0) == 0; };
+    if (starts("lumbar") || starts("thorax")) kp_[g] = params_.trunk_kp;
+    else if (starts("shoulder") || starts("clavicle")) kp_[g] = params_.arm_kp;
+    else kp_[g] = params_.distal_kp;
+  }
+}
+
+void TorqueGait::reset(const mjModel& m, const mjData& d) {
+  (void)m;
+  stance_ = 0;
+  strikes_ = 0;
+  early_ = true;
+  lifted_ = false;
+  state_start_s_ = start_s_ = last_time_s_ = d.time;
+  const Vector3d forward = quat_at(d.xquat + 4 * pelvis_) * Vector3d::UnitX();
+  heading_ = std::atan2(forward.y(), forward.x());
+  last_strike_ = TorqueGaitStrike{};
+}
+
+void TorqueGait::hinge_pd(CharacterController& c, const mjModel& m, const mjData& d, int dof, double target,
+                          double kp) const {
+  const double k = kp * gain_scale_;
+  const double tau = k * (target - d.qpos[m.jnt_qposadr[m.dof_jntid[dof]]]) - k * params_.damping_time_s * d.qvel[dof];
+  c.limit_torque_once(dof, tau, tau);
+}
+
+void TorqueGait::hip_torque(CharacterController& c, const mjData& d, int side, const Vector3d& torque_W) const {
+  // Ball-joint DOFs act in the child's (thigh's) frame.
+  const Vector3d t_B = quat_at(d.xquat + 4 * thigh_[side]).conjugate() * torque_W;
+  const int dof = groups_[static_cast<std::size_t>(hip_[side])].dof_begin;
+  for (int k = 0; k < 3; ++k) c.limit_torque_once(dof + k, t_B[k], t_B[k]);
+}
+
+void TorqueGait::drive(CharacterController& c, const mjModel& m, const mjData& d) {
+  const TorqueGaitParams& p = params_;
+  heading_ += heading_rate_ * std::max(d.time - last_time_s_, 0.0);
+  last_time_s_ = d.time;
+  // State machine: early swing on time, late swing until the swing foot touches the floor
+  // after having left it.
+  int swing = 1 - stance_;
+  const bool touches = sim::floor_contact_count(m, d, floor_geom_, foot_[swing]) > 0 ||
+                       (toes_[swing] >= 0 && sim::floor_contact_count(m, d, floor_geom_, toes_[swing]) > 0);
+  if (!touches) lifted_ = true;
+  if (early_ && d.time - state_start_s_ >= p.swing_time_s) early_ = false;
+  if (!early_ && touches && lifted_) {
+    const Vector3d delta = vec_at(d.xpos + 3 * foot_[swing]) - vec_at(d.xpos + 3 * foot_[stance_]);
+    const double ch = std::cos(heading_), sh = std::sin(heading_);
+    last_strike_ = {d.time, swing, ch * delta.x() + sh * delta.y(), std::abs(-sh * delta.x() + ch * delta.y())};
+    ++strikes_;
+    stance_ = swing;
+    swing = 1 - stance_;
+    early_ = true;
+    lifted_ = false;
+    state_start_s_ = d.time;
+  }
+  c.set_stance(stance_, true);
+  c.set_stance(swing, false);
+
+  // Everything but the legs holds the standing pose.
+  for (std::size_t g = 0; g < groups_.size(); ++g) {
+    const JointGroup& jg = groups_[g];
+    if (jg.side != 0 && (jg.name.rfind("hip", 0) == 0 || jg.name.rfind("knee", 0) == 0 ||
+                         jg.name.rfind("ankle", 0) == 0 || jg.name.rfind("toe", 0) == 0))
+      continue;
+    if (!jg.ball) {
+      for (int k = 0; k < jg.dof_count; ++k) hinge_pd(c, m, d, jg.dof_begin + k, 0.0, kp_[g]);
+      continue;
+    }
+    const Vector3d e = rotation_vector(sim::relative_orientation(m, d, jg.body).conjugate());
+    const double kp = kp_[g] * gain_scale_;
+    for (int k = 0; k < 3; ++k) {
+      const int dof = jg.dof_begin + k;
+      const double tau = kp * e[k] - kp * p.damping_time_s * d.qvel[dof];
+      c.limit_torque_once(dof, tau, tau);
+    }
+  }
+
+  // Knees, ankles, toes.
+  const Quaterniond q_heading(AngleAxisd(heading_, Vector3d::UnitZ()));
+  for (int s = 0; s < 2; ++s) {
+    const bool stance = s == stance_;
+    const JointGroup& knee = groups_[static_cast<std::size_t>(knee_[s])];
+    const JointGroup& ankle = groups_[static_cast<std::size_t>(ankle_[s])];
+    hinge_pd(c, m, d, knee.dof_begin,
+             stance ? p.stance_knee_rad : (early_ ? p.swing_knee_early_rad : p.swing_knee_late_rad), p.knee_kp);
+    double dorsiflexion = p.stance_ankle_rad;
+    if (!stance) {
+      // The sole level in the heading frame (toes up by toe_up): the shank's pitch undone.
+      const Vector3d shank_x = q_heading.conjugate() * (quat_at(d.xquat + 4 * shank_[s]) * Vector3d::UnitX());
+      const double shank_pitch = std::atan2(-shank_x.z(), shank_x.x());
+      dorsiflexion = (early_ ? p.swing_ankle_early_rad : 0.0) - shank_pitch + p.toe_up_rad;
+    }
+    hinge_pd(c, m, d, ankle.dof_begin, dorsiflexion, p.ankle_kp);
+    for (int k = 1; k < ankle.dof_count; ++k) hinge_pd(c, m, d, ankle.dof_begin + k, 0.0, p.ankle_kp);
+    if (toe_[s] >= 0) hinge_pd(c, m, d, groups_[static_cast<std::size_t>(toe_[s])].dof_begin, 0.0, p.toe_kp);
+  }
+
+  // Swing thigh in the heading frame, placed by the balance feedback (SIMBICON).
+  const sim::CenterOfMass com = sim::center_of_mass(m, d);
+  const Vector3d rel = q_heading.conjugate() * (com.position_W - vec_at(d.xpos + 3 * foot_[stance_]));
+  const Vector3d vel = q_heading.conjugate() * com.velocity_W;
+  const double out = swing == 0 ? 1.0 : -1.0;  // +y is outwards for the left leg
+  const double pitch = (early_ ? p.swing_hip_early_rad : p.swing_hip_late_rad) + p.sagittal_cd * rel.x() +
+                       p.sagittal_cv * vel.x();
+  const double roll = out * p.swing_hip_out_rad + p.frontal_cd * rel.y() + p.frontal_cv * vel.y();
+  const Quaterniond q_thigh_goal =
+      q_heading * Quaterniond(AngleAxisd(-pitch, Vector3d::UnitY())) * Quaterniond(AngleAxisd(roll, Vector3d::UnitX()));
+  const Vector3d w_pelvis = vec_at(d.cvel + 6 * pelvis_);
+  const Vector3d w_thigh = vec_at(d.cvel + 6 * thigh_[swing]);
+  const double k_hip = p.hip_kp * gain_scale_;
+  const Vector3d tau_swing =
+      k_hip * rotation_vector(q_thigh_goal * quat_at(d.xquat + 4 * thigh_[swing]).conjugate()) -
+      k_hip * p.damping_time_s * (w_thigh - w_pelvis);
+
+  // Pelvis in the world by the virtual torso torque; the stance hip makes it (Coros 2010).
+  const double lean = p.pelvis_pitch_rad + (d.time - start_s_ < p.start_time_s ? p.start_pitch_rad : 0.0);
+  const Quaterniond q_pelvis_goal = q_heading * Quaterniond(AngleAxisd(lean, Vector3d::UnitY()));
+  const double k_torso = p.torso_kp * gain_scale_;
+  const Vector3d tau_torso = k_torso * rotation_vector(q_pelvis_goal * quat_at(d.xquat + 4 * pelvis_).conjugate()) -
+                             k_torso * p.damping_time_s * w_pelvis;
+  // The lumbar's torque on the pelvis is minus its torque on the upper body (its hinge axes).
+  Vector3d tau_lumbar = Vector3d::Zero();
+  const JointGroup& lumbar = groups_[static_cast<std::size_t>(lumbar_)];
+  for (int k = 0; k < lumbar.dof_count; ++k) {
+    const int dof = lumbar.dof_begin + k;
+    const int j = m.dof_jntid[dof];
+    const double k_trunk = kp_[static_cast<std::size_t>(lumbar_)] * gain_scale_;
+    const double tau = k_trunk * (0.0 - d.qpos[m.jnt_qposadr[j]]) - k_trunk * p.damping_time_s * d.qvel[dof];
+    tau_lumbar += tau * vec_at(d.xaxis + 3 * j);
+  }
+  hip_torque(c, d, swing, tau_swing);
+  hip_torque(c, d, stance_, -tau_torso - tau_swing - tau_lumbar);
+}
+
+}  // namespace biodyn::controllers
