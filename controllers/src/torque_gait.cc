@@ -76,6 +76,10 @@ TorqueGait::TorqueGait(const mjModel& m, const std::vector<JointGroup>& groups, 
   gain_scale_ = mass / kReferenceMass_kg;
   // Non-leg groups hold the standing pose (zero angles) by PD.
   kp_.assign(groups_.size(), 0.0);
+  leg_.assign(groups_.size(), false);
+  for (int s = 0; s < 2; ++s)
+    for (int g : {hip_[s], knee_[s], ankle_[s], toe_[s]})
+      if (g >= 0) leg_[static_cast<std::size_t>(g)] = true;
   for (std::size_t g = 0; g < groups_.size(); ++g) {
     const std::string& n = groups_[g].name;
     const auto starts = [&](const char* p) { return n.rfind(p, 0) == 0; };
@@ -97,11 +101,12 @@ void TorqueGait::reset(const mjModel& m, const mjData& d) {
   last_strike_ = TorqueGaitStrike{};
 }
 
-void TorqueGait::hinge_pd(CharacterController& c, const mjModel& m, const mjData& d, int dof, double target,
-                          double kp) const {
+double TorqueGait::hinge_pd(CharacterController& c, const mjModel& m, const mjData& d, int dof, double target,
+                            double kp) const {
   const double k = kp * gain_scale_;
   const double tau = k * (target - d.qpos[m.jnt_qposadr[m.dof_jntid[dof]]]) - k * params_.damping_time_s * d.qvel[dof];
   c.limit_torque_once(dof, tau, tau);
+  return tau;
 }
 
 void TorqueGait::hip_torque(CharacterController& c, const mjData& d, int side, const Vector3d& torque_W) const {
@@ -136,14 +141,17 @@ void TorqueGait::drive(CharacterController& c, const mjModel& m, const mjData& d
   c.set_stance(stance_, true);
   c.set_stance(swing, false);
 
-  // Everything but the legs holds the standing pose.
+  // Everything but the legs holds the standing pose. The lumbar's torque on the pelvis is
+  // minus its torque on the upper body (about its hinge axes): the stance hip takes it below.
+  Vector3d tau_lumbar = Vector3d::Zero();
   for (std::size_t g = 0; g < groups_.size(); ++g) {
     const JointGroup& jg = groups_[g];
-    if (jg.side != 0 && (jg.name.rfind("hip", 0) == 0 || jg.name.rfind("knee", 0) == 0 ||
-                         jg.name.rfind("ankle", 0) == 0 || jg.name.rfind("toe", 0) == 0))
-      continue;
+    if (leg_[g]) continue;
     if (!jg.ball) {
-      for (int k = 0; k < jg.dof_count; ++k) hinge_pd(c, m, d, jg.dof_begin + k, 0.0, kp_[g]);
+      for (int k = 0; k < jg.dof_count; ++k) {
+        const double tau = hinge_pd(c, m, d, jg.dof_begin + k, 0.0, kp_[g]);
+        if (static_cast<int>(g) == lumbar_) tau_lumbar += tau * vec_at(d.xaxis + 3 * m.dof_jntid[jg.dof_begin + k]);
+      }
       continue;
     }
     const Vector3d e = rotation_vector(sim::relative_orientation(m, d, jg.body).conjugate());
@@ -198,16 +206,6 @@ void TorqueGait::drive(CharacterController& c, const mjModel& m, const mjData& d
   const double k_torso = p.torso_kp * gain_scale_;
   const Vector3d tau_torso = k_torso * rotation_vector(q_pelvis_goal * quat_at(d.xquat + 4 * pelvis_).conjugate()) -
                              k_torso * p.damping_time_s * w_pelvis;
-  // The lumbar's torque on the pelvis is minus its torque on the upper body (its hinge axes).
-  Vector3d tau_lumbar = Vector3d::Zero();
-  const JointGroup& lumbar = groups_[static_cast<std::size_t>(lumbar_)];
-  for (int k = 0; k < lumbar.dof_count; ++k) {
-    const int dof = lumbar.dof_begin + k;
-    const int j = m.dof_jntid[dof];
-    const double k_trunk = kp_[static_cast<std::size_t>(lumbar_)] * gain_scale_;
-    const double tau = k_trunk * (0.0 - d.qpos[m.jnt_qposadr[j]]) - k_trunk * p.damping_time_s * d.qvel[dof];
-    tau_lumbar += tau * vec_at(d.xaxis + 3 * j);
-  }
   hip_torque(c, d, swing, tau_swing);
   hip_torque(c, d, stance_, -tau_torso - tau_swing - tau_lumbar);
 }

@@ -93,7 +93,8 @@ class TorqueGait : public TargetDriver {
   double heading_rad() const { return heading_; }
 
  private:
-  void hinge_pd(CharacterController& c, const mjModel& m, const mjData& d, int dof, double target, double kp) const;
+  /// Sets and returns the PD torque of one hinge DOF.
+  double hinge_pd(CharacterController& c, const mjModel& m, const mjData& d, int dof, double target, double kp) const;
   void hip_torque(CharacterController& c, const mjData& d, int side, const Eigen::Vector3d& torque_W) const;
 
   TorqueGaitParams params_;
@@ -104,6 +105,7 @@ class TorqueGait : public TargetDriver {
   int hip_[2] = {-1, -1}, knee_[2] = {-1, -1}, ankle_[2] = {-1, -1}, toe_[2] = {-1, -1};
   int lumbar_ = -1;
   std::vector<double> kp_;  // per group, the PD gain of the non-leg groups
+  std::vector<bool> leg_;   // per group: hip, knee, ankle or toe
 
   int stance_ = 0, strikes_ = 0;
   bool early_ = true, lifted_ = false;
