@@ -16,11 +16,8 @@ using sim::InvalidArgument;
 constexpr double kDeg = M_PI / 180.0;
 
 using json_fields::fail;
-const auto text_of = json_fields::number_text;
 
-void check(bool ok, const std::string& where, const std::string& rule, double v) {
-  if (!ok) fail(where, rule, text_of(v));
-}
+using json_fields::check;
 
 const auto number = json_fields::read_number;
 

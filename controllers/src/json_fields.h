@@ -22,6 +22,11 @@ inline std::string number_text(double v) {
   throw sim::InvalidArgument(where + ": " + rule + ", got " + got);
 }
 
+/// fail(where, rule, value) unless `ok`.
+inline void check(bool ok, const std::string& where, const std::string& rule, double value) {
+  if (!ok) fail(where, rule, number_text(value));
+}
+
 /// A finite number, or a clear error.
 inline double read_number(const nlohmann::json& j, const std::string& where) {
   if (!j.is_number()) fail(where, "must be a number", j.dump());

@@ -3,8 +3,10 @@
 #include <algorithm>
 #include <cmath>
 #include <string>
+#include <utility>
 
 #include "biodyn/sim/errors.h"
+#include "json_fields.h"
 #include "biodyn/sim/queries.h"
 
 namespace biodyn::controllers {
@@ -32,27 +34,31 @@ int require_group(const std::vector<JointGroup>& groups, const std::string& name
   return g;
 }
 
-void check(bool ok, const char* field, const char* rule, double value) {
-  if (!ok) {
-    throw sim::InvalidArgument(std::string("torque gait: ") + field + " " + rule + ", got " +
-                               std::to_string(value));
-  }
-}
+using json_fields::check;
 
 }  // namespace
 
 void TorqueGaitParams::validate() const {
-  check(swing_time_s > 0.05 && swing_time_s <= 2, "swing_time_s", "must be in (0.05, 2] s", swing_time_s);
-  check(start_time_s >= 0 && start_time_s <= 10, "start_time_s", "must be in [0, 10] s", start_time_s);
-  check(damping_time_s >= 0 && damping_time_s <= 1, "damping_time_s", "must be in [0, 1] s", damping_time_s);
-  for (double a : {swing_hip_early_rad, swing_hip_late_rad, swing_hip_out_rad, swing_knee_early_rad,
-                   swing_knee_late_rad, stance_knee_rad, stance_ankle_rad, swing_ankle_early_rad, toe_up_rad,
-                   pelvis_pitch_rad, start_pitch_rad})
-    check(std::abs(a) <= M_PI, "angle", "must be within +-pi rad", a);
-  for (double k : {torso_kp, hip_kp, knee_kp, ankle_kp, toe_kp, trunk_kp, arm_kp, distal_kp})
-    check(k >= 0 && k <= 1e5, "gain", "must be in [0, 1e5] N m/rad", k);
-  for (double c : {sagittal_cd, sagittal_cv, frontal_cd, frontal_cv})
-    check(std::abs(c) <= 10, "balance feedback gain", "must be within +-10", c);
+  const std::string w = "torque gait.";
+  check(swing_time_s > 0.05 && swing_time_s <= 2, w + "swing_time_s", "must be in (0.05, 2] s", swing_time_s);
+  check(start_time_s >= 0 && start_time_s <= 10, w + "start_time_s", "must be in [0, 10] s", start_time_s);
+  check(damping_time_s >= 0 && damping_time_s <= 1, w + "damping_time_s", "must be in [0, 1] s", damping_time_s);
+  const std::pair<const char*, double> angles[] = {
+      {"swing_hip_early_rad", swing_hip_early_rad}, {"swing_hip_late_rad", swing_hip_late_rad},
+      {"swing_hip_out_rad", swing_hip_out_rad},     {"swing_knee_early_rad", swing_knee_early_rad},
+      {"swing_knee_late_rad", swing_knee_late_rad}, {"stance_knee_rad", stance_knee_rad},
+      {"stance_ankle_rad", stance_ankle_rad},       {"swing_ankle_early_rad", swing_ankle_early_rad},
+      {"toe_up_rad", toe_up_rad},                   {"pelvis_pitch_rad", pelvis_pitch_rad},
+      {"start_pitch_rad", start_pitch_rad}};
+  for (const auto& [name, a] : angles) check(std::abs(a) <= M_PI, w + name, "must be within +-pi rad", a);
+  const std::pair<const char*, double> gains[] = {{"torso_kp", torso_kp}, {"hip_kp", hip_kp},
+                                                  {"knee_kp", knee_kp},   {"ankle_kp", ankle_kp},
+                                                  {"toe_kp", toe_kp},     {"trunk_kp", trunk_kp},
+                                                  {"arm_kp", arm_kp},     {"distal_kp", distal_kp}};
+  for (const auto& [name, k] : gains) check(k >= 0 && k <= 1e5, w + name, "must be in [0, 1e5] N m/rad", k);
+  const std::pair<const char*, double> feedback[] = {{"sagittal_cd", sagittal_cd}, {"sagittal_cv", sagittal_cv},
+                                                     {"frontal_cd", frontal_cd},   {"frontal_cv", frontal_cv}};
+  for (const auto& [name, c] : feedback) check(std::abs(c) <= 10, w + name, "must be within +-10", c);
 }
 
 TorqueGait::TorqueGait(const mjModel& m, const std::vector<JointGroup>& groups, TorqueGaitParams params)
@@ -89,8 +95,7 @@ TorqueGait::TorqueGait(const mjModel& m, const std::vector<JointGroup>& groups, 
   }
 }
 
-void TorqueGait::reset(const mjModel& m, const mjData& d) {
-  (void)m;
+void TorqueGait::reset(const mjData& d) {
   stance_ = 0;
   strikes_ = 0;
   early_ = true;

@@ -31,7 +31,7 @@ WalkResult walk(double duration_s, const char* weld) {
   controllers::CharacterController controller(&sim, controllers::default_params(m, groups), config);
   controller.reset_in_pose(controllers::pose_scenario("stand", groups, 0)[0]);
   controllers::TorqueGait gait(m, groups, controllers::TorqueGaitParams{});
-  gait.reset(m, d);
+  gait.reset(d);
   controller.set_driver(&gait);
   const double x0 = d.qpos[0], y0 = d.qpos[1], z0 = d.qpos[2], t0 = d.time;
   WalkResult r;

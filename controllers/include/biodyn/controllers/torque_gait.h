@@ -81,7 +81,7 @@ class TorqueGait : public TargetDriver {
 
   /// Starts from the current state: left foot in stance, early swing of the right leg,
   /// heading from the pelvis yaw. Needs positions computed (mj_forward).
-  void reset(const mjModel& m, const mjData& d);
+  void reset(const mjData& d);
   void set_heading_rate(double rad_s) { heading_rate_ = rad_s; }
   void drive(CharacterController& controller, const mjModel& m, const mjData& d) override;
 
