@@ -12,6 +12,7 @@ packages=(
   nlohmann-json3-dev                 # JSON inputs (overrides) and outputs (summaries)
   libcli11-dev                       # the biodyn command line
   catch2                             # tests (Catch2 v2)
+  gnuplot-nox                        # plots (push-sweep polar.png), driven as a process
 )
 
 missing=()

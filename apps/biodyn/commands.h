@@ -21,6 +21,12 @@ Command add_drop_command(CLI::App* app);
 Command add_pose_command(CLI::App* app);
 /// `biodyn stand-push`: largest standing push survived, per direction and weld mode.
 Command add_stand_push_command(CLI::App* app);
+/// `biodyn walk`: walk headless under the torque walker.
+Command add_walk_command(CLI::App* app);
+/// `biodyn push`: one push during steady walking.
+Command add_push_command(CLI::App* app);
+/// `biodyn push-sweep`: the push protocol during walking, on all cores.
+Command add_push_sweep_command(CLI::App* app);
 /// `biodyn bench`: controller cost against the bare physics step.
 Command add_bench_command(CLI::App* app);
 

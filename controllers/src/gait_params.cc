@@ -21,32 +21,9 @@ using json_fields::check;
 
 const auto number = json_fields::read_number;
 
-bool boolean(const Json& j, const std::string& where) {
-  if (!j.is_boolean()) fail(where, "must be true or false", j.dump());
-  return j.get<bool>();
-}
-
-std::vector<double> numbers(const Json& j, const std::string& where) {
-  if (!j.is_array()) fail(where, "must be an array of numbers", j.dump());
-  std::vector<double> out;
-  for (std::size_t i = 0; i < j.size(); ++i) out.push_back(number(j[i], where + "[" + std::to_string(i) + "]"));
-  return out;
-}
-
-// Reads an object's keys with one handler per key; unknown keys are errors.
-void read_object(const Json& j, const std::string& where,
-                 const std::map<std::string, std::function<void(const Json&, const std::string&)>>& keys) {
-  if (!j.is_object()) fail(where, "must be an object", j.dump());
-  for (auto it = j.begin(); it != j.end(); ++it) {
-    const auto k = keys.find(it.key());
-    if (k == keys.end()) {
-      std::string known;
-      for (const auto& kv : keys) known += (known.empty() ? "" : ", ") + kv.first;
-      fail(where + "." + it.key(), "unknown key (known: " + known + ")", it.value().dump());
-    }
-    k->second(it.value(), where + "." + it.key());
-  }
-}
+using json_fields::boolean;
+using json_fields::numbers;
+using json_fields::read_object;
 
 // A [start, end] pair of fractions in [0, 1].
 Eigen::Vector2d pair(const Json& j, const std::string& where) {

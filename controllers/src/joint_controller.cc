@@ -260,11 +260,26 @@ JointControlStatus JointController::compute(const mjModel& m, mjData& d,
         qacc_des_[i] = (w - d.qvel[i]) / params_.velocity_horizon_s;
       }
     }
-    const sim::HybridDynamicsResult r =
-        solver_.solve(m, d, actuated_.data(), qacc_des_.data(), lo_.data(), hi_.data(),
-                      qfrc_other, tau_.data(), qacc_pred_.data());
-    status.solver_iterations = r.newton_iterations;
-    status.converged = r.converged;
+    // Every actuated DOF torque-specified (a torque driver such as TorqueGait): the solve's
+    // answer is its bounds, so skip it (it is most of the step's cost).
+    bool all_specified = true;
+    for (int i = 0; i < nv_ && all_specified; ++i) {
+      const auto k = idx(i);
+      all_specified = !actuated_[k] || lo_[k] == hi_[k];
+    }
+    if (all_specified) {
+      for (int i = 0; i < nv_; ++i) {
+        const auto k = idx(i);
+        tau_[k] = actuated_[k] ? lo_[k] : 0.0;
+      }
+      std::fill(qacc_pred_.begin(), qacc_pred_.end(), std::numeric_limits<double>::quiet_NaN());
+    } else {
+      const sim::HybridDynamicsResult r =
+          solver_.solve(m, d, actuated_.data(), qacc_des_.data(), lo_.data(), hi_.data(),
+                        qfrc_other, tau_.data(), qacc_pred_.data());
+      status.solver_iterations = r.newton_iterations;
+      status.converged = r.converged;
+    }
   } else {
     for (int i = 0; i < nv_; ++i) {
       const auto k = idx(i);

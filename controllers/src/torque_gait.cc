@@ -36,7 +36,54 @@ int require_group(const std::vector<JointGroup>& groups, const std::string& name
 
 using json_fields::check;
 
+// Every parameter by its JSON name (the member's name).
+struct NamedField {
+  const char* name;
+  double TorqueGaitParams::*member;
+};
+#define BIODYN_FIELD(n) NamedField{#n, &TorqueGaitParams::n}
+constexpr NamedField kFields[] = {
+    BIODYN_FIELD(swing_time_s),        BIODYN_FIELD(swing_hip_early_rad),  BIODYN_FIELD(swing_hip_late_rad),
+    BIODYN_FIELD(sagittal_cd),         BIODYN_FIELD(sagittal_cv),          BIODYN_FIELD(frontal_cd),
+    BIODYN_FIELD(frontal_cv),          BIODYN_FIELD(swing_hip_out_rad),    BIODYN_FIELD(swing_knee_early_rad),
+    BIODYN_FIELD(swing_knee_late_rad), BIODYN_FIELD(stance_knee_rad),      BIODYN_FIELD(stance_ankle_rad),
+    BIODYN_FIELD(swing_ankle_early_rad), BIODYN_FIELD(toe_up_rad),         BIODYN_FIELD(pelvis_pitch_rad),
+    BIODYN_FIELD(start_pitch_rad),     BIODYN_FIELD(start_time_s),         BIODYN_FIELD(torso_kp),
+    BIODYN_FIELD(hip_kp),              BIODYN_FIELD(knee_kp),              BIODYN_FIELD(ankle_kp),
+    BIODYN_FIELD(toe_kp),              BIODYN_FIELD(trunk_kp),             BIODYN_FIELD(arm_kp),
+    BIODYN_FIELD(distal_kp),           BIODYN_FIELD(damping_time_s),       BIODYN_FIELD(reference_speed_m_s),
+    BIODYN_FIELD(speed_lean_rad_per_m_s), BIODYN_FIELD(speed_integral_rad_per_m), BIODYN_FIELD(speed_lean_limit_rad),
+    BIODYN_FIELD(lateral_integral_rad_per_m)};
+#undef BIODYN_FIELD
+
 }  // namespace
+
+void apply_torque_gait_json(const std::string& json_text, const std::string& source, TorqueGaitParams* params) {
+  nlohmann::json root;
+  try {
+    root = nlohmann::json::parse(json_text);
+  } catch (const nlohmann::json::parse_error& e) {
+    throw sim::InvalidArgument(source + ": not valid JSON (" + std::string(e.what()) + ")");
+  }
+  TorqueGaitParams p = *params;
+  std::map<std::string, std::function<void(const nlohmann::json&, const std::string&)>> keys;
+  for (const NamedField& f : kFields) {
+    keys[f.name] = [&p, f](const nlohmann::json& v, const std::string& w) { p.*(f.member) = json_fields::read_number(v, w); };
+  }
+  json_fields::read_object(root, source, keys);
+  try {
+    p.validate();
+  } catch (const sim::InvalidArgument& e) {
+    throw sim::InvalidArgument(source + ": " + e.what());
+  }
+  *params = p;
+}
+
+std::string torque_gait_json(const TorqueGaitParams& params) {
+  nlohmann::ordered_json j;
+  for (const NamedField& f : kFields) j[f.name] = params.*(f.member);
+  return j.dump(2) + "\n";
+}
 
 void TorqueGaitParams::validate() const {
   const std::string w = "torque gait.";
@@ -59,6 +106,15 @@ void TorqueGaitParams::validate() const {
   const std::pair<const char*, double> feedback[] = {{"sagittal_cd", sagittal_cd}, {"sagittal_cv", sagittal_cv},
                                                      {"frontal_cd", frontal_cd},   {"frontal_cv", frontal_cv}};
   for (const auto& [name, c] : feedback) check(std::abs(c) <= 10, w + name, "must be within +-10", c);
+  check(reference_speed_m_s > 0 && reference_speed_m_s <= 3, w + "reference_speed_m_s", "must be in (0, 3] m/s",
+        reference_speed_m_s);
+  check(std::abs(speed_lean_rad_per_m_s) <= 1, w + "speed_lean_rad_per_m_s", "must be within +-1", speed_lean_rad_per_m_s);
+  check(speed_integral_rad_per_m >= 0 && speed_integral_rad_per_m <= 2, w + "speed_integral_rad_per_m",
+        "must be in [0, 2]", speed_integral_rad_per_m);
+  check(lateral_integral_rad_per_m >= 0 && lateral_integral_rad_per_m <= 2, w + "lateral_integral_rad_per_m",
+        "must be in [0, 2]", lateral_integral_rad_per_m);
+  check(speed_lean_limit_rad >= 0 && speed_lean_limit_rad <= 0.5, w + "speed_lean_limit_rad", "must be in [0, 0.5] rad",
+        speed_lean_limit_rad);
 }
 
 TorqueGait::TorqueGait(const mjModel& m, const std::vector<JointGroup>& groups, TorqueGaitParams params)
@@ -104,6 +160,14 @@ void TorqueGait::reset(const mjData& d) {
   const Vector3d forward = quat_at(d.xquat + 4 * pelvis_) * Vector3d::UnitX();
   heading_ = std::atan2(forward.y(), forward.x());
   last_strike_ = TorqueGaitStrike{};
+  lean_integral_ = roll_integral_ = 0;
+  com_at_strike_ = Vector3d::Zero();
+}
+
+double TorqueGait::speed_lean_rad() const {
+  const TorqueGaitParams& p = params_;
+  return std::clamp(p.speed_lean_rad_per_m_s * (speed_ - p.reference_speed_m_s) + lean_integral_,
+                    -p.speed_lean_limit_rad, p.speed_lean_limit_rad);
 }
 
 double TorqueGait::hinge_pd(CharacterController& c, const mjModel& m, const mjData& d, int dof, double target,
@@ -135,6 +199,19 @@ void TorqueGait::drive(CharacterController& c, const mjModel& m, const mjData& d
   if (!early_ && touches && lifted_) {
     const Vector3d delta = vec_at(d.xpos + 3 * foot_[swing]) - vec_at(d.xpos + 3 * foot_[stance_]);
     const double ch = std::cos(heading_), sh = std::sin(heading_);
+    // Speed regulation: the step's mean CoM speed along the heading against the command
+    // (not during the start from standing, and not before there was a step).
+    const Vector3d com_now = sim::center_of_mass(m, d).position_W;
+    if (strikes_ > 0 && d.time - start_s_ >= p.start_time_s) {
+      const double t_step = d.time - last_strike_.time_s;
+      const double v_step = (ch * (com_now.x() - com_at_strike_.x()) + sh * (com_now.y() - com_at_strike_.y())) /
+                            std::max(t_step, 1e-3);
+      const double limit = p.speed_lean_limit_rad;
+      lean_integral_ = std::clamp(lean_integral_ + p.speed_integral_rad_per_m * (speed_ - v_step) * t_step, -limit, limit);
+      const double sideways = -sh * (com_now.x() - com_at_strike_.x()) + ch * (com_now.y() - com_at_strike_.y());
+      roll_integral_ = std::clamp(roll_integral_ + p.lateral_integral_rad_per_m * sideways, -limit, limit);
+    }
+    com_at_strike_ = com_now;
     last_strike_ = {d.time, swing, ch * delta.x() + sh * delta.y(), std::abs(-sh * delta.x() + ch * delta.y())};
     ++strikes_;
     stance_ = swing;
@@ -179,9 +256,11 @@ void TorqueGait::drive(CharacterController& c, const mjModel& m, const mjData& d
     double dorsiflexion = p.stance_ankle_rad;
     if (!stance) {
       // The sole level in the heading frame (toes up by toe_up): the shank's pitch undone.
+      // Pitch about the heading frame's +y (toes down positive); dorsiflexion turns the foot
+      // about -y, so the foot's pitch is shank_pitch - dorsiflexion.
       const Vector3d shank_x = q_heading.conjugate() * (quat_at(d.xquat + 4 * shank_[s]) * Vector3d::UnitX());
       const double shank_pitch = std::atan2(-shank_x.z(), shank_x.x());
-      dorsiflexion = (early_ ? p.swing_ankle_early_rad : 0.0) - shank_pitch + p.toe_up_rad;
+      dorsiflexion = (early_ ? p.swing_ankle_early_rad : 0.0) + shank_pitch + p.toe_up_rad;
     }
     hinge_pd(c, m, d, ankle.dof_begin, dorsiflexion, p.ankle_kp);
     for (int k = 1; k < ankle.dof_count; ++k) hinge_pd(c, m, d, ankle.dof_begin + k, 0.0, p.ankle_kp);
@@ -195,7 +274,7 @@ void TorqueGait::drive(CharacterController& c, const mjModel& m, const mjData& d
   const double out = swing == 0 ? 1.0 : -1.0;  // +y is outwards for the left leg
   const double pitch = (early_ ? p.swing_hip_early_rad : p.swing_hip_late_rad) + p.sagittal_cd * rel.x() +
                        p.sagittal_cv * vel.x();
-  const double roll = out * p.swing_hip_out_rad + p.frontal_cd * rel.y() + p.frontal_cv * vel.y();
+  const double roll = out * p.swing_hip_out_rad + p.frontal_cd * rel.y() + p.frontal_cv * vel.y() + roll_integral_;
   const Quaterniond q_thigh_goal =
       q_heading * Quaterniond(AngleAxisd(-pitch, Vector3d::UnitY())) * Quaterniond(AngleAxisd(roll, Vector3d::UnitX()));
   const Vector3d w_pelvis = vec_at(d.cvel + 6 * pelvis_);
@@ -206,7 +285,7 @@ void TorqueGait::drive(CharacterController& c, const mjModel& m, const mjData& d
       k_hip * p.damping_time_s * (w_thigh - w_pelvis);
 
   // Pelvis in the world by the virtual torso torque; the stance hip makes it (Coros 2010).
-  const double lean = p.pelvis_pitch_rad + (d.time - start_s_ < p.start_time_s ? p.start_pitch_rad : 0.0);
+  const double lean = p.pelvis_pitch_rad + (d.time - start_s_ < p.start_time_s ? p.start_pitch_rad : 0.0) + speed_lean_rad();
   const Quaterniond q_pelvis_goal = q_heading * Quaterniond(AngleAxisd(lean, Vector3d::UnitY()));
   const double k_torso = p.torso_kp * gain_scale_;
   const Vector3d tau_torso = k_torso * rotation_vector(q_pelvis_goal * quat_at(d.xquat + 4 * pelvis_).conjugate()) -

@@ -227,3 +227,53 @@ TEST_CASE("Bad pose options exit 2 with one line naming the value, nothing writt
     CHECK(!fs::exists(dir / "out.json"));
   }
 }
+
+TEST_CASE("biodyn walk writes the walk JSON and says what the weld assumes", "[apps][cli][walk]") {
+  const fs::path dir = fresh_dir("walk");
+  const Run r = run_biodyn("walk --duration 8 --weld glue --json walk.json --csv trace.csv", dir);
+  INFO(r.out << r.err);
+  REQUIRE(r.exit_code == 0);
+  const auto j = nlohmann::json::parse(slurp(dir / "walk.json"));
+  for (const char* key : {"fallen", "time_fallen", "distance", "mean_speed", "steps", "step_lengths", "cadence",
+                          "joint_ranges_deg", "max_foot_slip", "weld", "weld_tension_steps", "realtime_factor"})
+    CHECK(j.contains(key));
+  CHECK(j["weld"] == "glue");
+  CHECK(j["step_lengths"].size() == j["steps"].get<std::size_t>());
+  // The result depends on the glue weld: the output says so.
+  CHECK(r.out.find("welded to the floor") != std::string::npos);
+  CHECK(j["weld_assumption"].get<std::string>().find("welded to the floor") != std::string::npos);
+  CHECK(fs::exists(dir / "trace.csv"));
+}
+
+TEST_CASE("biodyn push-sweep gives the same results on 1 and 2 threads, with a plot", "[apps][cli][push]") {
+  const fs::path dir = fresh_dir("push_sweep");
+  const std::string args = "push-sweep --directions 2 --durations 0.2 --phases 2 --resolution 150 --max-force 450 "
+                           "--settle-strides 2 --weld off ";
+  const Run one = run_biodyn(args + "--threads 1 --out one", dir);
+  INFO(one.out << one.err);
+  REQUIRE(one.exit_code == 0);
+  const Run two = run_biodyn(args + "--threads 2 --out two", dir);
+  INFO(two.out << two.err);
+  REQUIRE(two.exit_code == 0);
+  const std::string a = slurp(dir / "one" / "results.csv"), b = slurp(dir / "two" / "results.csv");
+  CHECK(std::count(a.begin(), a.end(), '\n') == 5);  // header + 2 directions x 2 phases
+  CHECK(a == b);
+  const auto s = nlohmann::json::parse(slurp(dir / "two" / "summary.json"));
+  REQUIRE(s["cells"].size() == 2);
+  for (const auto& c : s["cells"]) {
+    // The guaranteed envelope never exceeds the bisection figure's range, and is on the grid.
+    const double f = c["max_survived_N_worst_phase"].get<double>();
+    CHECK(std::fmod(f, 150.0) == 0.0);
+    CHECK(f <= 450.0);
+  }
+  CHECK(fs::file_size(dir / "two" / "polar.png") > 1000);
+}
+
+TEST_CASE("biodyn push rejects a body it cannot push, by name", "[apps][cli][push]") {
+  const fs::path dir = fresh_dir("push_bad");
+  const Run r = run_biodyn("push --force 100 --body head --json p.json", dir);
+  CHECK(r.exit_code == 2);
+  CHECK(r.err.find("--body") != std::string::npos);
+  CHECK(r.err.find("head") != std::string::npos);
+  CHECK_FALSE(fs::exists(dir / "p.json"));
+}

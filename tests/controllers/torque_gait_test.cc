@@ -93,3 +93,22 @@ TEST_CASE("The torque walker rejects invalid parameters and models without legs 
   CHECK_THROWS_WITH(controllers::TorqueGait(*ball.get(), controllers::find_joint_groups(*ball.get()), controllers::TorqueGaitParams{}),
                     Catch::Matchers::Contains("thigh_l"));
 }
+
+TEST_CASE("The torque walker's parameter file round-trips and overrides only what it names", "[gait]") {
+  controllers::TorqueGaitParams p;
+  p.swing_time_s = 0.41;
+  p.hip_kp = 912.5;
+  p.speed_integral_rad_per_m = 0.0;
+  controllers::TorqueGaitParams q;
+  controllers::apply_torque_gait_json(controllers::torque_gait_json(p), "saved.json", &q);
+  CHECK(controllers::torque_gait_json(q) == controllers::torque_gait_json(p));
+  CHECK(q.hip_kp == 912.5);
+  controllers::TorqueGaitParams r;
+  controllers::apply_torque_gait_json(R"({"knee_kp": 300})", "partial.json", &r);
+  CHECK(r.knee_kp == 300);
+  CHECK(r.hip_kp == controllers::TorqueGaitParams{}.hip_kp);
+  // Errors leave the params as they were.
+  CHECK_THROWS_WITH(controllers::apply_torque_gait_json(R"({"knee_kp": "stiff"})", "bad.json", &r),
+                    Catch::Matchers::Contains("bad.json.knee_kp") && Catch::Matchers::Contains("number"));
+  CHECK(r.knee_kp == 300);
+}

@@ -109,7 +109,8 @@ class JointController {
   /// N m, per DOF (0 on unactuated DOFs).
   const std::vector<mjtNum>& tau_max() const { return tau_max_; }
   const std::vector<mjtNum>& previous_torque() const { return tau_prev_; }
-  /// Predicted accelerations of the last velocity-based solve (nv).
+  /// Predicted accelerations of the last velocity-based solve (nv); NaN after a step in which
+  /// every actuated DOF was torque-specified (the solve was skipped).
   const std::vector<mjtNum>& predicted_qacc() const { return qacc_pred_; }
   /// Desired DOF accelerations of the last compute (nv; velocity kind).
   const std::vector<mjtNum>& desired_qacc() const { return qacc_des_; }

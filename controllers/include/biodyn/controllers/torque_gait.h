@@ -24,6 +24,7 @@
 #include <mujoco/mujoco.h>
 
 #include <Eigen/Core>
+#include <string>
 #include <vector>
 
 #include "biodyn/controllers/character_controller.h"
@@ -35,34 +36,55 @@ namespace biodyn::controllers {
 /// defaults were found by a cross-entropy search on the default character (10 s walks at
 /// 1 m/s, from standing and with sideways disturbances; controllers/README.md).
 struct TorqueGaitParams {
-  double swing_time_s = 0.386;         ///< length of the early-swing state
-  double swing_hip_early_rad = 0.773;  ///< swing thigh pitch forward of vertical, early swing
-  double swing_hip_late_rad = 0.255;   ///< ... late swing
-  double sagittal_cd = 0.155;          ///< rad/m of CoM ahead of the stance ankle
-  double sagittal_cv = 0.116;          ///< rad per m/s of forward CoM velocity
-  double frontal_cd = 0.119;           ///< rad/m of CoM beside the stance ankle
-  double frontal_cv = 0.353;           ///< rad per m/s of sideways CoM velocity
-  double swing_hip_out_rad = -0.008;   ///< swing thigh roll outwards (the step width offset)
-  double swing_knee_early_rad = 1.459;
-  double swing_knee_late_rad = 0.079;
-  double stance_knee_rad = 0.215;
-  double stance_ankle_rad = -0.041;     ///< dorsiflexion positive
-  double swing_ankle_early_rad = 0.300;  ///< added to the level sole in early swing
-  double toe_up_rad = 0.148;             ///< swing sole pitch, toes up
-  double pelvis_pitch_rad = 0.110;       ///< forward lean of the pelvis in the world
-  double start_pitch_rad = 0.108;          ///< extra lean for the first start_time_s (from standing)
-  double start_time_s = 1.304;
-  double torso_kp = 1106;
-  double hip_kp = 855;
-  double knee_kp = 247;
-  double ankle_kp = 88;
+  double swing_time_s = 0.364;         ///< length of the early-swing state
+  double swing_hip_early_rad = 0.684;  ///< swing thigh pitch forward of vertical, early swing
+  double swing_hip_late_rad = 0.060;   ///< ... late swing
+  double sagittal_cd = 0.258;          ///< rad/m of CoM ahead of the stance ankle
+  double sagittal_cv = 0.235;          ///< rad per m/s of forward CoM velocity
+  double frontal_cd = -0.063;          ///< rad/m of CoM beside the stance ankle
+  double frontal_cv = 0.427;           ///< rad per m/s of sideways CoM velocity
+  double swing_hip_out_rad = -0.042;   ///< swing thigh roll outwards (the step width offset)
+  double swing_knee_early_rad = 1.544;
+  double swing_knee_late_rad = 0.130;
+  double stance_knee_rad = 0.228;
+  double stance_ankle_rad = -0.063;    ///< dorsiflexion positive
+  double swing_ankle_early_rad = 0.022;  ///< added to the level sole in early swing
+  double toe_up_rad = 0.064;             ///< swing sole pitch, toes up
+  double pelvis_pitch_rad = 0.112;       ///< forward lean of the pelvis in the world
+  double start_pitch_rad = 0.123;        ///< extra lean for the first start_time_s (from standing)
+  double start_time_s = 1.671;
+  double torso_kp = 1281;
+  double hip_kp = 656;
+  double knee_kp = 233;
+  double ankle_kp = 79;
   double toe_kp = 30;
   double trunk_kp = 600;    ///< lumbar, thorax
   double arm_kp = 100;      ///< shoulders, clavicles
   double distal_kp = 50;    ///< neck, head, elbows, forearms, wrists
   double damping_time_s = 0.1;  ///< kd = kp damping_time_s
+  /// Speed regulation (walking-notes.md: speed is set mostly by the forward lean). The gait
+  /// walks at about reference_speed_m_s with the lean above; a commanded speed v adds
+  /// speed_lean_rad_per_m_s (v - reference) at once, and after every step
+  /// speed_integral_rad_per_m (v - v_step) t_step, v_step the step's mean CoM speed along the
+  /// heading (held within +-speed_lean_limit_rad).
+  double reference_speed_m_s = 1.0;
+  double speed_lean_rad_per_m_s = 0.05;
+  double speed_integral_rad_per_m = 0.05;
+  double speed_lean_limit_rad = 0.2;
+  /// The frontal counterpart: after every step the swing thigh's roll gains
+  /// lateral_integral_rad_per_m times the CoM's sideways travel in that step (heading frame), so
+  /// a steady sideways drift places the feet against it (held within +-speed_lean_limit_rad).
+  double lateral_integral_rad_per_m = 0.05;
   void validate() const;  ///< throws sim::InvalidArgument naming the field
 };
+
+/// Overrides the fields a JSON object gives (keys are the member names above, e.g.
+/// {"swing_time_s": 0.4, "hip_kp": 900}); unknown keys, non-numbers and values out of range are
+/// errors naming `source`, the field, the rule and the value (sim::InvalidArgument). On error
+/// `params` is unchanged.
+void apply_torque_gait_json(const std::string& json_text, const std::string& source, TorqueGaitParams* params);
+/// Every field as a JSON object that apply_torque_gait_json reads back identically.
+std::string torque_gait_json(const TorqueGaitParams& params);
 
 /// One strike of the torque walker.
 struct TorqueGaitStrike {
@@ -83,6 +105,11 @@ class TorqueGait : public TargetDriver {
   /// heading from the pelvis yaw. Needs positions computed (mj_forward).
   void reset(const mjData& d);
   void set_heading_rate(double rad_s) { heading_rate_ = rad_s; }
+  /// Commanded speed along the heading, m/s (> 0).
+  void set_speed(double m_s) { speed_ = m_s; }
+  double speed_command() const { return speed_; }
+  /// rad, the lean the speed regulation adds now (feed-forward + integral).
+  double speed_lean_rad() const;
   void drive(CharacterController& controller, const mjModel& m, const mjData& d) override;
 
   const TorqueGaitParams& params() const { return params_; }
@@ -110,6 +137,8 @@ class TorqueGait : public TargetDriver {
   int stance_ = 0, strikes_ = 0;
   bool early_ = true, lifted_ = false;
   double state_start_s_ = 0, start_s_ = 0, heading_ = 0, heading_rate_ = 0, last_time_s_ = 0;
+  double speed_ = 1.0, lean_integral_ = 0, roll_integral_ = 0;
+  Eigen::Vector3d com_at_strike_ = Eigen::Vector3d::Zero();
   TorqueGaitStrike last_strike_;
 };
 

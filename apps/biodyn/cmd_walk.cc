@@ -1,0 +1,267 @@
+// biodyn walk / biodyn push: walking headless under the torque walker, and one push during
+// steady walking (issue 4; references.md, push protocol).
+#include <fstream>
+#include <iomanip>
+#include <iostream>
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "biodyn/controllers/torque_gait.h"
+#include "biodyn/models/mjcf.h"
+#include "biodyn/scenarios/walk.h"
+#include "biodyn/sim/errors.h"
+#include "biodyn/sim/model.h"
+#include "cli_common.h"
+#include "commands.h"
+#include "walk_options.h"
+
+namespace biodyn::apps {
+
+void WalkOptions::add_to(CLI::App* cmd) {
+  character.add_to(cmd);
+  cmd->add_option("--speed", speed_m_s, "Commanded speed, m/s")->capture_default_str();
+  cmd->add_option("--heading-rate", heading_rate_deg_s, "Commanded turning rate, deg/s (+ left)")
+      ->capture_default_str();
+  cmd->add_option("--weld", weld, "Foot-contact mode: off | honest | glue")->capture_default_str();
+  cmd->add_option("--reaction-time", reaction_time_s,
+                  "Muscle reaction time t_r for every joint, s (default: the controller params, 0.02)");
+  cmd->add_option("--params", params_path, "Walker parameters (JSON; see --print-params)");
+}
+
+scenarios::WalkRunParams WalkOptions::to_params() const {
+  scenarios::WalkRunParams p;
+  p.speed_m_s = speed_m_s;
+  p.heading_rate_deg_s = heading_rate_deg_s;
+  p.weld = controllers::parse_weld_mode(weld, "--weld");
+  p.reaction_time_s = reaction_time_s;
+  if (!params_path.empty()) {
+    p.gait_json = read_text_file(params_path);
+    p.gait_source = params_path;
+  }
+  return p;
+}
+
+std::string weld_assumption(const std::string& weld) {
+  if (weld == "glue") {
+    return "glue: each stance foot is welded to the floor from strike to lift-off, even where "
+           "the weld pulls or holds beyond friction (the paper's assumption); compare with --weld off";
+  }
+  if (weld == "honest") {
+    return "honest: a stance foot is welded only while the weld's ground wrench is one the sole's "
+           "contact could give (compressive, inside friction, CoP on the sole); tension steps are undone";
+  }
+  return "off: feet held by frictional contacts only";
+}
+
+nlohmann::json walk_json(const scenarios::WalkRunResult& r) {
+  nlohmann::json ranges = nlohmann::json::object();
+  for (const auto& [name, range] : r.joint_ranges_deg) ranges[name] = {range[0], range[1]};
+  nlohmann::json j = {{"fallen", r.fallen},
+                      {"time_fallen", r.fallen ? nlohmann::json(r.time_fallen_s) : nlohmann::json(nullptr)},
+                      {"distance", r.distance_m},
+                      {"mean_speed", r.mean_speed_m_s},
+                      {"steady_speed", r.steady_speed_m_s},
+                      {"lateral_drift", r.lateral_drift_m},
+                      {"steps", r.steps},
+                      {"step_lengths", r.step_lengths_m},
+                      {"step_widths", r.step_widths_m},
+                      {"step_times", r.step_times_s},
+                      {"cadence", r.cadence_steps_per_min},
+                      {"mean_step_length", r.mean_step_length_m},
+                      {"joint_ranges_deg", ranges},
+                      {"swing_knee_peak_deg", r.swing_knee_peak_deg},
+                      {"heel_strike_fraction", r.heel_strike_fraction},
+                      {"max_foot_slip", r.max_foot_slip_m},
+                      {"mean_foot_slip", r.mean_foot_slip_m},
+                      {"weld", r.weld},
+                      {"weld_assumption", weld_assumption(r.weld)},
+                      {"weld_tension_steps", r.weld_tension_steps},
+                      {"weld_redone_steps", r.weld_redone_steps},
+                      {"max_weld_force", r.max_weld_force_N},
+                      {"max_torque_ratio", r.max_torque_ratio},
+                      {"max_root_force", r.max_root_force_N},
+                      {"speed_command", r.speed_command_m_s},
+                      {"heading_rate_deg_s", r.heading_rate_deg_s},
+                      {"reaction_time_s", r.reaction_time_s},
+                      {"simulated_s", r.simulated_s},
+                      {"wall_s", r.wall_s},
+                      {"realtime_factor", r.realtime_factor},
+                      {"mujoco_warnings", r.warnings.describe()},
+                      {"units", "m, s, m/s, N, steps/min; after the start-up (first 5 s) for steady_speed, "
+                                "cadence, mean_step_length, joint_ranges_deg, swing_knee_peak_deg"}};
+  if (r.push) {
+    const scenarios::WalkPushOutcome& o = *r.push;
+    j["push"] = {{"survived", o.survived},
+                 {"failure", o.failure},
+                 {"fell", o.fell},
+                 {"force_N", o.force_N},
+                 {"duration_s", o.duration_s},
+                 {"direction_deg", o.direction_deg},
+                 {"body", o.body},
+                 {"impulse_N_s", o.impulse_N_s},
+                 {"delta_v_m_s", o.delta_v_m_s},
+                 {"onset_s", o.onset_s},
+                 {"end_s", o.end_s},
+                 {"speed_before_m_s", o.speed_before_m_s},
+                 {"stride_speeds_after_m_s", o.stride_speeds_after_m_s},
+                 {"recovery_strides", o.recovery_strides}};
+    j["survived"] = o.survived;
+  }
+  return j;
+}
+
+void print_walk_summary(const scenarios::WalkRunResult& r, std::ostream& out) {
+  out << std::fixed << std::setprecision(2);
+  if (r.fallen) {
+    out << "  FELL at " << r.time_fallen_s << " s";
+  } else {
+    out << "  walked " << r.simulated_s << " s without falling";
+  }
+  out << ": " << r.distance_m << " m, mean " << r.mean_speed_m_s << " m/s (steady " << r.steady_speed_m_s
+      << " m/s, commanded " << r.speed_command_m_s << "), " << r.steps << " steps\n"
+      << "  cadence " << std::setprecision(1) << r.cadence_steps_per_min << " steps/min, mean step "
+      << std::setprecision(3) << r.mean_step_length_m << " m, swing knee peak " << std::setprecision(1)
+      << r.swing_knee_peak_deg << " deg, heel strikes " << std::setprecision(0) << 100 * r.heel_strike_fraction
+      << "%\n"
+      << "  foot slip max " << std::setprecision(1) << 100 * r.max_foot_slip_m << " cm (mean "
+      << 100 * r.mean_foot_slip_m << " cm per stance), drift " << std::setprecision(2) << r.lateral_drift_m
+      << " m sideways\n"
+      << "  weld " << weld_assumption(r.weld) << "\n"
+      << "  weld tension steps " << r.weld_tension_steps << ", redone steps " << r.weld_redone_steps
+      << ", root force " << r.max_root_force_N << " N, peak torque " << std::setprecision(0)
+      << 100 * r.max_torque_ratio << "% of tau_max, " << std::setprecision(1) << r.realtime_factor
+      << "x real time\n";
+}
+
+Command add_walk_command(CLI::App* app) {
+  struct Options {
+    WalkOptions walk;
+    double duration_s = 20;
+    std::string steps;
+    std::string json, csv;
+    bool print_params = false;
+  };
+  auto o = std::make_shared<Options>();
+  CLI::App* cmd = app->add_subcommand("walk", "Walk headless from standing under the torque walker");
+  cmd->add_option("--duration", o->duration_s, "Simulated time, s")->capture_default_str();
+  o->walk.add_to(cmd);
+  cmd->add_option("--steps", o->steps, "Stepping stones: step lengths, m, e.g. 0.60,0.20,0.50");
+  cmd->add_option("--json", o->json, "Write the results as JSON here");
+  cmd->add_option("--csv", o->csv, "Write a per-step trace as CSV here");
+  cmd->add_flag("--print-params", o->print_params, "Print the walker parameters (defaults + --params) as JSON and exit");
+  return {cmd, [o]() {
+            scenarios::WalkRunParams p = o->walk.to_params();
+            p.duration_s = o->duration_s;
+            if (o->print_params) {
+              controllers::TorqueGaitParams gp;
+              if (!p.gait_json.empty()) controllers::apply_torque_gait_json(p.gait_json, p.gait_source, &gp);
+              std::cout << controllers::torque_gait_json(gp);
+              return kExitOk;
+            }
+            if (!o->steps.empty()) {
+              throw sim::InvalidArgument(
+                  "--steps: stepping stones are not supported by the torque walker yet (issue 4, open)");
+            }
+            p.validate();
+            const models::CharacterSpec spec = o->walk.character.to_spec();
+            const models::Character character = models::generate_character(spec);
+            sim::Simulation sim(sim::Model::from_string(models::to_mjcf(character), "<character>"));
+            std::ostringstream trace;
+            if (!o->csv.empty()) p.trace = &trace;
+            std::cout << "biodyn walk: " << to_string(spec.sex) << " " << spec.height_m << " m " << spec.mass_kg
+                      << " kg (" << to_string(spec.detail) << "), " << p.duration_s << " s, weld " << o->walk.weld
+                      << ", speed " << p.speed_m_s << " m/s, heading rate " << p.heading_rate_deg_s << " deg/s\n";
+            scenarios::WalkRunResult r;
+            {
+              ProgressBar bar("walk");
+              r = scenarios::run_walk(&sim, p, [&](double f) { bar.update(f); });
+            }
+            print_walk_summary(r, std::cout);
+            if (!o->csv.empty()) {
+              write_file_atomically(o->csv, trace.str());
+              std::cout << "  trace:    " << o->csv << "\n";
+            }
+            if (!o->json.empty()) {
+              nlohmann::json j = walk_json(r);
+              j["inputs"] = o->walk.inputs_json(spec);
+              j["inputs"]["duration_s"] = p.duration_s;
+              write_file_atomically(o->json, j.dump(2) + "\n");
+              std::cout << "  summary:  " << o->json << "\n";
+            }
+            return r.fallen ? kExitFailure : kExitOk;
+          }};
+}
+
+nlohmann::json WalkOptions::inputs_json(const models::CharacterSpec& spec) const {
+  return {{"height_m", spec.height_m},     {"mass_kg", spec.mass_kg},
+          {"sex", to_string(spec.sex)},    {"detail", to_string(spec.detail)},
+          {"speed_m_s", speed_m_s},        {"heading_rate_deg_s", heading_rate_deg_s},
+          {"weld", weld},                  {"reaction_time_s", reaction_time_s},
+          {"params", params_path}};
+}
+
+Command add_push_command(CLI::App* app) {
+  struct Options {
+    WalkOptions walk;
+    scenarios::WalkPush push;
+    std::string json, csv;
+  };
+  auto o = std::make_shared<Options>();
+  o->push.force_N = -1;
+  CLI::App* cmd = app->add_subcommand("push", "One push during steady walking: survived, and the recovery");
+  cmd->add_option("--force", o->push.force_N, "Push force, N")->required();
+  cmd->add_option("--duration", o->push.duration_s, "Push duration, s")->capture_default_str();
+  cmd->add_option("--direction", o->push.direction_deg, "Direction relative to the heading, deg (0 forward, 90 left)")
+      ->capture_default_str();
+  cmd->add_option("--body", o->push.body, "Pushed body: pelvis | trunk")->capture_default_str();
+  cmd->add_option("--onset-phase", o->push.onset_phase, "Onset as a fraction of the stride (from a left strike)")
+      ->capture_default_str();
+  cmd->add_option("--settle-strides", o->push.settle_strides, "Steady strides before the push's stride")
+      ->capture_default_str();
+  o->walk.add_to(cmd);
+  cmd->add_option("--json", o->json, "Write the results as JSON here");
+  cmd->add_option("--csv", o->csv, "Write a per-step trace as CSV here");
+  return {cmd, [o]() {
+            if (o->push.body != "pelvis" && o->push.body != "trunk") {
+              throw sim::InvalidArgument("--body: expected pelvis or trunk, got '" + o->push.body + "'");
+            }
+            scenarios::WalkRunParams p = o->walk.to_params();
+            p.push = o->push;
+            p.validate();
+            const models::CharacterSpec spec = o->walk.character.to_spec();
+            const models::Character character = models::generate_character(spec);
+            sim::Simulation sim(sim::Model::from_string(models::to_mjcf(character), "<character>"));
+            std::ostringstream trace;
+            if (!o->csv.empty()) p.trace = &trace;
+            std::cout << "biodyn push: " << o->push.force_N << " N for " << o->push.duration_s << " s on the "
+                      << o->push.body << ", " << o->push.direction_deg << " deg from the heading, at "
+                      << o->push.onset_phase << " of the stride after " << o->push.settle_strides
+                      << " strides; weld " << o->walk.weld << ", speed " << p.speed_m_s << " m/s\n";
+            scenarios::WalkRunResult r;
+            {
+              ProgressBar bar("push");
+              r = scenarios::run_walk(&sim, p, [&](double f) { bar.update(f); });
+            }
+            const scenarios::WalkPushOutcome& po = *r.push;
+            std::cout << std::fixed << std::setprecision(2) << "  " << (po.survived ? "SURVIVED" : "FAILED: " + po.failure)
+                      << "; impulse " << po.impulse_N_s << " N s, delta-v " << po.delta_v_m_s << " m/s, onset "
+                      << po.onset_s << " s; speed before " << po.speed_before_m_s << " m/s, recovered in "
+                      << (po.recovery_strides > 0 ? std::to_string(po.recovery_strides) + " strides" : std::string("-"))
+                      << "\n";
+            print_walk_summary(r, std::cout);
+            if (!o->csv.empty()) {
+              write_file_atomically(o->csv, trace.str());
+              std::cout << "  trace:    " << o->csv << "\n";
+            }
+            if (!o->json.empty()) {
+              nlohmann::json j = walk_json(r);
+              j["inputs"] = o->walk.inputs_json(spec);
+              write_file_atomically(o->json, j.dump(2) + "\n");
+              std::cout << "  summary:  " << o->json << "\n";
+            }
+            return kExitOk;
+          }};
+}
+
+}  // namespace biodyn::apps

@@ -1,0 +1,36 @@
+#pragma once
+/// Options shared by `biodyn walk`, `push` and `push-sweep`, and the walk JSON.
+
+#include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
+#include <ostream>
+#include <string>
+
+#include "biodyn/scenarios/walk.h"
+#include "cli_common.h"
+
+namespace biodyn::apps {
+
+struct WalkOptions {
+  CharacterOptions character;
+  double speed_m_s = 1.0;
+  double heading_rate_deg_s = 0;
+  std::string weld = "honest";
+  double reaction_time_s = 0;
+  std::string params_path;
+
+  /// Adds the character options and --speed --heading-rate --weld --reaction-time --params.
+  void add_to(CLI::App* cmd);
+  /// The run parameters (reads the params file). Throws sim::InvalidArgument.
+  scenarios::WalkRunParams to_params() const;
+  nlohmann::json inputs_json(const models::CharacterSpec& spec) const;
+};
+
+/// What a result depends on in each foot-contact mode, said in every output.
+std::string weld_assumption(const std::string& weld);
+/// The walk JSON (field names of the issue: fallen, distance, mean_speed, ...).
+nlohmann::json walk_json(const scenarios::WalkRunResult& r);
+/// A few lines a person reads.
+void print_walk_summary(const scenarios::WalkRunResult& r, std::ostream& out);
+
+}  // namespace biodyn::apps

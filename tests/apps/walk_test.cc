@@ -1,0 +1,136 @@
+// The walking scenario (issue 4): read-outs of a walk, one push during walking, bad input.
+#include <catch2/catch.hpp>
+#include <cmath>
+#include <sstream>
+#include <string>
+
+#include "biodyn/models/mjcf.h"
+#include "biodyn/scenarios/walk.h"
+#include "biodyn/sim/errors.h"
+#include "biodyn/sim/model.h"
+
+namespace {
+
+using namespace biodyn;
+
+sim::Simulation make_default_sim() {
+  return sim::Simulation(sim::Model::from_string(models::to_mjcf(models::generate_character(models::CharacterSpec{})),
+                                                 "<default character>"));
+}
+
+}  // namespace
+
+TEST_CASE("a walk reports what it measured, consistently", "[apps][walk]") {
+  sim::Simulation sim = make_default_sim();
+  scenarios::WalkRunParams p;
+  p.duration_s = 12;
+  p.weld = controllers::WeldMode::kHonest;
+  std::ostringstream trace;
+  p.trace = &trace;
+  const scenarios::WalkRunResult r = scenarios::run_walk(&sim, p);
+  INFO("fell at " << r.time_fallen_s << ", steady speed " << r.steady_speed_m_s);
+  REQUIRE_FALSE(r.fallen);
+  CHECK(r.simulated_s == Approx(12).margin(0.003));
+  // Honest: no invisible hands.
+  CHECK(r.max_root_force_N == 0.0);
+  CHECK(r.weld_tension_steps == 0);
+  // Strikes: one length, width and time each, in time order.
+  REQUIRE(r.steps >= 15);
+  CHECK(r.step_lengths_m.size() == static_cast<std::size_t>(r.steps));
+  CHECK(r.step_widths_m.size() == static_cast<std::size_t>(r.steps));
+  for (std::size_t i = 1; i < r.step_times_s.size(); ++i) CHECK(r.step_times_s[i] > r.step_times_s[i - 1]);
+  // Cadence from the strike times after the start-up.
+  int after = 0;
+  double first = -1, last = 0;
+  for (double t : r.step_times_s) {
+    if (t < scenarios::kWalkStartup_s) continue;
+    if (first < 0) first = t;
+    else ++after;
+    last = t;
+  }
+  CHECK(r.cadence_steps_per_min == Approx(after / (last - first) * 60).epsilon(1e-9));
+  // Distance and speeds: forward walking, the path a little longer than the straight line.
+  CHECK(r.mean_speed_m_s == Approx(r.distance_m / r.simulated_s).epsilon(1e-9));
+  CHECK(r.steady_speed_m_s > 0.7);
+  CHECK(std::abs(r.lateral_drift_m) < 1.0);
+  // Joint ranges: knee flexes in swing, stays straight-ish in stance.
+  REQUIRE(r.joint_ranges_deg.count("knee_flexion_l") == 1);
+  CHECK(r.joint_ranges_deg.at("knee_flexion_l")[1] > 30);
+  CHECK(r.joint_ranges_deg.at("hip_l_flexion")[1] > r.joint_ranges_deg.at("hip_l_flexion")[0] + 20);
+  CHECK(r.swing_knee_peak_deg > 30);
+  // The swing sole is held level with the toes up: the heel strikes first.
+  CHECK(r.heel_strike_fraction > 0.9);
+  // Trace: a header and one line per step.
+  const std::string t = trace.str();
+  CHECK(static_cast<int>(std::count(t.begin(), t.end(), '\n')) == r.sim_steps + 1);
+}
+
+TEST_CASE("the walker follows a commanded speed from 0.5 to 1.5 m/s", "[apps][walk]") {
+  sim::Simulation sim = make_default_sim();
+  for (double v : {0.5, 1.5}) {
+    scenarios::WalkRunParams p;
+    p.duration_s = 25;
+    p.speed_m_s = v;
+    p.weld = controllers::WeldMode::kOff;
+    const scenarios::WalkRunResult r = scenarios::run_walk(&sim, p);
+    INFO("commanded " << v << " m/s: steady " << r.steady_speed_m_s << ", fell at " << r.time_fallen_s);
+    CHECK_FALSE(r.fallen);
+    CHECK(std::abs(r.steady_speed_m_s - v) < 0.15 * v);  // the issue's tolerance
+  }
+}
+
+TEST_CASE("a push during walking is timed by the gait and judged by the protocol", "[apps][walk][push]") {
+  sim::Simulation sim = make_default_sim();
+  scenarios::WalkRunParams p;
+  p.weld = controllers::WeldMode::kHonest;
+  scenarios::WalkPush push;
+  push.force_N = 0;  // the timing and the judgement without a disturbance
+  push.onset_phase = 0.5;
+  push.settle_strides = 5;  // the protocol's steady walking before a push
+  p.push = push;
+  const scenarios::WalkRunResult calm = scenarios::run_walk(&sim, p);
+  REQUIRE(calm.push);
+  INFO(calm.push->failure);
+  CHECK(calm.push->survived);
+  CHECK(calm.push->recovery_strides == 1);
+  CHECK(calm.push->speed_before_m_s > 0.7);
+  // Onset: half a stride after the 6th left strike (start stride + 5 settle strides).
+  std::vector<double> left;
+  for (std::size_t i = 0; i < calm.step_times_s.size(); ++i)
+    if (i % 2 == 1) left.push_back(calm.step_times_s[i]);  // the right foot strikes first
+  REQUIRE(left.size() > 7);
+  CHECK(calm.push->onset_s > left[5]);
+  CHECK(calm.push->onset_s < left[6]);
+  CHECK(calm.push->end_s == Approx(calm.push->onset_s + 0.2));
+  CHECK(calm.push->stride_speeds_after_m_s.size() >= 4);
+
+  // A push no walker takes: 0.5 s of 1500 N forward (delta-v 9 m/s).
+  p.push->force_N = 1500;
+  p.push->duration_s = 0.5;
+  const scenarios::WalkRunResult hard = scenarios::run_walk(&sim, p);
+  REQUIRE(hard.push);
+  CHECK_FALSE(hard.push->survived);
+  CHECK(hard.push->fell);
+  CHECK(hard.push->delta_v_m_s == Approx(1500 * 0.5 / 80).epsilon(1e-6));
+  CHECK(hard.fallen);
+  CHECK(hard.time_fallen_s > hard.push->onset_s);
+}
+
+TEST_CASE("walk inputs out of range are rejected by name", "[apps][walk]") {
+  sim::Simulation sim = make_default_sim();
+  scenarios::WalkRunParams p;
+  p.speed_m_s = 3;
+  CHECK_THROWS_WITH(scenarios::run_walk(&sim, p), Catch::Contains("speed") && Catch::Contains("3"));
+  p = scenarios::WalkRunParams{};
+  p.push = scenarios::WalkPush{};
+  p.push->onset_phase = 1.0;
+  CHECK_THROWS_WITH(scenarios::run_walk(&sim, p), Catch::Contains("onset-phase"));
+  p = scenarios::WalkRunParams{};
+  p.gait_json = R"({"swing_time_s": 0.4, "hip_kpp": 900})";
+  p.gait_source = "my_gait.json";
+  CHECK_THROWS_WITH(scenarios::run_walk(&sim, p), Catch::Contains("my_gait.json.hip_kpp") && Catch::Contains("unknown key"));
+  p.gait_json = R"({"swing_time_s": -1})";
+  CHECK_THROWS_WITH(scenarios::run_walk(&sim, p), Catch::Contains("swing_time_s") && Catch::Contains("-1"));
+  p.gait_json = "{";
+  CHECK_THROWS_WITH(scenarios::run_walk(&sim, p), Catch::Contains("my_gait.json") && Catch::Contains("not valid JSON"));
+}
