@@ -221,8 +221,13 @@ Command add_push_sweep_command(CLI::App* app) {
                   survived += r.fixed_survived ? 1 : 0;
                   ++n;
                 }
-                plot_data << dir << ' ' << worst << ' ' << sum / n << '\n';
-                plot_max = std::max(plot_max, sum / n);
+                if (o->fixed_force_N > 0) {  // share of phases survived, %
+                  plot_data << dir << ' ' << 100.0 * survived / n << ' ' << 100.0 * survived / n << '\n';
+                  plot_max = 100;
+                } else {
+                  plot_data << dir << ' ' << worst << ' ' << sum / n << '\n';
+                  plot_max = std::max(plot_max, sum / n);
+                }
                 if (k == o->directions) continue;
                 if (o->fixed_force_N > 0) fixed_ok += static_cast<std::size_t>(survived);
                 invalid += any_invalid ? 1 : 0;
@@ -279,11 +284,16 @@ Command add_push_sweep_command(CLI::App* app) {
                << "set polar\nset angles degrees\nset size square\nunset border\nunset xtics\nunset ytics\n"
                << "set grid polar 45\nset rtics\nset rrange [0:" << std::max(1.1 * plot_max, 1.0) << "]\n"
                << "set key outside bottom center horizontal\n"
-               << "set title \"" << (o->fixed_force_N > 0 ? "Pushes survived at " + std::to_string(static_cast<int>(o->fixed_force_N)) + " N" : std::string("Largest push force survived (upward scan), N"))
+               << "set title \"" << (o->fixed_force_N > 0 ? "Share of onset phases surviving a " + std::to_string(static_cast<int>(o->fixed_force_N)) + " N push, %" : std::string("Largest push force survived (upward scan), N"))
                << "\\n0 deg = forward, 90 deg = left; " << o->body << ", weld " << o->walk.weld << ", "
                << base.speed_m_s << " m/s\"\n"
                << "plot ";
             for (std::size_t i = 0; i < durations.size(); ++i) {
+              if (o->fixed_force_N > 0) {
+                gp << (i ? ", " : "") << "'" << dir << "/polar.dat' index " << i
+                   << " using 1:2 with linespoints lw 2 title '" << durations[i] << " s: % of phases survived'";
+                continue;
+              }
               gp << (i ? ", " : "") << "'" << dir << "/polar.dat' index " << i
                  << " using 1:2 with linespoints lw 2 title '" << durations[i] << " s, worst phase', '" << dir
                  << "/polar.dat' index " << i << " using 1:3 with lines dt 2 title '" << durations[i] << " s, mean'";

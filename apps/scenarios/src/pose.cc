@@ -9,6 +9,7 @@
 #include "biodyn/controllers/poses.h"
 #include "biodyn/sim/errors.h"
 #include "biodyn/sim/queries.h"
+#include "fall_watch.h"
 
 namespace biodyn::scenarios {
 namespace {
@@ -69,10 +70,6 @@ double distance_outside(const std::vector<Vector2d>& poly, const Vector2d& p) {
     best = std::min(best, (a + t * ab - p).norm());
   }
   return inside ? 0.0 : best;
-}
-
-bool is_foot_body(const std::string& name) {
-  return name.rfind("foot_", 0) == 0 || name.rfind("toes_", 0) == 0;
 }
 
 }  // namespace
@@ -137,14 +134,9 @@ PoseRunResult run_pose(sim::Simulation* sim, const PoseRunParams& params,
     if (j.reaction_time_s != r.reaction_time_s) r.reaction_time_s = -1;
 
   const int pelvis = mj_name2id(&m, mjOBJ_BODY, "pelvis");
-  const int floor = mj_name2id(&m, mjOBJ_GEOM, "floor");
+  const FallWatch fall(m, d, kFallenPelvisFraction);
+  const int floor = fall.floor_geom();
   const int foot[2] = {mj_name2id(&m, mjOBJ_BODY, "foot_l"), mj_name2id(&m, mjOBJ_BODY, "foot_r")};
-  std::vector<bool> foot_body(static_cast<std::size_t>(m.nbody), false);
-  for (int b = 0; b < m.nbody; ++b) {
-    const char* n = mj_id2name(&m, mjOBJ_BODY, b);
-    foot_body[static_cast<std::size_t>(b)] = n && is_foot_body(n);
-  }
-  const double pelvis_start = d.xpos[3 * pelvis + 2];
   Vector2d foot_start[2];
   for (int s = 0; s < 2; ++s) foot_start[s] = Vector2d(d.xpos[3 * foot[s]], d.xpos[3 * foot[s] + 1]);
 
@@ -247,18 +239,14 @@ PoseRunResult run_pose(sim::Simulation* sim, const PoseRunParams& params,
       r.targets.push_back(tc);
     }
 
-    // Fall: a body other than the feet on the floor, or the pelvis down.
-    bool down = d.xpos[3 * pelvis + 2] < kFallenPelvisFraction * pelvis_start;
+    // Fall: a body other than the feet on the floor, or the pelvis down (fall_watch.h).
+    const bool down = fall.down(m, d);
     contact_points.clear();
     for (int c = 0; c < d.ncon; ++c) {
       const mjContact& con = d.contact[c];
       const int other = con.geom1 == floor ? con.geom2 : con.geom2 == floor ? con.geom1 : -1;
       if (other < 0 || con.dist > kSupportGap_m) continue;
-      if (!foot_body[static_cast<std::size_t>(m.geom_bodyid[other])]) {
-        if (con.dist <= 0) down = true;
-      } else {
-        contact_points.emplace_back(con.pos[0], con.pos[1]);
-      }
+      if (fall.foot_body(m.geom_bodyid[other])) contact_points.emplace_back(con.pos[0], con.pos[1]);
     }
     if (down && !r.fallen) {
       r.fallen = true;

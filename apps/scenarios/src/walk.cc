@@ -154,6 +154,7 @@ WalkRunResult run_walk(sim::Simulation* sim, const WalkRunParams& params,
     if (j.reaction_time_s != r.reaction_time_s) r.reaction_time_s = -1;
 
   const FallWatch fall(m, d, kFallenPelvisFraction);
+  const int pelvis = mj_name2id(&m, mjOBJ_BODY, "pelvis");
   double body_mass = 0;
   for (int b = 1; b < m.nbody; ++b) body_mass += m.body_mass[b];
   FootWatch feet[2];
@@ -336,7 +337,7 @@ WalkRunResult run_walk(sim::Simulation* sim, const WalkRunParams& params,
       const mjtNum* xf = push_body >= 0 ? d.xfrc_applied + 6 * push_body : nullptr;
       *params.trace << d.time << ',' << com.position_W.x() << ',' << com.position_W.y() << ','
                     << com.position_W.z() << ',' << com.velocity_W.x() << ',' << com.velocity_W.y() << ','
-                    << d.xpos[3 * mj_name2id(&m, mjOBJ_BODY, "pelvis") + 2] << ',' << gait.heading_rad() * kRadToDeg
+                    << d.xpos[3 * pelvis + 2] << ',' << gait.heading_rad() * kRadToDeg
                     << ',' << gait.stance_side() << ',' << gait.early_swing() << ',' << gait.strike_count() << ','
                     << static_cast<int>(feet[0].touching) << ',' << static_cast<int>(feet[1].touching) << ','
                     << rep.weld_active[0] << ',' << rep.weld_active[1] << ','
