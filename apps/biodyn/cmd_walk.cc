@@ -134,6 +134,26 @@ void print_walk_summary(const scenarios::WalkRunResult& r, std::ostream& out) {
       << "x real time\n";
 }
 
+namespace {
+
+// The summary on stdout, then the trace CSV and the JSON (with `inputs`) where asked for.
+void write_walk_outputs(const scenarios::WalkRunResult& r, const nlohmann::json& inputs, const std::string& trace,
+                        const std::string& csv_path, const std::string& json_path) {
+  print_walk_summary(r, std::cout);
+  if (!csv_path.empty()) {
+    write_file_atomically(csv_path, trace);
+    std::cout << "  trace:    " << csv_path << "\n";
+  }
+  if (!json_path.empty()) {
+    nlohmann::json j = walk_json(r);
+    j["inputs"] = inputs;
+    write_file_atomically(json_path, j.dump(2) + "\n");
+    std::cout << "  summary:  " << json_path << "\n";
+  }
+}
+
+}  // namespace
+
 Command add_walk_command(CLI::App* app) {
   struct Options {
     WalkOptions walk;
@@ -177,18 +197,9 @@ Command add_walk_command(CLI::App* app) {
               ProgressBar bar("walk");
               r = scenarios::run_walk(&sim, p, [&](double f) { bar.update(f); });
             }
-            print_walk_summary(r, std::cout);
-            if (!o->csv.empty()) {
-              write_file_atomically(o->csv, trace.str());
-              std::cout << "  trace:    " << o->csv << "\n";
-            }
-            if (!o->json.empty()) {
-              nlohmann::json j = walk_json(r);
-              j["inputs"] = o->walk.inputs_json(spec);
-              j["inputs"]["duration_s"] = p.duration_s;
-              write_file_atomically(o->json, j.dump(2) + "\n");
-              std::cout << "  summary:  " << o->json << "\n";
-            }
+            nlohmann::json inputs = o->walk.inputs_json(spec);
+            inputs["duration_s"] = p.duration_s;
+            write_walk_outputs(r, inputs, trace.str(), o->csv, o->json);
             return r.fallen ? kExitFailure : kExitOk;
           }};
 }
@@ -249,17 +260,7 @@ Command add_push_command(CLI::App* app) {
                       << po.onset_s << " s; speed before " << po.speed_before_m_s << " m/s, recovered in "
                       << (po.recovery_strides > 0 ? std::to_string(po.recovery_strides) + " strides" : std::string("-"))
                       << "\n";
-            print_walk_summary(r, std::cout);
-            if (!o->csv.empty()) {
-              write_file_atomically(o->csv, trace.str());
-              std::cout << "  trace:    " << o->csv << "\n";
-            }
-            if (!o->json.empty()) {
-              nlohmann::json j = walk_json(r);
-              j["inputs"] = o->walk.inputs_json(spec);
-              write_file_atomically(o->json, j.dump(2) + "\n");
-              std::cout << "  summary:  " << o->json << "\n";
-            }
+            write_walk_outputs(r, o->walk.inputs_json(spec), trace.str(), o->csv, o->json);
             return kExitOk;
           }};
 }
