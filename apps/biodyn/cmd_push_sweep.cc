@@ -107,9 +107,8 @@ Command add_push_sweep_command(CLI::App* app) {
             push.settle_strides = o->settle_strides;
             base.push = push;
             base.validate();
-            if (o->fixed_force_N == 0) {
-              scenarios::WalkingPushScanSettings check = o->scan;
-              if (!(check.resolution_N > 0) || !(check.max_force_N >= check.resolution_N))
+            if (o->fixed_force_N == 0) {  // before any worker starts (scan_walking_push checks too)
+              if (!(o->scan.resolution_N > 0) || !(o->scan.max_force_N >= o->scan.resolution_N))
                 throw sim::InvalidArgument("--resolution/--max-force: need 0 < resolution <= max force");
             }
             int threads = o->threads > 0 ? o->threads : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));

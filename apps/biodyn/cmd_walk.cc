@@ -152,6 +152,23 @@ void write_walk_outputs(const scenarios::WalkRunResult& r, const nlohmann::json&
   }
 }
 
+// Builds the character's simulation and runs the walk with a progress bar; the trace (if
+// `with_trace`) comes back in `trace`.
+scenarios::WalkRunResult run_walk_on(const models::CharacterSpec& spec, scenarios::WalkRunParams p,
+                                     bool with_trace, const std::string& label, std::string* trace) {
+  const models::Character character = models::generate_character(spec);
+  sim::Simulation sim(sim::Model::from_string(models::to_mjcf(character), "<character>"));
+  std::ostringstream text;
+  if (with_trace) p.trace = &text;
+  scenarios::WalkRunResult r;
+  {
+    ProgressBar bar(label);
+    r = scenarios::run_walk(&sim, p, [&](double f) { bar.update(f); });
+  }
+  *trace = text.str();
+  return r;
+}
+
 }  // namespace
 
 Command add_walk_command(CLI::App* app) {
@@ -185,21 +202,14 @@ Command add_walk_command(CLI::App* app) {
             }
             p.validate();
             const models::CharacterSpec spec = o->walk.character.to_spec();
-            const models::Character character = models::generate_character(spec);
-            sim::Simulation sim(sim::Model::from_string(models::to_mjcf(character), "<character>"));
-            std::ostringstream trace;
-            if (!o->csv.empty()) p.trace = &trace;
             std::cout << "biodyn walk: " << to_string(spec.sex) << " " << spec.height_m << " m " << spec.mass_kg
                       << " kg (" << to_string(spec.detail) << "), " << p.duration_s << " s, weld " << o->walk.weld
                       << ", speed " << p.speed_m_s << " m/s, heading rate " << p.heading_rate_deg_s << " deg/s\n";
-            scenarios::WalkRunResult r;
-            {
-              ProgressBar bar("walk");
-              r = scenarios::run_walk(&sim, p, [&](double f) { bar.update(f); });
-            }
+            std::string trace;
+            const scenarios::WalkRunResult r = run_walk_on(spec, p, !o->csv.empty(), "walk", &trace);
             nlohmann::json inputs = o->walk.inputs_json(spec);
             inputs["duration_s"] = p.duration_s;
-            write_walk_outputs(r, inputs, trace.str(), o->csv, o->json);
+            write_walk_outputs(r, inputs, trace, o->csv, o->json);
             return r.fallen ? kExitFailure : kExitOk;
           }};
 }
@@ -241,26 +251,19 @@ Command add_push_command(CLI::App* app) {
             p.push = o->push;
             p.validate();
             const models::CharacterSpec spec = o->walk.character.to_spec();
-            const models::Character character = models::generate_character(spec);
-            sim::Simulation sim(sim::Model::from_string(models::to_mjcf(character), "<character>"));
-            std::ostringstream trace;
-            if (!o->csv.empty()) p.trace = &trace;
             std::cout << "biodyn push: " << o->push.force_N << " N for " << o->push.duration_s << " s on the "
                       << o->push.body << ", " << o->push.direction_deg << " deg from the heading, at "
                       << o->push.onset_phase << " of the stride after " << o->push.settle_strides
                       << " strides; weld " << o->walk.weld << ", speed " << p.speed_m_s << " m/s\n";
-            scenarios::WalkRunResult r;
-            {
-              ProgressBar bar("push");
-              r = scenarios::run_walk(&sim, p, [&](double f) { bar.update(f); });
-            }
+            std::string trace;
+            const scenarios::WalkRunResult r = run_walk_on(spec, p, !o->csv.empty(), "push", &trace);
             const scenarios::WalkPushOutcome& po = *r.push;
             std::cout << std::fixed << std::setprecision(2) << "  " << (po.survived ? "SURVIVED" : "FAILED: " + po.failure)
                       << "; impulse " << po.impulse_N_s << " N s, delta-v " << po.delta_v_m_s << " m/s, onset "
                       << po.onset_s << " s; speed before " << po.speed_before_m_s << " m/s, recovered in "
                       << (po.recovery_strides > 0 ? std::to_string(po.recovery_strides) + " strides" : std::string("-"))
                       << "\n";
-            write_walk_outputs(r, o->walk.inputs_json(spec), trace.str(), o->csv, o->json);
+            write_walk_outputs(r, o->walk.inputs_json(spec), trace, o->csv, o->json);
             return kExitOk;
           }};
 }

@@ -189,6 +189,7 @@ void TorqueGait::drive(CharacterController& c, const mjModel& m, const mjData& d
   const TorqueGaitParams& p = params_;
   heading_ += heading_rate_ * std::max(d.time - last_time_s_, 0.0);
   last_time_s_ = d.time;
+  const sim::CenterOfMass com = sim::center_of_mass(m, d);  // for the speed regulation and placement
   // State machine: early swing on time, late swing until the swing foot touches the floor
   // after having left it.
   int swing = 1 - stance_;
@@ -201,7 +202,7 @@ void TorqueGait::drive(CharacterController& c, const mjModel& m, const mjData& d
     const double ch = std::cos(heading_), sh = std::sin(heading_);
     // Speed regulation: the step's mean CoM speed along the heading against the command
     // (not during the start from standing, and not before there was a step).
-    const Vector3d com_now = sim::center_of_mass(m, d).position_W;
+    const Vector3d& com_now = com.position_W;
     if (strikes_ > 0 && d.time - start_s_ >= p.start_time_s) {
       const double t_step = d.time - last_strike_.time_s;
       const double v_step = (ch * (com_now.x() - com_at_strike_.x()) + sh * (com_now.y() - com_at_strike_.y())) /
@@ -268,7 +269,6 @@ void TorqueGait::drive(CharacterController& c, const mjModel& m, const mjData& d
   }
 
   // Swing thigh in the heading frame, placed by the balance feedback (SIMBICON).
-  const sim::CenterOfMass com = sim::center_of_mass(m, d);
   const Vector3d rel = q_heading.conjugate() * (com.position_W - vec_at(d.xpos + 3 * foot_[stance_]));
   const Vector3d vel = q_heading.conjugate() * com.velocity_W;
   const double out = swing == 0 ? 1.0 : -1.0;  // +y is outwards for the left leg

@@ -203,7 +203,6 @@ WalkRunResult run_walk(sim::Simulation* sim, const WalkRunParams& params,
     outcome.impulse_N_s = outcome.force_N * outcome.duration_s;
     outcome.delta_v_m_s = outcome.impulse_N_s / body_mass;
   }
-  int weld_redone = 0;
   const auto wall_start = std::chrono::steady_clock::now();
   if (params.trace) {
     *params.trace << "time_s,com_x,com_y,com_z,com_vx,com_vy,pelvis_z,heading_deg,stance,early_swing,strikes,"
@@ -218,7 +217,7 @@ WalkRunResult run_walk(sim::Simulation* sim, const WalkRunParams& params,
     r.warnings += rep.status.new_warnings;
     r.max_torque_ratio = std::max(r.max_torque_ratio, rep.joints.max_torque_ratio);
     if (rep.weld_tension) ++r.weld_tension_steps;
-    weld_redone += rep.redone > 0 ? 1 : 0;
+    r.weld_redone_steps += rep.redone > 0 ? 1 : 0;
     for (int s = 0; s < 2; ++s)
       r.max_weld_force_N = std::max(r.max_weld_force_N, rep.weld[static_cast<std::size_t>(s)].force_W.norm());
     for (int k = 0; k < 6; ++k) r.max_root_force_N = std::max(r.max_root_force_N, std::abs(d.qfrc_applied[k]));
@@ -374,7 +373,6 @@ WalkRunResult run_walk(sim::Simulation* sim, const WalkRunParams& params,
   r.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
   r.simulated_s = r.sim_steps * dt;
   r.realtime_factor = r.wall_s > 0 ? r.simulated_s / r.wall_s : 0;
-  r.weld_redone_steps = weld_redone;
   r.steps = gait.strike_count();
   const Vector2d com_end = com_xy(m, d);
   r.distance_m += (com_end - com_last_strike).dot(Vector2d(std::cos(gait.heading_rad()), std::sin(gait.heading_rad())));

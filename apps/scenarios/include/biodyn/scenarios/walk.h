@@ -4,6 +4,7 @@
 /// controllers' muscle limits and a foot-contact mode, optionally pushed once during steady
 /// walking (references.md, push protocol). Headless; shared by the CLI, the viewer and tests.
 
+#include <array>
 #include <functional>
 #include <map>
 #include <optional>
