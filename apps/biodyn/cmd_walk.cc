@@ -108,6 +108,18 @@ nlohmann::json walk_json(const scenarios::WalkRunResult& r) {
                  {"recovery_strides", o.recovery_strides}};
     j["survived"] = o.survived;
   }
+  if (r.stones) {
+    const scenarios::SteppingStonesResult& st = *r.stones;
+    j["stones"] = {{"start_s", st.start_s},
+                   {"targets", st.targets_m},
+                   {"lengths", st.lengths_m},
+                   {"errors", st.errors_m},
+                   {"rms_error", st.rms_error_m},
+                   {"max_error", st.max_error_m},
+                   {"complete", st.complete},
+                   {"method", "paper §4.2: in late swing the 2D IK triangle hip-knee-ankle puts the swing ankle on "
+                              "its target (step lengths ankle to ankle along the heading, at the strike)"}};
+  }
   return j;
 }
 
@@ -132,6 +144,17 @@ void print_walk_summary(const scenarios::WalkRunResult& r, std::ostream& out) {
       << ", root force " << r.max_root_force_N << " N, peak torque " << std::setprecision(0)
       << 100 * r.max_torque_ratio << "% of tau_max, " << std::setprecision(1) << r.realtime_factor
       << "x real time\n";
+  if (r.stones) {
+    const scenarios::SteppingStonesResult& st = *r.stones;
+    out << "  stepping stones from " << std::setprecision(2) << st.start_s << " s: " << st.lengths_m.size() << " of "
+        << st.targets_m.size() << " steps walked, error RMS " << std::setprecision(1) << 100 * st.rms_error_m
+        << " cm, max " << 100 * st.max_error_m << " cm\n    planned";
+    out << std::setprecision(3);
+    for (double t : st.targets_m) out << ' ' << t;
+    out << "\n    walked ";
+    for (double l : st.lengths_m) out << ' ' << l;
+    out << "\n";
+  }
 }
 
 namespace {
@@ -176,6 +199,7 @@ Command add_walk_command(CLI::App* app) {
     WalkOptions walk;
     double duration_s = 20;
     std::string steps;
+    double steps_start_s = 5.0;
     std::string json, csv;
     bool print_params = false;
   };
@@ -183,7 +207,11 @@ Command add_walk_command(CLI::App* app) {
   CLI::App* cmd = app->add_subcommand("walk", "Walk headless from standing under the torque walker");
   cmd->add_option("--duration", o->duration_s, "Simulated time, s")->capture_default_str();
   o->walk.add_to(cmd);
-  cmd->add_option("--steps", o->steps, "Stepping stones: step lengths, m, e.g. 0.60,0.20,0.50");
+  cmd->add_option("--steps", o->steps,
+                  "Stepping stones: step lengths, m (ankle to ankle along the heading), e.g. 0.60,0.20,0.50; "
+                  "walked from the first strike after --steps-start");
+  cmd->add_option("--steps-start", o->steps_start_s, "When the stepping stones begin (steady walking first), s")
+      ->capture_default_str();
   cmd->add_option("--json", o->json, "Write the results as JSON here");
   cmd->add_option("--csv", o->csv, "Write a per-step trace as CSV here");
   cmd->add_flag("--print-params", o->print_params, "Print the walker parameters (defaults + --params) as JSON and exit");
@@ -197,8 +225,8 @@ Command add_walk_command(CLI::App* app) {
               return kExitOk;
             }
             if (!o->steps.empty()) {
-              throw sim::InvalidArgument(
-                  "--steps: stepping stones are not supported by the torque walker yet (issue 4, open)");
+              p.steps_m = parse_number_list(o->steps, "--steps", "step lengths in m separated by commas");
+              p.steps_start_s = o->steps_start_s;
             }
             p.validate();
             const models::CharacterSpec spec = o->walk.character.to_spec();

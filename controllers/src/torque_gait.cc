@@ -17,6 +17,11 @@ using Eigen::Quaterniond;
 using Eigen::Vector3d;
 
 constexpr double kReferenceMass_kg = 80.0;
+constexpr double kMaxSwingKnee_rad = 2.0;
+// A placed step leaves early swing once its ankle is this close behind the target, m.
+constexpr double kPlacedLandingReach_m = 0.02;
+// The longest leg a placed step lands with, as a fraction of thigh + shank.
+constexpr double kPlacedReachFraction = 0.97;  // the IK's most flexed knee (the joint allows 2.36)
 const char* const kSide[2] = {"_l", "_r"};
 
 Vector3d vec_at(const mjtNum* p) { return {p[0], p[1], p[2]}; }
@@ -43,7 +48,7 @@ struct NamedField {
 };
 #define BIODYN_FIELD(n) NamedField{#n, &TorqueGaitParams::n}
 constexpr NamedField kFields[] = {
-    BIODYN_FIELD(swing_time_s),        BIODYN_FIELD(swing_hip_early_rad),  BIODYN_FIELD(swing_hip_late_rad),
+    BIODYN_FIELD(swing_time_s),        BIODYN_FIELD(swing_time_per_m_s),   BIODYN_FIELD(swing_hip_early_rad),  BIODYN_FIELD(swing_hip_late_rad),
     BIODYN_FIELD(sagittal_cd),         BIODYN_FIELD(sagittal_cv),          BIODYN_FIELD(frontal_cd),
     BIODYN_FIELD(frontal_cv),          BIODYN_FIELD(swing_hip_out_rad),    BIODYN_FIELD(swing_knee_early_rad),
     BIODYN_FIELD(swing_knee_late_rad), BIODYN_FIELD(stance_knee_rad),      BIODYN_FIELD(stance_ankle_rad),
@@ -53,7 +58,7 @@ constexpr NamedField kFields[] = {
     BIODYN_FIELD(toe_kp),              BIODYN_FIELD(trunk_kp),             BIODYN_FIELD(arm_kp),
     BIODYN_FIELD(distal_kp),           BIODYN_FIELD(damping_time_s),       BIODYN_FIELD(reference_speed_m_s),
     BIODYN_FIELD(speed_lean_rad_per_m_s), BIODYN_FIELD(speed_integral_rad_per_m), BIODYN_FIELD(speed_lean_limit_rad),
-    BIODYN_FIELD(lateral_integral_rad_per_m)};
+    BIODYN_FIELD(lateral_integral_rad_per_m), BIODYN_FIELD(step_clearance_m), BIODYN_FIELD(placement_gain)};
 #undef BIODYN_FIELD
 
 }  // namespace
@@ -85,9 +90,34 @@ std::string torque_gait_json(const TorqueGaitParams& params) {
   return j.dump(2) + "\n";
 }
 
+LegIk solve_leg_ik(double dx, double dz, double l_thigh, double l_shank, double max_knee_rad) {
+  LegIk ik;
+  const double r = std::hypot(dx, dz);
+  const double line = std::atan2(dx, -dz);  // the hip-ankle line, forward of straight down
+  const double r_max = l_thigh + l_shank;
+  const double r_min = std::sqrt(l_thigh * l_thigh + l_shank * l_shank + 2 * l_thigh * l_shank * std::cos(max_knee_rad));
+  if (r >= r_max || r <= r_min) {
+    ik.reachable = false;
+    if (r >= r_max) {
+      ik.thigh_pitch_rad = line;
+      ik.knee_rad = 0;
+      return ik;
+    }
+  }
+  const double rc = std::max(r, r_min);
+  // Law of cosines in the triangle hip-knee-ankle: gamma at the knee, beta at the hip.
+  const double cos_gamma = (l_thigh * l_thigh + l_shank * l_shank - rc * rc) / (2 * l_thigh * l_shank);
+  const double cos_beta = (l_thigh * l_thigh + rc * rc - l_shank * l_shank) / (2 * l_thigh * rc);
+  ik.knee_rad = M_PI - std::acos(std::clamp(cos_gamma, -1.0, 1.0));
+  ik.thigh_pitch_rad = line + std::acos(std::clamp(cos_beta, -1.0, 1.0));
+  return ik;
+}
+
 void TorqueGaitParams::validate() const {
   const std::string w = "torque gait.";
   check(swing_time_s > 0.05 && swing_time_s <= 2, w + "swing_time_s", "must be in (0.05, 2] s", swing_time_s);
+  check(swing_time_per_m_s >= 0 && swing_time_per_m_s <= 1, w + "swing_time_per_m_s", "must be in [0, 1] s per m/s",
+        swing_time_per_m_s);
   check(start_time_s >= 0 && start_time_s <= 10, w + "start_time_s", "must be in [0, 10] s", start_time_s);
   check(damping_time_s >= 0 && damping_time_s <= 1, w + "damping_time_s", "must be in [0, 1] s", damping_time_s);
   const std::pair<const char*, double> angles[] = {
@@ -113,6 +143,9 @@ void TorqueGaitParams::validate() const {
         "must be in [0, 2]", speed_integral_rad_per_m);
   check(lateral_integral_rad_per_m >= 0 && lateral_integral_rad_per_m <= 2, w + "lateral_integral_rad_per_m",
         "must be in [0, 2]", lateral_integral_rad_per_m);
+  check(step_clearance_m >= 0 && step_clearance_m <= 0.5, w + "step_clearance_m", "must be in [0, 0.5] m",
+        step_clearance_m);
+  check(placement_gain >= 0 && placement_gain <= 10, w + "placement_gain", "must be in [0, 10]", placement_gain);
   check(speed_lean_limit_rad >= 0 && speed_lean_limit_rad <= 0.5, w + "speed_lean_limit_rad", "must be in [0, 0.5] rad",
         speed_lean_limit_rad);
 }
@@ -133,6 +166,10 @@ TorqueGait::TorqueGait(const mjModel& m, const std::vector<JointGroup>& groups, 
     toe_[s] = find_group(groups_, std::string("toe") + kSide[s]);
   }
   lumbar_ = require_group(groups_, "lumbar");
+  for (int s = 0; s < 2; ++s) {
+    thigh_length_[s] = vec_at(m.body_pos + 3 * shank_[s]).norm();  // hip to knee
+    shank_length_[s] = vec_at(m.body_pos + 3 * foot_[s]).norm();   // knee to ankle
+  }
   double mass = 0;
   for (int b = 1; b < m.nbody; ++b) mass += m.body_mass[b];
   gain_scale_ = mass / kReferenceMass_kg;
@@ -162,6 +199,19 @@ void TorqueGait::reset(const mjData& d) {
   last_strike_ = TorqueGaitStrike{};
   lean_integral_ = roll_integral_ = 0;
   com_at_strike_ = Vector3d::Zero();
+  // Ankle height above the floor with the sole flat (the character starts standing).
+  ankle_height_ = std::min(d.xpos[3 * foot_[0] + 2], d.xpos[3 * foot_[1] + 2]);
+  plan_.clear();
+  plan_next_ = 0;
+  swing_target_ = std::numeric_limits<double>::quiet_NaN();
+}
+
+void TorqueGait::plan_steps(const std::vector<double>& lengths_m) {
+  for (std::size_t i = 0; i < lengths_m.size(); ++i)
+    check(lengths_m[i] >= 0 && lengths_m[i] <= 1.5, "planned step " + std::to_string(i + 1), "must be in [0, 1.5] m",
+          lengths_m[i]);
+  plan_ = lengths_m;
+  plan_next_ = 0;
 }
 
 double TorqueGait::speed_lean_rad() const {
@@ -170,10 +220,16 @@ double TorqueGait::speed_lean_rad() const {
                     -p.speed_lean_limit_rad, p.speed_lean_limit_rad);
 }
 
+double TorqueGait::swing_time_s() const {
+  const TorqueGaitParams& p = params_;
+  return std::max(p.swing_time_s - p.swing_time_per_m_s * (speed_ - p.reference_speed_m_s), 0.05);
+}
+
 double TorqueGait::hinge_pd(CharacterController& c, const mjModel& m, const mjData& d, int dof, double target,
-                            double kp) const {
+                            double kp, double target_rate) const {
   const double k = kp * gain_scale_;
-  const double tau = k * (target - d.qpos[m.jnt_qposadr[m.dof_jntid[dof]]]) - k * params_.damping_time_s * d.qvel[dof];
+  const double tau = k * (target - d.qpos[m.jnt_qposadr[m.dof_jntid[dof]]]) +
+                     k * params_.damping_time_s * (target_rate - d.qvel[dof]);
   c.limit_torque_once(dof, tau, tau);
   return tau;
 }
@@ -196,14 +252,21 @@ void TorqueGait::drive(CharacterController& c, const mjModel& m, const mjData& d
   const bool touches = sim::floor_contact_count(m, d, floor_geom_, foot_[swing]) > 0 ||
                        (toes_[swing] >= 0 && sim::floor_contact_count(m, d, floor_geom_, toes_[swing]) > 0);
   if (!touches) lifted_ = true;
-  if (early_ && d.time - state_start_s_ >= p.swing_time_s) early_ = false;
+  if (early_ && d.time - state_start_s_ >= swing_time_s()) early_ = false;
+  if (early_ && !std::isnan(swing_target_)) {
+    // A placed step comes down as soon as its ankle is over the target (a short step would
+    // otherwise be overtaken by the hip).
+    const double ch = std::cos(heading_), sh = std::sin(heading_);
+    const Vector3d delta = vec_at(d.xpos + 3 * foot_[swing]) - vec_at(d.xpos + 3 * foot_[stance_]);
+    if (ch * delta.x() + sh * delta.y() >= swing_target_ - kPlacedLandingReach_m) early_ = false;
+  }
   if (!early_ && touches && lifted_) {
     const Vector3d delta = vec_at(d.xpos + 3 * foot_[swing]) - vec_at(d.xpos + 3 * foot_[stance_]);
     const double ch = std::cos(heading_), sh = std::sin(heading_);
     // Speed regulation: the step's mean CoM speed along the heading against the command
     // (not during the start from standing, and not before there was a step).
     const Vector3d& com_now = com.position_W;
-    if (strikes_ > 0 && d.time - start_s_ >= p.start_time_s) {
+    if (strikes_ > 0 && d.time - start_s_ >= p.start_time_s && std::isnan(swing_target_)) {
       const double t_step = d.time - last_strike_.time_s;
       const double v_step = (ch * (com_now.x() - com_at_strike_.x()) + sh * (com_now.y() - com_at_strike_.y())) /
                             std::max(t_step, 1e-3);
@@ -213,7 +276,10 @@ void TorqueGait::drive(CharacterController& c, const mjModel& m, const mjData& d
       roll_integral_ = std::clamp(roll_integral_ + p.lateral_integral_rad_per_m * sideways, -limit, limit);
     }
     com_at_strike_ = com_now;
-    last_strike_ = {d.time, swing, ch * delta.x() + sh * delta.y(), std::abs(-sh * delta.x() + ch * delta.y())};
+    last_strike_ = {d.time, swing, ch * delta.x() + sh * delta.y(), std::abs(-sh * delta.x() + ch * delta.y()),
+                    swing_target_};
+    swing_target_ = plan_next_ < static_cast<int>(plan_.size()) ? plan_[static_cast<std::size_t>(plan_next_++)]
+                                                                 : std::numeric_limits<double>::quiet_NaN();
     ++strikes_;
     stance_ = swing;
     swing = 1 - stance_;
@@ -246,14 +312,60 @@ void TorqueGait::drive(CharacterController& c, const mjModel& m, const mjData& d
     }
   }
 
-  // Knees, ankles, toes.
   const Quaterniond q_heading(AngleAxisd(heading_, Vector3d::UnitZ()));
+  // Constrained stepping (paper §4.2): the ankle goes to its target by the 2D IK triangle in the
+  // heading frame's sagittal plane: above it by the clearance in early swing, onto the floor
+  // (1 cm into it, so it strikes) in late swing.
+  const bool placed = !std::isnan(swing_target_);
+  LegIk ik;
+  if (placed) {
+    const Vector3d stance_ankle = q_heading.conjugate() * vec_at(d.xpos + 3 * foot_[stance_]);
+    const Vector3d hip = q_heading.conjugate() * vec_at(d.xpos + 3 * thigh_[swing]);
+    const double lift = early_ ? p.step_clearance_m : -0.01;
+    const double dz = ankle_height_ + lift - hip.z();
+    double dx = stance_ankle.x() + swing_target_ - hip.x();
+    {
+      // Outer loop on the ankle's place (the PD lags): aim short of the target by
+      // placement_gain x the overshoot, and in late swing by the shortfall too.
+      const Vector3d ankle = q_heading.conjugate() * vec_at(d.xpos + 3 * foot_[swing]);
+      const double overshoot = ankle.x() - (stance_ankle.x() + swing_target_);
+      if (!early_ || overshoot > 0) dx -= p.placement_gain * overshoot;
+    }
+    if (!early_) {
+      // Out of reach on the floor: the closest reachable point instead (paper §4.2), so the
+      // foot comes down rather than waiting in the air for the hip.
+      const double reach = kPlacedReachFraction * (thigh_length_[swing] + shank_length_[swing]);
+      const double dx_max = reach > std::abs(dz) ? std::sqrt(reach * reach - dz * dz) : 0.0;
+      dx = std::clamp(dx, -dx_max, dx_max);
+    }
+    ik = solve_leg_ik(dx, dz, thigh_length_[swing], shank_length_[swing], kMaxSwingKnee_rad);
+    // The target is fixed on the floor while the hip moves: the IK angles' rates (by finite
+    // difference within one swing state) are the PD's velocity targets, so the leg does not lag.
+    const double h = d.time - ik_time_s_;
+    if (ik_valid_ && ik_early_ == early_ && ik_swing_ == swing && h > 0 && h < 0.05) {
+      ik_pitch_rate_ = (ik.thigh_pitch_rad - ik_pitch_) / h;
+      ik_knee_rate_ = (ik.knee_rad - ik_knee_) / h;
+    } else {
+      ik_pitch_rate_ = ik_knee_rate_ = 0;
+    }
+    ik_valid_ = true;
+    ik_early_ = early_;
+    ik_swing_ = swing;
+    ik_time_s_ = d.time;
+    ik_pitch_ = ik.thigh_pitch_rad;
+    ik_knee_ = ik.knee_rad;
+  } else {
+    ik_valid_ = false;
+  }
+
+  // Knees, ankles, toes.
   for (int s = 0; s < 2; ++s) {
     const bool stance = s == stance_;
     const JointGroup& knee = groups_[static_cast<std::size_t>(knee_[s])];
     const JointGroup& ankle = groups_[static_cast<std::size_t>(ankle_[s])];
-    hinge_pd(c, m, d, knee.dof_begin,
-             stance ? p.stance_knee_rad : (early_ ? p.swing_knee_early_rad : p.swing_knee_late_rad), p.knee_kp);
+    const double swing_knee = placed ? ik.knee_rad : early_ ? p.swing_knee_early_rad : p.swing_knee_late_rad;
+    hinge_pd(c, m, d, knee.dof_begin, stance ? p.stance_knee_rad : swing_knee, p.knee_kp,
+             !stance && placed ? ik_knee_rate_ : 0.0);
     double dorsiflexion = p.stance_ankle_rad;
     if (!stance) {
       // The sole level in the heading frame (toes up by toe_up): the shank's pitch undone.
@@ -272,17 +384,22 @@ void TorqueGait::drive(CharacterController& c, const mjModel& m, const mjData& d
   const Vector3d rel = q_heading.conjugate() * (com.position_W - vec_at(d.xpos + 3 * foot_[stance_]));
   const Vector3d vel = q_heading.conjugate() * com.velocity_W;
   const double out = swing == 0 ? 1.0 : -1.0;  // +y is outwards for the left leg
-  const double pitch = (early_ ? p.swing_hip_early_rad : p.swing_hip_late_rad) + p.sagittal_cd * rel.x() +
-                       p.sagittal_cv * vel.x();
+  const double pitch = placed ? ik.thigh_pitch_rad
+                              : (early_ ? p.swing_hip_early_rad : p.swing_hip_late_rad) + p.sagittal_cd * rel.x() +
+                                    p.sagittal_cv * vel.x();
   const double roll = out * p.swing_hip_out_rad + p.frontal_cd * rel.y() + p.frontal_cv * vel.y() + roll_integral_;
   const Quaterniond q_thigh_goal =
       q_heading * Quaterniond(AngleAxisd(-pitch, Vector3d::UnitY())) * Quaterniond(AngleAxisd(roll, Vector3d::UnitX()));
   const Vector3d w_pelvis = vec_at(d.cvel + 6 * pelvis_);
   const Vector3d w_thigh = vec_at(d.cvel + 6 * thigh_[swing]);
   const double k_hip = p.hip_kp * gain_scale_;
+  // A placed step's thigh follows the IK pitch's rate in the world; a free one is damped
+  // relative to the pelvis (SIMBICON).
+  const Vector3d w_damped = placed ? Vector3d(w_thigh - q_heading * Vector3d(0, -ik_pitch_rate_, 0))
+                                   : Vector3d(w_thigh - w_pelvis);
   const Vector3d tau_swing =
       k_hip * rotation_vector(q_thigh_goal * quat_at(d.xquat + 4 * thigh_[swing]).conjugate()) -
-      k_hip * p.damping_time_s * (w_thigh - w_pelvis);
+      k_hip * p.damping_time_s * w_damped;
 
   // Pelvis in the world by the virtual torso torque; the stance hip makes it (Coros 2010).
   const double lean = p.pelvis_pitch_rad + (d.time - start_s_ < p.start_time_s ? p.start_pitch_rad : 0.0) + speed_lean_rad();

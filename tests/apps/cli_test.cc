@@ -245,6 +245,24 @@ TEST_CASE("biodyn walk writes the walk JSON and says what the weld assumes", "[a
   CHECK(fs::exists(dir / "trace.csv"));
 }
 
+TEST_CASE("biodyn walk --steps reports the stepping stones; a bad length is refused", "[apps][cli][walk][stones]") {
+  const fs::path dir = fresh_dir("walk_stones");
+  const Run r = run_biodyn("walk --duration 9 --speed 0.9 --steps 0.5,0.3 --steps-start 4 --json s.json", dir);
+  INFO(r.out << r.err);
+  REQUIRE(r.exit_code == 0);
+  const auto j = nlohmann::json::parse(slurp(dir / "s.json"));
+  REQUIRE(j.contains("stones"));
+  CHECK(j["stones"]["targets"].size() == 2);
+  CHECK(j["stones"]["lengths"].size() == 2);
+  CHECK(j["stones"]["complete"] == true);
+  CHECK(j["stones"]["start_s"].get<double>() >= 4.0);
+  CHECK(r.out.find("stepping stones") != std::string::npos);
+  const Run bad = run_biodyn("walk --duration 9 --steps 0.5,x --json b.json", dir);
+  CHECK(bad.exit_code == 2);
+  CHECK(bad.err.find("--steps") != std::string::npos);
+  CHECK_FALSE(fs::exists(dir / "b.json"));
+}
+
 TEST_CASE("biodyn push-sweep gives the same results on 1 and 2 threads, with a plot", "[apps][cli][push]") {
   const fs::path dir = fresh_dir("push_sweep");
   const std::string args = "push-sweep --directions 2 --durations 0.2 --phases 2 --resolution 150 --max-force 450 "

@@ -1,4 +1,5 @@
 // The walking scenario (issue 4): read-outs of a walk, one push during walking, bad input.
+#include <algorithm>
 #include <catch2/catch.hpp>
 #include <cmath>
 #include <sstream>
@@ -116,6 +117,33 @@ TEST_CASE("a push during walking is timed by the gait and judged by the protocol
   CHECK(hard.time_fallen_s > hard.push->onset_s);
 }
 
+TEST_CASE("the walker steps on the paper's stepping stones", "[apps][walk][stones]") {
+  sim::Simulation sim = make_default_sim();
+  scenarios::WalkRunParams p;
+  p.duration_s = 14;
+  p.speed_m_s = 0.9;
+  p.weld = controllers::WeldMode::kOff;
+  p.steps_m = {0.60, 0.20, 0.50, 0.16, 0.50, 0.30};  // paper §4.2
+  const scenarios::WalkRunResult r = scenarios::run_walk(&sim, p);
+  REQUIRE(r.stones);
+  const scenarios::SteppingStonesResult& s = *r.stones;
+  INFO("fell at " << r.time_fallen_s << ", walked " << s.lengths_m.size() << " stones, RMS " << s.rms_error_m);
+  CHECK_FALSE(r.fallen);
+  REQUIRE(s.complete);
+  CHECK(s.start_s >= p.steps_start_s);
+  // The walked lengths are the strikes' own, in order, and the errors their differences.
+  double sq = 0;
+  for (std::size_t i = 0; i < s.lengths_m.size(); ++i) {
+    CHECK(s.errors_m[i] == Approx(s.lengths_m[i] - s.targets_m[i]).margin(1e-12));
+    sq += s.errors_m[i] * s.errors_m[i];
+    const auto k = std::find(r.step_lengths_m.begin(), r.step_lengths_m.end(), s.lengths_m[i]);
+    CHECK(k != r.step_lengths_m.end());
+  }
+  CHECK(s.rms_error_m == Approx(std::sqrt(sq / 6)).margin(1e-12));
+  CHECK(s.rms_error_m < 0.02);  // the issue's bound
+  CHECK(r.max_root_force_N == 0.0);
+}
+
 TEST_CASE("walk inputs out of range are rejected by name", "[apps][walk]") {
   sim::Simulation sim = make_default_sim();
   scenarios::WalkRunParams p;
@@ -133,4 +161,10 @@ TEST_CASE("walk inputs out of range are rejected by name", "[apps][walk]") {
   CHECK_THROWS_WITH(scenarios::run_walk(&sim, p), Catch::Contains("swing_time_s") && Catch::Contains("-1"));
   p.gait_json = "{";
   CHECK_THROWS_WITH(scenarios::run_walk(&sim, p), Catch::Contains("my_gait.json") && Catch::Contains("not valid JSON"));
+  p = scenarios::WalkRunParams{};
+  p.steps_m = {0.5, 2.0};
+  CHECK_THROWS_WITH(scenarios::run_walk(&sim, p), Catch::Contains("steps[2]") && Catch::Contains("2"));
+  p.steps_m = {0.5};
+  p.steps_start_s = 30;
+  CHECK_THROWS_WITH(scenarios::run_walk(&sim, p), Catch::Contains("steps start") && Catch::Contains("30"));
 }

@@ -119,6 +119,14 @@ void WalkRunParams::validate() const {
       fail("push settle strides", "must be in [1, 100]", p.settle_strides);
     if (!(p.watch_s >= 0 && p.watch_s <= 60)) fail("push watch", "must be in [0, 60] s", p.watch_s);
   }
+  if (!steps_m.empty()) {
+    if (push) throw sim::InvalidArgument("steps: stepping stones and a push cannot be combined in one run");
+    if (steps_m.size() > 1000) fail("steps", "at most 1000 step lengths", static_cast<double>(steps_m.size()));
+    for (std::size_t i = 0; i < steps_m.size(); ++i)
+      if (!(steps_m[i] >= 0 && steps_m[i] <= 1.5)) fail("steps[" + std::to_string(i + 1) + "]", "must be in [0, 1.5] m", steps_m[i]);
+    if (!(steps_start_s >= 0 && steps_start_s < duration_s))
+      fail("steps start", "must be in [0, duration) s", steps_start_s);
+  }
 }
 
 WalkRunResult run_walk(sim::Simulation* sim, const WalkRunParams& params,
@@ -194,6 +202,9 @@ WalkRunResult run_walk(sim::Simulation* sim, const WalkRunParams& params,
   double slip_sum = 0;
   int stances = 0;
   bool push_scheduled = false;
+  bool steps_planned = false;
+  SteppingStonesResult stones;
+  stones.targets_m = params.steps_m;
   WalkPushOutcome outcome;
   if (params.push) {
     outcome.force_N = params.push->force_N;
@@ -223,10 +234,19 @@ WalkRunResult run_walk(sim::Simulation* sim, const WalkRunParams& params,
     for (int k = 0; k < 6; ++k) r.max_root_force_N = std::max(r.max_root_force_N, std::abs(d.qfrc_applied[k]));
     const bool steady = d.time >= kWalkStartup_s;
 
-    // Strikes: step length, width, path, strides.
+    // Strikes: step length, width, path, strides; stepping stones.
     if (gait.strike_count() != strikes_seen) {
       strikes_seen = gait.strike_count();
       const controllers::TorqueGaitStrike& st = gait.last_strike();
+      if (!std::isnan(st.target_length_m)) {
+        stones.lengths_m.push_back(st.step_length_m);
+        stones.errors_m.push_back(st.step_length_m - st.target_length_m);
+      }
+      if (!params.steps_m.empty() && !steps_planned && d.time >= params.steps_start_s) {
+        gait.plan_steps(params.steps_m);  // from the swing that starts now
+        steps_planned = true;
+        stones.start_s = d.time;
+      }
       r.step_lengths_m.push_back(st.step_length_m);
       r.step_widths_m.push_back(st.step_width_m);
       r.step_times_s.push_back(st.time_s);
@@ -390,6 +410,16 @@ WalkRunResult run_walk(sim::Simulation* sim, const WalkRunParams& params,
   r.heel_strike_fraction = touchdowns > 0 ? static_cast<double>(heel_strikes) / touchdowns : 0;
   r.mean_foot_slip_m = stances > 0 ? slip_sum / stances : 0;
 
+  if (!params.steps_m.empty()) {
+    double sq = 0;
+    for (double e : stones.errors_m) {
+      sq += e * e;
+      stones.max_error_m = std::max(stones.max_error_m, std::abs(e));
+    }
+    stones.rms_error_m = stones.errors_m.empty() ? 0 : std::sqrt(sq / static_cast<double>(stones.errors_m.size()));
+    stones.complete = stones.lengths_m.size() == stones.targets_m.size();
+    r.stones = stones;
+  }
   if (params.push) {
     WalkPushOutcome& o = outcome;
     if (!push_scheduled) {

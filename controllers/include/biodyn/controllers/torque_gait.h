@@ -14,6 +14,11 @@
 ///  - Swing hip: PD on the swing thigh's orientation in the heading frame, its pitch and roll
 ///    given by the balance feedback theta = theta_0 + c_d d + c_v v (d, v: CoM position
 ///    relative to the stance ankle and CoM velocity, heading frame) in both planes.
+///  - Constrained stepping (paper §4.2; plan_steps): a step with a planned length puts the
+///    swing ankle on its target in late swing instead: the 2D IK triangle hip-knee-ankle in
+///    the heading frame's sagittal plane gives the swing thigh's pitch and the knee angle
+///    (an unreachable target gives the straight leg pointing at it, the closest reachable
+///    state). The roll stays with the balance feedback.
 ///  - Stance hip: the pelvis's orientation in the world (upright, pitched pelvis_pitch, facing
 ///    the heading) by a virtual torso torque tau_torso; the stance hip takes
 ///    tau_stance = -tau_torso - tau_swing - tau_lumbar so that the joints' reactions on the
@@ -24,6 +29,7 @@
 #include <mujoco/mujoco.h>
 
 #include <Eigen/Core>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -36,7 +42,10 @@ namespace biodyn::controllers {
 /// defaults were found by a cross-entropy search on the default character (10 s walks at
 /// 1 m/s, from standing and with sideways disturbances; controllers/README.md).
 struct TorqueGaitParams {
-  double swing_time_s = 0.364;         ///< length of the early-swing state
+  double swing_time_s = 0.364;         ///< length of the early-swing state at reference_speed_m_s
+  /// The early swing shortens by this much per m/s of commanded speed above the reference
+  /// (people step faster as they walk faster, not only longer).
+  double swing_time_per_m_s = 0.0;
   double swing_hip_early_rad = 0.684;  ///< swing thigh pitch forward of vertical, early swing
   double swing_hip_late_rad = 0.060;   ///< ... late swing
   double sagittal_cd = 0.258;          ///< rad/m of CoM ahead of the stance ankle
@@ -75,6 +84,11 @@ struct TorqueGaitParams {
   /// lateral_integral_rad_per_m times the CoM's sideways travel in that step (heading frame), so
   /// a steady sideways drift places the feet against it (held within +-speed_lean_limit_rad).
   double lateral_integral_rad_per_m = 0.05;
+  /// Constrained stepping: in early swing the ankle is held this high above its target.
+  double step_clearance_m = 0.06;
+  /// Constrained stepping: the IK aims short of the target by this times the ankle's
+  /// overshoot (in late swing: its miss either way), correcting the PD's lag.
+  double placement_gain = 2.0;
   void validate() const;  ///< throws sim::InvalidArgument naming the field
 };
 
@@ -92,7 +106,21 @@ struct TorqueGaitStrike {
   int side = 0;                 ///< the foot that struck (0 left, 1 right)
   double step_length_m = 0;     ///< along the heading, ankle to ankle
   double step_width_m = 0;      ///< across it
+  double target_length_m = std::numeric_limits<double>::quiet_NaN();  ///< the planned length; NaN: a free step
 };
+
+/// The 2D IK triangle of paper §4.2 in a leg's sagittal plane: the thigh's pitch (forward of
+/// the downward vertical) and the knee's flexion that put the ankle at (dx, dz) from the hip
+/// (dx forward, dz up; dz < 0 below), for thigh and shank lengths l_thigh, l_shank. A point out
+/// of reach gives the straight leg pointing at it; one too close, the most flexed knee
+/// (max_knee_rad) pointing at it. The knee bends backwards, so the knee lies ahead of the
+/// hip-ankle line.
+struct LegIk {
+  double thigh_pitch_rad = 0;
+  double knee_rad = 0;
+  bool reachable = true;
+};
+LegIk solve_leg_ik(double dx, double dz, double l_thigh, double l_shank, double max_knee_rad);
 
 class TorqueGait : public TargetDriver {
  public:
@@ -110,6 +138,17 @@ class TorqueGait : public TargetDriver {
   double speed_command() const { return speed_; }
   /// rad, the lean the speed regulation adds now (feed-forward + integral).
   double speed_lean_rad() const;
+  /// s, the early swing's length at the commanded speed.
+  double swing_time_s() const;
+  /// Constrained stepping: the next steps' lengths, m, along the heading (ankle to ankle),
+  /// from the swing that starts at the next strike; afterwards the steps are free again.
+  /// Replaces any plan not yet walked. Throws sim::InvalidArgument for a length outside
+  /// [0, 1.5] m (naming its index).
+  void plan_steps(const std::vector<double>& lengths_m);
+  /// Planned steps not yet begun.
+  int planned_steps_left() const { return static_cast<int>(plan_.size()) - plan_next_; }
+  /// The current swing's planned length (NaN for a free step).
+  double swing_target_m() const { return swing_target_; }
   void drive(CharacterController& controller, const mjModel& m, const mjData& d) override;
 
   const TorqueGaitParams& params() const { return params_; }
@@ -120,8 +159,9 @@ class TorqueGait : public TargetDriver {
   double heading_rad() const { return heading_; }
 
  private:
-  /// Sets and returns the PD torque of one hinge DOF.
-  double hinge_pd(CharacterController& c, const mjModel& m, const mjData& d, int dof, double target, double kp) const;
+  /// Sets and returns the PD torque of one hinge DOF (towards target at target_rate).
+  double hinge_pd(CharacterController& c, const mjModel& m, const mjData& d, int dof, double target, double kp,
+                  double target_rate = 0) const;
   void hip_torque(CharacterController& c, const mjData& d, int side, const Eigen::Vector3d& torque_W) const;
 
   TorqueGaitParams params_;
@@ -138,6 +178,14 @@ class TorqueGait : public TargetDriver {
   bool early_ = true, lifted_ = false;
   double state_start_s_ = 0, start_s_ = 0, heading_ = 0, heading_rate_ = 0, last_time_s_ = 0;
   double speed_ = 1.0, lean_integral_ = 0, roll_integral_ = 0;
+  double thigh_length_[2] = {0, 0}, shank_length_[2] = {0, 0}, ankle_height_ = 0;
+  std::vector<double> plan_;
+  int plan_next_ = 0;
+  double swing_target_ = std::numeric_limits<double>::quiet_NaN();
+  // The last IK solution of a placed step, for its rates.
+  bool ik_valid_ = false, ik_early_ = false;
+  int ik_swing_ = 0;
+  double ik_time_s_ = 0, ik_pitch_ = 0, ik_knee_ = 0, ik_pitch_rate_ = 0, ik_knee_rate_ = 0;
   Eigen::Vector3d com_at_strike_ = Eigen::Vector3d::Zero();
   TorqueGaitStrike last_strike_;
 };

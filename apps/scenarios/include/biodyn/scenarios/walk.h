@@ -40,6 +40,10 @@ struct WalkRunParams {
   std::string gait_json;           ///< torque walker parameter overrides (JSON text), optional
   std::string gait_source;         ///< the file it came from, for errors
   std::optional<WalkPush> push;
+  /// Stepping stones (paper §4.2): step lengths, m, ankle to ankle along the heading, walked
+  /// from the first strike at or after steps_start_s (steady walking first); free steps after.
+  std::vector<double> steps_m;
+  double steps_start_s = 5.0;
   /// If set, one CSV line per step is written here (header first).
   std::ostream* trace = nullptr;
   void validate() const;  ///< throws sim::InvalidArgument naming the field
@@ -60,6 +64,16 @@ struct WalkPushOutcome {
   bool fell = false;
   bool survived = false;
   std::string failure;               ///< why not survived ("" if survived)
+};
+
+/// How the stepping stones were walked.
+struct SteppingStonesResult {
+  double start_s = -1;                 ///< s, the strike the plan started from (-1: never)
+  std::vector<double> targets_m;       ///< the planned lengths
+  std::vector<double> lengths_m;       ///< the lengths walked (as many as were walked)
+  std::vector<double> errors_m;        ///< walked - planned
+  double rms_error_m = 0, max_error_m = 0;  ///< over the steps walked
+  bool complete = false;               ///< every planned step was walked
 };
 
 struct WalkRunResult {
@@ -95,6 +109,7 @@ struct WalkRunResult {
   double max_root_force_N = 0;       ///< largest applied force on the root's DOFs (must be 0)
   sim::WarningCounts warnings;
   std::optional<WalkPushOutcome> push;
+  std::optional<SteppingStonesResult> stones;
 };
 
 /// Start-up excluded from the steady figures, s.
