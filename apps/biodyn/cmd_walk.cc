@@ -108,6 +108,13 @@ nlohmann::json walk_json(const scenarios::WalkRunResult& r) {
                  {"recovery_strides", o.recovery_strides}};
     j["survived"] = o.survived;
   }
+  if (r.stopped_at_s >= 0 || r.standing_at_end) {
+    j["stop"] = {{"stopped_at_s", r.stopped_at_s},
+                 {"standing_at_end", r.standing_at_end},
+                 {"final_com_speed", r.final_com_speed_m_s},
+                 {"method", "a half step, then the feet side by side (planned steps), then the standing controller "
+                            "(pose 'stand' with its balance), both feet in stance"}};
+  }
   if (r.stones) {
     const scenarios::SteppingStonesResult& st = *r.stones;
     j["stones"] = {{"start_s", st.start_s},
@@ -144,6 +151,11 @@ void print_walk_summary(const scenarios::WalkRunResult& r, std::ostream& out) {
       << ", root force " << r.max_root_force_N << " N, peak torque " << std::setprecision(0)
       << 100 * r.max_torque_ratio << "% of tau_max, " << std::setprecision(1) << r.realtime_factor
       << "x real time\n";
+  if (r.stopped_at_s >= 0) {
+    out << "  stopped (feet side by side, standing controller) at " << std::setprecision(2) << r.stopped_at_s
+        << " s; at the end " << (r.standing_at_end ? "standing" : "NOT standing still") << ", CoM "
+        << 100 * r.final_com_speed_m_s << " cm/s\n";
+  }
   if (r.stones) {
     const scenarios::SteppingStonesResult& st = *r.stones;
     out << "  stepping stones from " << std::setprecision(2) << st.start_s << " s: " << st.lengths_m.size() << " of "
@@ -200,6 +212,7 @@ Command add_walk_command(CLI::App* app) {
     double duration_s = 20;
     std::string steps;
     double steps_start_s = 5.0;
+    double stop_at_s = -1;
     std::string json, csv;
     bool print_params = false;
   };
@@ -212,6 +225,9 @@ Command add_walk_command(CLI::App* app) {
                   "walked from the first strike after --steps-start");
   cmd->add_option("--steps-start", o->steps_start_s, "When the stepping stones begin (steady walking first), s")
       ->capture_default_str();
+  cmd->add_option("--stop-at", o->stop_at_s,
+                  "Stop walking at this time, s (a half step, feet side by side, then standing) and stand until "
+                  "--duration");
   cmd->add_option("--json", o->json, "Write the results as JSON here");
   cmd->add_option("--csv", o->csv, "Write a per-step trace as CSV here");
   cmd->add_flag("--print-params", o->print_params, "Print the walker parameters (defaults + --params) as JSON and exit");
@@ -228,6 +244,7 @@ Command add_walk_command(CLI::App* app) {
               p.steps_m = parse_number_list(o->steps, "--steps", "step lengths in m separated by commas");
               p.steps_start_s = o->steps_start_s;
             }
+            p.stop_at_s = o->stop_at_s;
             p.validate();
             const models::CharacterSpec spec = o->walk.character.to_spec();
             std::cout << "biodyn walk: " << to_string(spec.sex) << " " << spec.height_m << " m " << spec.mass_kg

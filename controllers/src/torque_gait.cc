@@ -58,7 +58,8 @@ constexpr NamedField kFields[] = {
     BIODYN_FIELD(toe_kp),              BIODYN_FIELD(trunk_kp),             BIODYN_FIELD(arm_kp),
     BIODYN_FIELD(distal_kp),           BIODYN_FIELD(damping_time_s),       BIODYN_FIELD(reference_speed_m_s),
     BIODYN_FIELD(speed_lean_rad_per_m_s), BIODYN_FIELD(speed_integral_rad_per_m), BIODYN_FIELD(speed_lean_limit_rad),
-    BIODYN_FIELD(lateral_integral_rad_per_m), BIODYN_FIELD(step_clearance_m), BIODYN_FIELD(placement_gain)};
+    BIODYN_FIELD(lateral_integral_rad_per_m), BIODYN_FIELD(step_clearance_m), BIODYN_FIELD(placement_gain),
+    BIODYN_FIELD(stop_brake_rad_per_m_s), BIODYN_FIELD(stop_speed_m_s)};
 #undef BIODYN_FIELD
 
 }  // namespace
@@ -145,6 +146,9 @@ void TorqueGaitParams::validate() const {
         "must be in [0, 2]", lateral_integral_rad_per_m);
   check(step_clearance_m >= 0 && step_clearance_m <= 0.5, w + "step_clearance_m", "must be in [0, 0.5] m",
         step_clearance_m);
+  check(std::abs(stop_brake_rad_per_m_s) <= 2, w + "stop_brake_rad_per_m_s", "must be within +-2",
+        stop_brake_rad_per_m_s);
+  check(stop_speed_m_s > 0 && stop_speed_m_s <= 1, w + "stop_speed_m_s", "must be in (0, 1] m/s", stop_speed_m_s);
   check(placement_gain >= 0 && placement_gain <= 10, w + "placement_gain", "must be in [0, 10]", placement_gain);
   check(speed_lean_limit_rad >= 0 && speed_lean_limit_rad <= 0.5, w + "speed_lean_limit_rad", "must be in [0, 0.5] rad",
         speed_lean_limit_rad);
@@ -204,6 +208,13 @@ void TorqueGait::reset(const mjData& d) {
   plan_.clear();
   plan_next_ = 0;
   swing_target_ = std::numeric_limits<double>::quiet_NaN();
+  stopping_ = stopped_ = false;
+}
+
+void TorqueGait::request_stop() {
+  if (stopping_) return;
+  stopping_ = true;  // braking first: see drive()
+  speed_ = 0;
 }
 
 void TorqueGait::plan_steps(const std::vector<double>& lengths_m) {
@@ -260,7 +271,7 @@ void TorqueGait::drive(CharacterController& c, const mjModel& m, const mjData& d
     const Vector3d delta = vec_at(d.xpos + 3 * foot_[swing]) - vec_at(d.xpos + 3 * foot_[stance_]);
     if (ch * delta.x() + sh * delta.y() >= swing_target_ - kPlacedLandingReach_m) early_ = false;
   }
-  if (!early_ && touches && lifted_) {
+  if (!stopped_ && !early_ && touches && lifted_) {
     const Vector3d delta = vec_at(d.xpos + 3 * foot_[swing]) - vec_at(d.xpos + 3 * foot_[stance_]);
     const double ch = std::cos(heading_), sh = std::sin(heading_);
     // Speed regulation: the step's mean CoM speed along the heading against the command
@@ -281,6 +292,19 @@ void TorqueGait::drive(CharacterController& c, const mjModel& m, const mjData& d
     swing_target_ = plan_next_ < static_cast<int>(plan_.size()) ? plan_[static_cast<std::size_t>(plan_next_++)]
                                                                  : std::numeric_limits<double>::quiet_NaN();
     ++strikes_;
+    if (stopping_) {
+      if (!std::isnan(last_strike_.target_length_m) && last_strike_.target_length_m == 0.0) {
+        stopped_ = true;  // the feet are side by side: no more steps
+      } else if (std::isnan(swing_target_) && plan_next_ >= static_cast<int>(plan_.size())) {
+        // Braking until the CoM is slow, then one step that brings the feet side by side.
+        const double v = ch * com.velocity_W.x() + sh * com.velocity_W.y();
+        if (v < p.stop_speed_m_s) {
+          plan_.assign(1, 0.0);
+          plan_next_ = 0;
+          swing_target_ = plan_[static_cast<std::size_t>(plan_next_++)];
+        }
+      }
+    }
     stance_ = swing;
     swing = 1 - stance_;
     early_ = true;
@@ -384,9 +408,11 @@ void TorqueGait::drive(CharacterController& c, const mjModel& m, const mjData& d
   const Vector3d rel = q_heading.conjugate() * (com.position_W - vec_at(d.xpos + 3 * foot_[stance_]));
   const Vector3d vel = q_heading.conjugate() * com.velocity_W;
   const double out = swing == 0 ? 1.0 : -1.0;  // +y is outwards for the left leg
+  // Stopping: the swing foot lands further ahead per m/s of forward speed (braking).
+  const double brake = stopping_ ? p.stop_brake_rad_per_m_s * vel.x() : 0.0;
   const double pitch = placed ? ik.thigh_pitch_rad
-                              : (early_ ? p.swing_hip_early_rad : p.swing_hip_late_rad) + p.sagittal_cd * rel.x() +
-                                    p.sagittal_cv * vel.x();
+                              : brake + (early_ ? p.swing_hip_early_rad : p.swing_hip_late_rad) +
+                                    p.sagittal_cd * rel.x() + p.sagittal_cv * vel.x();
   const double roll = out * p.swing_hip_out_rad + p.frontal_cd * rel.y() + p.frontal_cv * vel.y() + roll_integral_;
   const Quaterniond q_thigh_goal =
       q_heading * Quaterniond(AngleAxisd(-pitch, Vector3d::UnitY())) * Quaterniond(AngleAxisd(roll, Vector3d::UnitX()));

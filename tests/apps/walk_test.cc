@@ -144,6 +144,27 @@ TEST_CASE("the walker steps on the paper's stepping stones", "[apps][walk][stone
   CHECK(r.max_root_force_N == 0.0);
 }
 
+TEST_CASE("the walker stops back to standing", "[apps][walk][stop]") {
+  sim::Simulation sim = make_default_sim();
+  for (const controllers::WeldMode weld : {controllers::WeldMode::kOff, controllers::WeldMode::kHonest}) {
+    scenarios::WalkRunParams p;
+    p.duration_s = 16;
+    p.stop_at_s = 8;
+    p.weld = weld;
+    const scenarios::WalkRunResult r = scenarios::run_walk(&sim, p);
+    INFO("weld " << controllers::to_string(weld) << ": stopped at " << r.stopped_at_s << ", fell at " << r.time_fallen_s
+                 << ", CoM " << r.final_com_speed_m_s << " m/s at the end");
+    CHECK_FALSE(r.fallen);
+    CHECK(r.stopped_at_s > 8.0);
+    CHECK(r.stopped_at_s < 13.0);  // measured 10.3 s: braking takes a few steps
+    CHECK(r.standing_at_end);
+    CHECK(r.final_com_speed_m_s < 0.05);
+    // No strike after the feet came side by side.
+    CHECK(r.step_times_s.back() <= r.stopped_at_s);
+    CHECK(r.max_root_force_N == 0.0);
+  }
+}
+
 TEST_CASE("walk inputs out of range are rejected by name", "[apps][walk]") {
   sim::Simulation sim = make_default_sim();
   scenarios::WalkRunParams p;
@@ -167,4 +188,7 @@ TEST_CASE("walk inputs out of range are rejected by name", "[apps][walk]") {
   p.steps_m = {0.5};
   p.steps_start_s = 30;
   CHECK_THROWS_WITH(scenarios::run_walk(&sim, p), Catch::Contains("steps start") && Catch::Contains("30"));
+  p = scenarios::WalkRunParams{};
+  p.stop_at_s = 25;
+  CHECK_THROWS_WITH(scenarios::run_walk(&sim, p), Catch::Contains("stop-at") && Catch::Contains("25"));
 }

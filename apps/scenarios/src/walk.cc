@@ -31,6 +31,8 @@ constexpr int kRecoveryStrides = 4;
 // A push run that has not been judged this long after the push ended stops (cannot happen
 // with a walking character: 4 strides take about 4 s).
 constexpr double kPushJudgeCap_s = 20.0;
+// Standing after a stop: the CoM's horizontal speed below this.
+constexpr double kStandingSpeed_m_s = 0.05;
 // Strides to find the push onset in before giving up (the walker stopped striking).
 constexpr double kMaxSettle_s = 120.0;
 
@@ -127,6 +129,10 @@ void WalkRunParams::validate() const {
     if (!(steps_start_s >= 0 && steps_start_s < duration_s))
       fail("steps start", "must be in [0, duration) s", steps_start_s);
   }
+  if (stop_at_s >= 0 || !std::isfinite(stop_at_s)) {
+    if (push) throw sim::InvalidArgument("stop: stopping and a push cannot be combined in one run");
+    if (!(stop_at_s >= 0 && stop_at_s < duration_s)) fail("stop-at", "must be in [0, duration) s", stop_at_s);
+  }
 }
 
 WalkRunResult run_walk(sim::Simulation* sim, const WalkRunParams& params,
@@ -146,7 +152,8 @@ WalkRunResult run_walk(sim::Simulation* sim, const WalkRunParams& params,
   controllers::CharacterControllerConfig config;
   config.weld.mode = params.weld;
   controllers::CharacterController ctrl(sim, cp, config);
-  ctrl.reset_in_pose(controllers::pose_scenario("stand", groups, 0)[0]);
+  const controllers::Pose stand_pose = controllers::pose_scenario("stand", groups, 0)[0];
+  ctrl.reset_in_pose(stand_pose);
   controllers::TorqueGait gait(m, groups, gp);
   gait.reset(d);
   gait.set_heading_rate(params.heading_rate_deg_s / kRadToDeg);
@@ -203,6 +210,7 @@ WalkRunResult run_walk(sim::Simulation* sim, const WalkRunParams& params,
   int stances = 0;
   bool push_scheduled = false;
   bool steps_planned = false;
+  bool feet_down[2] = {true, true};  // on the floor: touching it or welded to it (glue)
   SteppingStonesResult stones;
   stones.targets_m = params.steps_m;
   WalkPushOutcome outcome;
@@ -233,6 +241,17 @@ WalkRunResult run_walk(sim::Simulation* sim, const WalkRunParams& params,
       r.max_weld_force_N = std::max(r.max_weld_force_N, rep.weld[static_cast<std::size_t>(s)].force_W.norm());
     for (int k = 0; k < 6; ++k) r.max_root_force_N = std::max(r.max_root_force_N, std::abs(d.qfrc_applied[k]));
     const bool steady = d.time >= kWalkStartup_s;
+
+    // Stopping: the walker plans its last steps; once the feet are side by side the
+    // standing controller (pose and balance) takes over with both feet in stance.
+    if (params.stop_at_s >= 0 && d.time >= params.stop_at_s && !gait.stopping()) gait.request_stop();
+    if (gait.stopped() && ctrl.driver() == &gait) {
+      ctrl.set_driver(nullptr);
+      ctrl.set_stance(0, true);
+      ctrl.set_stance(1, true);
+      ctrl.set_pose(stand_pose);
+      r.stopped_at_s = d.time;
+    }
 
     // Strikes: step length, width, path, strides; stepping stones.
     if (gait.strike_count() != strikes_seen) {
@@ -365,6 +384,7 @@ WalkRunResult run_walk(sim::Simulation* sim, const WalkRunParams& params,
                     << rep.joints.max_torque_ratio << ',' << (xf ? xf[0] : 0.0) << ',' << (xf ? xf[1] : 0.0) << '\n';
     }
 
+    for (int s = 0; s < 2; ++s) feet_down[s] = feet[s].touching || rep.weld_active[static_cast<std::size_t>(s)];
     if (fall.down(m, d)) {
       r.fallen = true;
       r.time_fallen_s = d.time;
@@ -390,6 +410,12 @@ WalkRunResult run_walk(sim::Simulation* sim, const WalkRunParams& params,
     }
   }
   ctrl.set_driver(nullptr);
+  {
+    const sim::CenterOfMass com = sim::center_of_mass(m, d);
+    r.final_com_speed_m_s = com.velocity_W.head<2>().norm();
+    r.standing_at_end = r.stopped_at_s >= 0 && !r.fallen && r.final_com_speed_m_s < kStandingSpeed_m_s &&
+                        feet_down[0] && feet_down[1];
+  }
   r.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
   r.simulated_s = r.sim_steps * dt;
   r.realtime_factor = r.wall_s > 0 ? r.simulated_s / r.wall_s : 0;

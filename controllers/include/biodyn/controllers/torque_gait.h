@@ -89,6 +89,11 @@ struct TorqueGaitParams {
   /// Constrained stepping: the IK aims short of the target by this times the ankle's
   /// overshoot (in late swing: its miss either way), correcting the PD's lag.
   double placement_gain = 2.0;
+  /// Stopping: while braking, the swing thigh pitches this much further per m/s of forward
+  /// CoM speed (the foot lands ahead of the CoM); once the CoM is slower than stop_speed_m_s
+  /// at a strike, the next step brings the feet side by side.
+  double stop_brake_rad_per_m_s = 0.1;
+  double stop_speed_m_s = 0.3;
   void validate() const;  ///< throws sim::InvalidArgument naming the field
 };
 
@@ -145,6 +150,15 @@ class TorqueGait : public TargetDriver {
   /// Replaces any plan not yet walked. Throws sim::InvalidArgument for a length outside
   /// [0, 1.5] m (naming its index).
   void plan_steps(const std::vector<double>& lengths_m);
+  /// Stopping back to standing: the speed command drops to 0 and the steps brake (the swing
+  /// foot lands further ahead, stop_brake_rad_per_m_s) until the CoM is slower than
+  /// stop_speed_m_s at a strike; then one planned step (as above) brings the feet side by
+  /// side. stopped() is true from that strike on, and the walker no longer swaps legs: hand
+  /// the character to the standing controller (CharacterController::set_driver(nullptr)
+  /// with both feet in stance).
+  void request_stop();
+  bool stopping() const { return stopping_; }
+  bool stopped() const { return stopped_; }
   /// Planned steps not yet begun.
   int planned_steps_left() const { return static_cast<int>(plan_.size()) - plan_next_; }
   /// The current swing's planned length (NaN for a free step).
@@ -181,6 +195,7 @@ class TorqueGait : public TargetDriver {
   double thigh_length_[2] = {0, 0}, shank_length_[2] = {0, 0}, ankle_height_ = 0;
   std::vector<double> plan_;
   int plan_next_ = 0;
+  bool stopping_ = false, stopped_ = false;
   double swing_target_ = std::numeric_limits<double>::quiet_NaN();
   // The last IK solution of a placed step, for its rates.
   bool ik_valid_ = false, ik_early_ = false;

@@ -44,6 +44,9 @@ struct WalkRunParams {
   /// from the first strike at or after steps_start_s (steady walking first); free steps after.
   std::vector<double> steps_m;
   double steps_start_s = 5.0;
+  /// s; >= 0: from this time the walker stops (a half step, then the feet side by side) and
+  /// the character is handed to the standing controller (pose "stand" with its balance).
+  double stop_at_s = -1;
   /// If set, one CSV line per step is written here (header first).
   std::ostream* trace = nullptr;
   void validate() const;  ///< throws sim::InvalidArgument naming the field
@@ -110,6 +113,11 @@ struct WalkRunResult {
   sim::WarningCounts warnings;
   std::optional<WalkPushOutcome> push;
   std::optional<SteppingStonesResult> stones;
+  /// Stopping (stop_at_s >= 0): when the feet came side by side and the standing controller
+  /// took over (-1: never), and the state at the end.
+  double stopped_at_s = -1;
+  bool standing_at_end = false;      ///< not fallen, CoM < 5 cm/s, both feet on the floor
+  double final_com_speed_m_s = 0;    ///< m/s, horizontal, at the end
 };
 
 /// Start-up excluded from the steady figures, s.
