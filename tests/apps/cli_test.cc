@@ -247,7 +247,7 @@ TEST_CASE("biodyn walk writes the walk JSON and says what the weld assumes", "[a
 
 TEST_CASE("biodyn walk --steps reports the stepping stones; a bad length is refused", "[apps][cli][walk][stones]") {
   const fs::path dir = fresh_dir("walk_stones");
-  const Run r = run_biodyn("walk --duration 9 --speed 0.9 --steps 0.5,0.3 --steps-start 4 --json s.json", dir);
+  const Run r = run_biodyn("walk --duration 9 --speed 0.8 --steps 0.5,0.3 --steps-start 4 --json s.json", dir);
   INFO(r.out << r.err);
   REQUIRE(r.exit_code == 0);
   const auto j = nlohmann::json::parse(slurp(dir / "s.json"));

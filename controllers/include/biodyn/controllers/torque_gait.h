@@ -42,30 +42,30 @@ namespace biodyn::controllers {
 /// defaults were found by a cross-entropy search on the default character (10 s walks at
 /// 1 m/s, from standing and with sideways disturbances; controllers/README.md).
 struct TorqueGaitParams {
-  double swing_time_s = 0.364;         ///< length of the early-swing state at reference_speed_m_s
+  double swing_time_s = 0.471;         ///< length of the early-swing state at reference_speed_m_s
   /// The early swing shortens by this much per m/s of commanded speed above the reference
   /// (people step faster as they walk faster, not only longer).
-  double swing_time_per_m_s = 0.0;
-  double swing_hip_early_rad = 0.684;  ///< swing thigh pitch forward of vertical, early swing
-  double swing_hip_late_rad = 0.060;   ///< ... late swing
-  double sagittal_cd = 0.258;          ///< rad/m of CoM ahead of the stance ankle
-  double sagittal_cv = 0.235;          ///< rad per m/s of forward CoM velocity
-  double frontal_cd = -0.063;          ///< rad/m of CoM beside the stance ankle
-  double frontal_cv = 0.427;           ///< rad per m/s of sideways CoM velocity
-  double swing_hip_out_rad = -0.042;   ///< swing thigh roll outwards (the step width offset)
-  double swing_knee_early_rad = 1.544;
-  double swing_knee_late_rad = 0.130;
-  double stance_knee_rad = 0.228;
-  double stance_ankle_rad = -0.063;    ///< dorsiflexion positive
-  double swing_ankle_early_rad = 0.022;  ///< added to the level sole in early swing
-  double toe_up_rad = 0.064;             ///< swing sole pitch, toes up
-  double pelvis_pitch_rad = 0.112;       ///< forward lean of the pelvis in the world
-  double start_pitch_rad = 0.123;        ///< extra lean for the first start_time_s (from standing)
-  double start_time_s = 1.671;
-  double torso_kp = 1281;
-  double hip_kp = 656;
-  double knee_kp = 233;
-  double ankle_kp = 79;
+  double swing_time_per_m_s = 0.011;
+  double swing_hip_early_rad = 0.698;  ///< swing thigh pitch forward of vertical, early swing
+  double swing_hip_late_rad = 0.095;   ///< ... late swing
+  double sagittal_cd = 0.246;          ///< rad/m of CoM ahead of the stance ankle
+  double sagittal_cv = 0.225;          ///< rad per m/s of forward CoM velocity
+  double frontal_cd = -0.020;          ///< rad/m of CoM beside the stance ankle
+  double frontal_cv = 0.480;           ///< rad per m/s of sideways CoM velocity
+  double swing_hip_out_rad = -0.075;   ///< swing thigh roll outwards (the step width offset)
+  double swing_knee_early_rad = 1.323;
+  double swing_knee_late_rad = 0.186;
+  double stance_knee_rad = 0.207;
+  double stance_ankle_rad = -0.047;    ///< dorsiflexion positive
+  double swing_ankle_early_rad = -0.019;  ///< added to the level sole in early swing
+  double toe_up_rad = 0.070;             ///< swing sole pitch, toes up
+  double pelvis_pitch_rad = 0.125;       ///< forward lean of the pelvis in the world
+  double start_pitch_rad = 0.073;        ///< extra lean for the first start_time_s (from standing)
+  double start_time_s = 1.934;
+  double torso_kp = 1273;
+  double hip_kp = 434;
+  double knee_kp = 218;
+  double ankle_kp = 52;
   double toe_kp = 30;
   double trunk_kp = 600;    ///< lumbar, thorax
   double arm_kp = 100;      ///< shoulders, clavicles
@@ -77,8 +77,8 @@ struct TorqueGaitParams {
   /// speed_integral_rad_per_m (v - v_step) t_step, v_step the step's mean CoM speed along the
   /// heading (held within +-speed_lean_limit_rad).
   double reference_speed_m_s = 1.0;
-  double speed_lean_rad_per_m_s = 0.05;
-  double speed_integral_rad_per_m = 0.05;
+  double speed_lean_rad_per_m_s = 0.1;
+  double speed_integral_rad_per_m = 0.02;
   double speed_lean_limit_rad = 0.2;
   /// The frontal counterpart: after every step the swing thigh's roll gains
   /// lateral_integral_rad_per_m times the CoM's sideways travel in that step (heading frame), so
