@@ -39,8 +39,8 @@
 namespace biodyn::controllers {
 
 /// Parameters of the torque walker; angles in rad, gains in N m/rad for an 80 kg body. The
-/// defaults were found by a cross-entropy search on the default character (10 s walks at
-/// 1 m/s, from standing and with sideways disturbances; controllers/README.md).
+/// defaults were found by a cross-entropy search on the walker (12 s walks at 0.5-1.5 m/s on
+/// three bodies, from standing, with a human cadence band; controllers/README.md).
 struct TorqueGaitParams {
   double swing_time_s = 0.471;         ///< length of the early-swing state at reference_speed_m_s
   /// The early swing shortens by this much per m/s of commanded speed above the reference
