@@ -170,6 +170,7 @@ TorqueGait::TorqueGait(const mjModel& m, const std::vector<JointGroup>& groups, 
     toe_[s] = find_group(groups_, std::string("toe") + kSide[s]);
   }
   lumbar_ = require_group(groups_, "lumbar");
+  plan_.reserve(8);  // the stop plan is made inside drive(): no allocation there
   for (int s = 0; s < 2; ++s) {
     thigh_length_[s] = vec_at(m.body_pos + 3 * shank_[s]).norm();  // hip to knee
     shank_length_[s] = vec_at(m.body_pos + 3 * foot_[s]).norm();   // knee to ankle
