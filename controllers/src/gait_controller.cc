@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "biodyn/controllers/foot_contact.h"
+#include "biodyn/controllers/support_polygon.h"
 #include "biodyn/sim/errors.h"
 
 namespace biodyn::controllers {
@@ -25,41 +26,6 @@ constexpr double kClearanceTracking_s = 0.03;
 Vector3d vec_at(const mjtNum* p) { return {p[0], p[1], p[2]}; }
 Quaterniond quat_at(const mjtNum* q) { return {q[0], q[1], q[2], q[3]}; }
 
-// 2D cross product of (a - o) and (b - o).
-double cross(const Vector2d& o, const Vector2d& a, const Vector2d& b) {
-  return (a.x() - o.x()) * (b.y() - o.y()) - (a.y() - o.y()) * (b.x() - o.x());
-}
-
-// Convex hull (Andrew's monotone chain), counter-clockwise, into `hull`; sorts `pts`.
-void convex_hull(std::vector<Vector2d>& pts, std::vector<Vector2d>* hull) {
-  hull->clear();
-  if (pts.size() < 3) {
-    hull->assign(pts.begin(), pts.end());
-    return;
-  }
-  std::sort(pts.begin(), pts.end(), [](const Vector2d& a, const Vector2d& b) {
-    return a.x() < b.x() || (a.x() == b.x() && a.y() < b.y());
-  });
-  hull->resize(2 * pts.size());
-  std::size_t k = 0;
-  for (std::size_t i = 0; i < pts.size(); ++i) {
-    while (k >= 2 && cross((*hull)[k - 2], (*hull)[k - 1], pts[i]) <= 0) --k;
-    (*hull)[k++] = pts[i];
-  }
-  for (std::size_t i = pts.size() - 1, t = k + 1; i > 0; --i) {
-    while (k >= t && cross((*hull)[k - 2], (*hull)[k - 1], pts[i - 1]) <= 0) --k;
-    (*hull)[k++] = pts[i - 1];
-  }
-  hull->resize(k - 1);
-}
-
-bool inside_convex(const std::vector<Vector2d>& poly, const Vector2d& p) {
-  if (poly.size() < 3) return false;
-  for (std::size_t i = 0; i < poly.size(); ++i)
-    if (cross(poly[i], poly[(i + 1) % poly.size()], p) < 0) return false;
-  return true;
-}
-
 Vector2d rotate(const Vector2d& v, double angle) {
   const double c = std::cos(angle), s = std::sin(angle);
   return {c * v.x() - s * v.y(), s * v.x() + c * v.y()};
@@ -67,19 +33,25 @@ Vector2d rotate(const Vector2d& v, double angle) {
 
 }  // namespace
 
-LegTriangle solve_leg_triangle(double l1, double l2, const Vector3d& r, double sigma,
-                               double min_knee_rad) {
+LegTriangle solve_leg_triangle(double l1, double l2, const Vector3d& r, double sigma, double min_knee_rad,
+                               double max_knee_rad) {
   LegTriangle out;
   const double reach_max = std::sqrt(l1 * l1 + l2 * l2 + 2 * l1 * l2 * std::cos(min_knee_rad));
-  const double reach_min = 0.3 * (l1 + l2);
+  const double reach_min =
+      std::max(0.3 * (l1 + l2), std::sqrt(l1 * l1 + l2 * l2 + 2 * l1 * l2 * std::cos(max_knee_rad)));
   const double wanted = r.norm();
   const double len = std::clamp(wanted, reach_min, reach_max);
   out.reachable = wanted >= reach_min && wanted <= reach_max;
-  // Law of cosines: the knee's interior angle is pi - flexion; alpha is the thigh's angle
-  // in front of the hip-ankle line (the knee bends backwards, so the thigh leans forward).
+  // Law of cosines: the knee's interior angle is pi - flexion. Beyond reach the knee is at its
+  // least flexion exactly (the cosine there is +-1 up to rounding).
   out.knee_flexion_rad =
-      M_PI - std::acos(std::clamp((l1 * l1 + l2 * l2 - len * len) / (2 * l1 * l2), -1.0, 1.0));
-  const double alpha = std::acos(std::clamp((l1 * l1 + len * len - l2 * l2) / (2 * l1 * len), -1.0, 1.0));
+      wanted >= reach_max
+          ? min_knee_rad
+          : M_PI - std::acos(std::clamp((l1 * l1 + l2 * l2 - len * len) / (2 * l1 * l2), -1.0, 1.0));
+  // alpha: the thigh's angle in front of the hip-ankle line (the knee bends backwards, so the
+  // thigh leans forward).
+  const double k = out.knee_flexion_rad;
+  const double alpha = std::atan2(l2 * std::sin(k), l1 + l2 * std::cos(k));
   out.hip_flexion_rad = std::atan2(r.x(), -r.z()) + alpha;
   out.hip_abduction_rad = std::atan2(sigma * r.y(), -r.z());
   return out;
@@ -286,7 +258,7 @@ void GaitController::support_polygons(const mjModel& m, const mjData& d) {
     for (int s = 0; s < 2; ++s)
       if (c.body == foot_[s] || c.body == toes_[s]) points_.push_back(c.position_W.head<2>());
   }
-  convex_hull(points_, &hull_);
+  convex_hull(&points_, &hull_);
   tolerance_.clear();
   if (hull_.empty()) return;
   Vector2d centre = Vector2d::Zero();

@@ -5,6 +5,7 @@
 #include <string>
 #include <utility>
 
+#include "biodyn/controllers/gait_controller.h"
 #include "biodyn/sim/errors.h"
 #include "json_fields.h"
 #include "biodyn/sim/queries.h"
@@ -89,29 +90,6 @@ std::string torque_gait_json(const TorqueGaitParams& params) {
   nlohmann::ordered_json j;
   for (const NamedField& f : kFields) j[f.name] = params.*(f.member);
   return j.dump(2) + "\n";
-}
-
-LegIk solve_leg_ik(double dx, double dz, double l_thigh, double l_shank, double max_knee_rad) {
-  LegIk ik;
-  const double r = std::hypot(dx, dz);
-  const double line = std::atan2(dx, -dz);  // the hip-ankle line, forward of straight down
-  const double r_max = l_thigh + l_shank;
-  const double r_min = std::sqrt(l_thigh * l_thigh + l_shank * l_shank + 2 * l_thigh * l_shank * std::cos(max_knee_rad));
-  if (r >= r_max || r <= r_min) {
-    ik.reachable = false;
-    if (r >= r_max) {
-      ik.thigh_pitch_rad = line;
-      ik.knee_rad = 0;
-      return ik;
-    }
-  }
-  const double rc = std::max(r, r_min);
-  // Law of cosines in the triangle hip-knee-ankle: gamma at the knee, beta at the hip.
-  const double cos_gamma = (l_thigh * l_thigh + l_shank * l_shank - rc * rc) / (2 * l_thigh * l_shank);
-  const double cos_beta = (l_thigh * l_thigh + rc * rc - l_shank * l_shank) / (2 * l_thigh * rc);
-  ik.knee_rad = M_PI - std::acos(std::clamp(cos_gamma, -1.0, 1.0));
-  ik.thigh_pitch_rad = line + std::acos(std::clamp(cos_beta, -1.0, 1.0));
-  return ik;
 }
 
 void TorqueGaitParams::validate() const {
@@ -342,7 +320,7 @@ void TorqueGait::drive(CharacterController& c, const mjModel& m, const mjData& d
   // heading frame's sagittal plane: above it by the clearance in early swing, onto the floor
   // (1 cm into it, so it strikes) in late swing.
   const bool placed = !std::isnan(swing_target_);
-  LegIk ik;
+  LegTriangle ik;
   if (placed) {
     const Vector3d stance_ankle = q_heading.conjugate() * vec_at(d.xpos + 3 * foot_[stance_]);
     const Vector3d hip = q_heading.conjugate() * vec_at(d.xpos + 3 * thigh_[swing]);
@@ -363,22 +341,22 @@ void TorqueGait::drive(CharacterController& c, const mjModel& m, const mjData& d
       const double dx_max = reach > std::abs(dz) ? std::sqrt(reach * reach - dz * dz) : 0.0;
       dx = std::clamp(dx, -dx_max, dx_max);
     }
-    ik = solve_leg_ik(dx, dz, thigh_length_[swing], shank_length_[swing], kMaxSwingKnee_rad);
+    ik = solve_leg_triangle(thigh_length_[swing], shank_length_[swing], Vector3d(dx, 0, dz), 1.0, 0.0,
+                            kMaxSwingKnee_rad);
     // The target is fixed on the floor while the hip moves: the IK angles' rates (by finite
     // difference within one swing state) are the PD's velocity targets, so the leg does not lag.
     const double h = d.time - ik_time_s_;
-    if (ik_valid_ && ik_early_ == early_ && ik_swing_ == swing && h > 0 && h < 0.05) {
-      ik_pitch_rate_ = (ik.thigh_pitch_rad - ik_pitch_) / h;
-      ik_knee_rate_ = (ik.knee_rad - ik_knee_) / h;
+    if (ik_valid_ && ik_early_ == early_ && h > 0 && h < 0.05) {  // a strike makes early_ true
+      ik_pitch_rate_ = (ik.hip_flexion_rad - ik_pitch_) / h;
+      ik_knee_rate_ = (ik.knee_flexion_rad - ik_knee_) / h;
     } else {
       ik_pitch_rate_ = ik_knee_rate_ = 0;
     }
     ik_valid_ = true;
     ik_early_ = early_;
-    ik_swing_ = swing;
     ik_time_s_ = d.time;
-    ik_pitch_ = ik.thigh_pitch_rad;
-    ik_knee_ = ik.knee_rad;
+    ik_pitch_ = ik.hip_flexion_rad;
+    ik_knee_ = ik.knee_flexion_rad;
   } else {
     ik_valid_ = false;
   }
@@ -388,7 +366,7 @@ void TorqueGait::drive(CharacterController& c, const mjModel& m, const mjData& d
     const bool stance = s == stance_;
     const JointGroup& knee = groups_[static_cast<std::size_t>(knee_[s])];
     const JointGroup& ankle = groups_[static_cast<std::size_t>(ankle_[s])];
-    const double swing_knee = placed ? ik.knee_rad : early_ ? p.swing_knee_early_rad : p.swing_knee_late_rad;
+    const double swing_knee = placed ? ik.knee_flexion_rad : early_ ? p.swing_knee_early_rad : p.swing_knee_late_rad;
     hinge_pd(c, m, d, knee.dof_begin, stance ? p.stance_knee_rad : swing_knee, p.knee_kp,
              !stance && placed ? ik_knee_rate_ : 0.0);
     double dorsiflexion = p.stance_ankle_rad;
@@ -411,7 +389,7 @@ void TorqueGait::drive(CharacterController& c, const mjModel& m, const mjData& d
   const double out = swing == 0 ? 1.0 : -1.0;  // +y is outwards for the left leg
   // Stopping: the swing foot lands further ahead per m/s of forward speed (braking).
   const double brake = stopping_ ? p.stop_brake_rad_per_m_s * vel.x() : 0.0;
-  const double pitch = placed ? ik.thigh_pitch_rad
+  const double pitch = placed ? ik.hip_flexion_rad
                               : brake + (early_ ? p.swing_hip_early_rad : p.swing_hip_late_rad) +
                                     p.sagittal_cd * rel.x() + p.sagittal_cv * vel.x();
   const double roll = out * p.swing_hip_out_rad + p.frontal_cd * rel.y() + p.frontal_cv * vel.y() + roll_integral_;

@@ -3,6 +3,7 @@
 #include <cmath>
 
 #include "biodyn/controllers/character_controller.h"
+#include "biodyn/controllers/gait_controller.h"
 #include "biodyn/controllers/torque_gait.h"
 #include "biodyn/models/mjcf.h"
 #include "biodyn/sim/errors.h"
@@ -117,29 +118,29 @@ TEST_CASE("The leg IK triangle puts the ankle where asked, or points the straigh
   const double l1 = 0.44, l2 = 0.45;
   // Forward kinematics of (thigh pitch, knee): the thigh hangs from the hip rotated forward by
   // the pitch; the shank bends back from the thigh by the knee angle.
-  const auto ankle = [&](const controllers::LegIk& ik) {
-    const double a = ik.thigh_pitch_rad, b = ik.thigh_pitch_rad - ik.knee_rad;
+  const auto ankle = [&](const controllers::LegTriangle& ik) {
+    const double a = ik.hip_flexion_rad, b = ik.hip_flexion_rad - ik.knee_flexion_rad;
     return std::make_pair(l1 * std::sin(a) + l2 * std::sin(b), -l1 * std::cos(a) - l2 * std::cos(b));
   };
   for (const auto& [dx, dz] : {std::make_pair(0.3, -0.75), std::make_pair(-0.25, -0.7), std::make_pair(0.0, -0.5),
                                std::make_pair(0.45, -0.6)}) {
     INFO("target " << dx << ", " << dz);
-    const controllers::LegIk ik = controllers::solve_leg_ik(dx, dz, l1, l2, 2.0);
+    const controllers::LegTriangle ik = controllers::solve_leg_triangle(l1, l2, {dx, 0, dz}, 1.0, 0.0, 2.0);
     CHECK(ik.reachable);
-    CHECK(ik.knee_rad > 0);  // the knee bends backwards only
+    CHECK(ik.knee_flexion_rad > 0);  // the knee bends backwards only
     const auto [x, z] = ankle(ik);
     CHECK(x == Approx(dx).margin(1e-9));
     CHECK(z == Approx(dz).margin(1e-9));
   }
   // Out of reach: the straight leg along the hip-target line (the closest reachable state).
-  const controllers::LegIk far = controllers::solve_leg_ik(0.6, -0.8, l1, l2, 2.0);
+  const controllers::LegTriangle far = controllers::solve_leg_triangle(l1, l2, {0.6, 0, -0.8}, 1.0, 0.0, 2.0);
   CHECK_FALSE(far.reachable);
-  CHECK(far.knee_rad == 0.0);
-  CHECK(far.thigh_pitch_rad == Approx(std::atan2(0.6, 0.8)));
+  CHECK(far.knee_flexion_rad == 0.0);
+  CHECK(far.hip_flexion_rad == Approx(std::atan2(0.6, 0.8)));
   // Too close: the most flexed knee allowed.
-  const controllers::LegIk near = controllers::solve_leg_ik(0.0, -0.1, l1, l2, 2.0);
+  const controllers::LegTriangle near = controllers::solve_leg_triangle(l1, l2, {0.0, 0, -0.1}, 1.0, 0.0, 2.0);
   CHECK_FALSE(near.reachable);
-  CHECK(near.knee_rad == Approx(2.0));
+  CHECK(near.knee_flexion_rad == Approx(2.0));
 }
 
 TEST_CASE("The torque walker rejects a step plan out of range, naming the step", "[gait][stones]") {

@@ -9,11 +9,14 @@
 #include "biodyn/controllers/poses.h"
 #include "biodyn/sim/errors.h"
 #include "biodyn/sim/queries.h"
+#include "biodyn/controllers/support_polygon.h"
 #include "fall_watch.h"
 
 namespace biodyn::scenarios {
 namespace {
 
+using controllers::convex_hull;
+using controllers::distance_outside;
 using controllers::JointGroup;
 using Eigen::Vector2d;
 
@@ -27,50 +30,6 @@ constexpr double kSupportGap_m = 0.002;
 // A push counts as survived without stepping only if no foot moved this far (a standing
 // controller never steps, but a foot can slide or pivot away).
 constexpr double kNoStepFootMove_m = 0.03;
-
-double cross(const Vector2d& o, const Vector2d& a, const Vector2d& b) {
-  return (a.x() - o.x()) * (b.y() - o.y()) - (a.y() - o.y()) * (b.x() - o.x());
-}
-
-// Convex hull (Andrew's monotone chain), counter-clockwise, into `hull`.
-void convex_hull(std::vector<Vector2d>* pts, std::vector<Vector2d>* hull) {
-  std::sort(pts->begin(), pts->end(), [](const Vector2d& a, const Vector2d& b) {
-    return a.x() < b.x() || (a.x() == b.x() && a.y() < b.y());
-  });
-  hull->clear();
-  const std::size_t n = pts->size();
-  if (n < 3) {
-    *hull = *pts;
-    return;
-  }
-  hull->resize(2 * n);
-  std::size_t k = 0;
-  for (std::size_t i = 0; i < n; ++i) {
-    while (k >= 2 && cross((*hull)[k - 2], (*hull)[k - 1], (*pts)[i]) <= 0) --k;
-    (*hull)[k++] = (*pts)[i];
-  }
-  for (std::size_t i = n - 1, t = k + 1; i > 0; --i) {
-    while (k >= t && cross((*hull)[k - 2], (*hull)[k - 1], (*pts)[i - 1]) <= 0) --k;
-    (*hull)[k++] = (*pts)[i - 1];
-  }
-  hull->resize(k - 1);
-}
-
-// Distance of p outside the convex CCW polygon (0 inside).
-double distance_outside(const std::vector<Vector2d>& poly, const Vector2d& p) {
-  if (poly.size() < 3) return 0;
-  bool inside = true;
-  double best = 1e9;
-  for (std::size_t i = 0; i < poly.size(); ++i) {
-    const Vector2d& a = poly[i];
-    const Vector2d& b = poly[(i + 1) % poly.size()];
-    if (cross(a, b, p) < 0) inside = false;
-    const Vector2d ab = b - a;
-    const double t = std::clamp((p - a).dot(ab) / std::max(ab.squaredNorm(), 1e-18), 0.0, 1.0);
-    best = std::min(best, (a + t * ab - p).norm());
-  }
-  return inside ? 0.0 : best;
-}
 
 }  // namespace
 

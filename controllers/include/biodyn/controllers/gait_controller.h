@@ -43,6 +43,7 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 #include <array>
+#include <cmath>
 #include <string>
 #include <vector>
 
@@ -63,11 +64,12 @@ struct LegTriangle {
 
 /// The thigh and knee angles that put the ankle at `hip_to_ankle` (heading frame: x forward,
 /// y left, z up; m) for thigh length l1 and shank length l2. `sigma` is +1 for a left leg,
-/// -1 for a right one (abduction is outward). The knee bends at least `min_knee_rad`; a point
-/// beyond the leg's reach (or closer than 0.3 (l1 + l2)) gives the pose pointing at it with the
-/// nearest reachable length (paper: "the closest state to the desired foot position").
+/// -1 for a right one (abduction is outward). The knee bends at least `min_knee_rad` and at most
+/// `max_knee_rad`; a point beyond the leg's reach (or closer than the most flexed knee allows,
+/// and than 0.3 (l1 + l2)) gives the pose pointing at it with the nearest reachable length
+/// (paper: "the closest state to the desired foot position").
 LegTriangle solve_leg_triangle(double l1, double l2, const Eigen::Vector3d& hip_to_ankle,
-                               double sigma, double min_knee_rad);
+                               double sigma, double min_knee_rad, double max_knee_rad = M_PI);
 
 /// Paper §4.3, read as: the next strike makes the base polygon long enough that the CoM, at
 /// `com_from_rear` (m) in front of the polygon's rear edge, lies on the new polygon's

@@ -15,8 +15,9 @@
 ///    given by the balance feedback theta = theta_0 + c_d d + c_v v (d, v: CoM position
 ///    relative to the stance ankle and CoM velocity, heading frame) in both planes.
 ///  - Constrained stepping (paper §4.2; plan_steps): a step with a planned length puts the
-///    swing ankle on its target in late swing instead: the 2D IK triangle hip-knee-ankle in
-///    the heading frame's sagittal plane gives the swing thigh's pitch and the knee angle
+///    swing ankle on its target instead: the 2D IK triangle hip-knee-ankle in the heading
+///    frame's sagittal plane (solve_leg_triangle, gait_controller.h) gives the swing thigh's
+///    pitch and the knee angle
 ///    (an unreachable target gives the straight leg pointing at it, the closest reachable
 ///    state). The roll stays with the balance feedback.
 ///  - Stance hip: the pelvis's orientation in the world (upright, pitched pelvis_pitch, facing
@@ -114,19 +115,6 @@ struct TorqueGaitStrike {
   double target_length_m = std::numeric_limits<double>::quiet_NaN();  ///< the planned length; NaN: a free step
 };
 
-/// The 2D IK triangle of paper §4.2 in a leg's sagittal plane: the thigh's pitch (forward of
-/// the downward vertical) and the knee's flexion that put the ankle at (dx, dz) from the hip
-/// (dx forward, dz up; dz < 0 below), for thigh and shank lengths l_thigh, l_shank. A point out
-/// of reach gives the straight leg pointing at it; one too close, the most flexed knee
-/// (max_knee_rad) pointing at it. The knee bends backwards, so the knee lies ahead of the
-/// hip-ankle line.
-struct LegIk {
-  double thigh_pitch_rad = 0;
-  double knee_rad = 0;
-  bool reachable = true;
-};
-LegIk solve_leg_ik(double dx, double dz, double l_thigh, double l_shank, double max_knee_rad);
-
 class TorqueGait : public TargetDriver {
  public:
   /// For a generated character (bodies pelvis, thigh/shank/foot/toes_l/r; joint groups
@@ -199,7 +187,6 @@ class TorqueGait : public TargetDriver {
   double swing_target_ = std::numeric_limits<double>::quiet_NaN();
   // The last IK solution of a placed step, for its rates.
   bool ik_valid_ = false, ik_early_ = false;
-  int ik_swing_ = 0;
   double ik_time_s_ = 0, ik_pitch_ = 0, ik_knee_ = 0, ik_pitch_rate_ = 0, ik_knee_rate_ = 0;
   Eigen::Vector3d com_at_strike_ = Eigen::Vector3d::Zero();
   TorqueGaitStrike last_strike_;
