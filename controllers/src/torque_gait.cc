@@ -49,11 +49,9 @@ struct NamedField {
 };
 #define BIODYN_FIELD(n) NamedField{#n, &TorqueGaitParams::n}
 constexpr NamedField kFields[] = {
-    BIODYN_FIELD(swing_time_s),        BIODYN_FIELD(swing_time_per_m_s),   BIODYN_FIELD(swing_hip_early_rad),  BIODYN_FIELD(swing_hip_late_rad),
     BIODYN_FIELD(sagittal_cd),         BIODYN_FIELD(sagittal_cv),          BIODYN_FIELD(frontal_cd),
-    BIODYN_FIELD(frontal_cv),          BIODYN_FIELD(swing_hip_out_rad),    BIODYN_FIELD(swing_knee_early_rad),
-    BIODYN_FIELD(swing_knee_late_rad), BIODYN_FIELD(stance_knee_rad),      BIODYN_FIELD(stance_ankle_rad),
-    BIODYN_FIELD(swing_ankle_early_rad), BIODYN_FIELD(toe_up_rad),         BIODYN_FIELD(pelvis_pitch_rad),
+    BIODYN_FIELD(frontal_cv),          BIODYN_FIELD(swing_hip_out_rad),
+    BIODYN_FIELD(toe_up_rad),          BIODYN_FIELD(pelvis_pitch_rad),
     BIODYN_FIELD(start_pitch_rad),     BIODYN_FIELD(start_time_s),         BIODYN_FIELD(torso_kp),
     BIODYN_FIELD(hip_kp),              BIODYN_FIELD(knee_kp),              BIODYN_FIELD(ankle_kp),
     BIODYN_FIELD(toe_kp),              BIODYN_FIELD(trunk_kp),             BIODYN_FIELD(arm_kp),
@@ -63,7 +61,62 @@ constexpr NamedField kFields[] = {
     BIODYN_FIELD(stop_brake_rad_per_m_s), BIODYN_FIELD(stop_speed_m_s)};
 #undef BIODYN_FIELD
 
+// A state's numbers by their JSON names.
+struct StateField {
+  const char* name;
+  double TorqueGaitState::*member;
+};
+#define BIODYN_STATE_FIELD(n) StateField{#n, &TorqueGaitState::n}
+constexpr StateField kStateFields[] = {BIODYN_STATE_FIELD(duration_s),      BIODYN_STATE_FIELD(duration_per_m_s),
+                                       BIODYN_STATE_FIELD(swing_hip_rad),   BIODYN_STATE_FIELD(swing_knee_rad),
+                                       BIODYN_STATE_FIELD(swing_ankle_rad), BIODYN_STATE_FIELD(stance_knee_rad),
+                                       BIODYN_STATE_FIELD(stance_ankle_rad)};
+#undef BIODYN_STATE_FIELD
+
+constexpr std::size_t kMaxStates = 16;
+
+TorqueGaitState read_state(const nlohmann::json& j, const std::string& where) {
+  TorqueGaitState st;
+  st.name.clear();
+  std::map<std::string, std::function<void(const nlohmann::json&, const std::string&)>> keys;
+  for (const StateField& f : kStateFields)
+    keys[f.name] = [&st, f](const nlohmann::json& v, const std::string& w) { st.*(f.member) = json_fields::read_number(v, w); };
+  keys["name"] = [&st](const nlohmann::json& v, const std::string& w) {
+    if (!v.is_string()) json_fields::fail(w, "must be a string", v.dump());
+    st.name = v.get<std::string>();
+  };
+  keys["end"] = [&st](const nlohmann::json& v, const std::string& w) {
+    if (!v.is_string() || (v != "time" && v != "strike")) json_fields::fail(w, "must be \"time\" or \"strike\"", v.dump());
+    st.ends_at_strike = v == "strike";
+  };
+  keys["swing_foot_down"] = [&st](const nlohmann::json& v, const std::string& w) { st.swing_foot_down = json_fields::boolean(v, w); };
+  json_fields::read_object(j, where, keys);
+  return st;
+}
+
 }  // namespace
+
+std::vector<TorqueGaitState> default_torque_gait_states() {
+  // SIMBICON's two states per step; the numbers from the cross-entropy search (README).
+  TorqueGaitState early;
+  early.name = "early swing";
+  early.duration_s = 0.471;
+  early.duration_per_m_s = 0.011;
+  early.swing_hip_rad = 0.698;
+  early.swing_knee_rad = 1.323;
+  early.swing_ankle_rad = -0.019;
+  early.stance_knee_rad = 0.207;
+  early.stance_ankle_rad = -0.047;
+  TorqueGaitState late = early;
+  late.name = "late swing";
+  late.ends_at_strike = true;
+  late.duration_s = 0.3;  // not used: the state ends at the strike
+  late.duration_per_m_s = 0;
+  late.swing_hip_rad = 0.095;
+  late.swing_knee_rad = 0.186;
+  late.swing_ankle_rad = 0;
+  return {early, late};
+}
 
 void apply_torque_gait_json(const std::string& json_text, const std::string& source, TorqueGaitParams* params) {
   nlohmann::json root;
@@ -77,6 +130,11 @@ void apply_torque_gait_json(const std::string& json_text, const std::string& sou
   for (const NamedField& f : kFields) {
     keys[f.name] = [&p, f](const nlohmann::json& v, const std::string& w) { p.*(f.member) = json_fields::read_number(v, w); };
   }
+  keys["states"] = [&p](const nlohmann::json& v, const std::string& w) {
+    if (!v.is_array()) json_fields::fail(w, "must be an array of states", v.dump());
+    p.states.clear();
+    for (std::size_t i = 0; i < v.size(); ++i) p.states.push_back(read_state(v[i], w + "[" + std::to_string(i) + "]"));
+  };
   json_fields::read_object(root, source, keys);
   try {
     p.validate();
@@ -88,24 +146,52 @@ void apply_torque_gait_json(const std::string& json_text, const std::string& sou
 
 std::string torque_gait_json(const TorqueGaitParams& params) {
   nlohmann::ordered_json j;
+  nlohmann::ordered_json states = nlohmann::ordered_json::array();
+  for (const TorqueGaitState& st : params.states) {
+    nlohmann::ordered_json o;
+    o["name"] = st.name;
+    o["end"] = st.ends_at_strike ? "strike" : "time";
+    for (const StateField& f : kStateFields) o[f.name] = st.*(f.member);
+    o["swing_foot_down"] = st.swing_foot_down;
+    states.push_back(o);
+  }
+  j["states"] = states;
   for (const NamedField& f : kFields) j[f.name] = params.*(f.member);
   return j.dump(2) + "\n";
 }
 
 void TorqueGaitParams::validate() const {
   const std::string w = "torque gait.";
-  check(swing_time_s > 0.05 && swing_time_s <= 2, w + "swing_time_s", "must be in (0.05, 2] s", swing_time_s);
-  check(swing_time_per_m_s >= 0 && swing_time_per_m_s <= 1, w + "swing_time_per_m_s", "must be in [0, 1] s per m/s",
-        swing_time_per_m_s);
+  if (states.empty()) json_fields::fail(w + "states", "needs at least one state", "none");
+  if (states.size() > kMaxStates)
+    json_fields::fail(w + "states", "has at most " + std::to_string(kMaxStates) + " states", std::to_string(states.size()));
+  for (std::size_t i = 0; i < states.size(); ++i) {
+    const TorqueGaitState& st = states[i];
+    const std::string ws = w + "states[" + std::to_string(i) + "]";
+    if (st.name.empty()) json_fields::fail(ws + ".name", "must be a non-empty string", "\"\"");
+    for (std::size_t k = 0; k < i; ++k)
+      if (states[k].name == st.name) json_fields::fail(ws + ".name", "must differ from the other states' names", "\"" + st.name + "\"");
+    const bool last = i + 1 == states.size();
+    if (st.ends_at_strike != last)
+      json_fields::fail(ws + ".end", last ? "the last state of a step must end at the strike" : "only the last state ends at the strike",
+                        st.ends_at_strike ? "\"strike\"" : "\"time\"");
+    if (last && st.swing_foot_down)
+      json_fields::fail(ws + ".swing_foot_down", "the state that ends at the strike must lift the swing foot", "true");
+    check(st.duration_s > 0.05 && st.duration_s <= 2, ws + ".duration_s", "must be in (0.05, 2] s", st.duration_s);
+    check(st.duration_per_m_s >= 0 && st.duration_per_m_s <= 1, ws + ".duration_per_m_s", "must be in [0, 1] s per m/s",
+          st.duration_per_m_s);
+    for (const StateField& f : kStateFields) {
+      const std::string n = f.name;
+      if (n.size() > 4 && n.compare(n.size() - 4, 4, "_rad") == 0)
+        check(std::abs(st.*(f.member)) <= M_PI, ws + "." + n, "must be within +-pi rad", st.*(f.member));
+    }
+  }
   check(start_time_s >= 0 && start_time_s <= 10, w + "start_time_s", "must be in [0, 10] s", start_time_s);
   check(damping_time_s >= 0 && damping_time_s <= 1, w + "damping_time_s", "must be in [0, 1] s", damping_time_s);
-  const std::pair<const char*, double> angles[] = {
-      {"swing_hip_early_rad", swing_hip_early_rad}, {"swing_hip_late_rad", swing_hip_late_rad},
-      {"swing_hip_out_rad", swing_hip_out_rad},     {"swing_knee_early_rad", swing_knee_early_rad},
-      {"swing_knee_late_rad", swing_knee_late_rad}, {"stance_knee_rad", stance_knee_rad},
-      {"stance_ankle_rad", stance_ankle_rad},       {"swing_ankle_early_rad", swing_ankle_early_rad},
-      {"toe_up_rad", toe_up_rad},                   {"pelvis_pitch_rad", pelvis_pitch_rad},
-      {"start_pitch_rad", start_pitch_rad}};
+  const std::pair<const char*, double> angles[] = {{"swing_hip_out_rad", swing_hip_out_rad},
+                                                   {"toe_up_rad", toe_up_rad},
+                                                   {"pelvis_pitch_rad", pelvis_pitch_rad},
+                                                   {"start_pitch_rad", start_pitch_rad}};
   for (const auto& [name, a] : angles) check(std::abs(a) <= M_PI, w + name, "must be within +-pi rad", a);
   const std::pair<const char*, double> gains[] = {{"torso_kp", torso_kp}, {"hip_kp", hip_kp},
                                                   {"knee_kp", knee_kp},   {"ankle_kp", ankle_kp},
@@ -174,8 +260,12 @@ TorqueGait::TorqueGait(const mjModel& m, const std::vector<JointGroup>& groups, 
 void TorqueGait::reset(const mjData& d) {
   stance_ = 0;
   strikes_ = 0;
-  early_ = true;
+  // From standing the first step starts with its first state that lifts the swing foot (a
+  // double support's push-off has nothing to push off from yet).
+  state_ = 0;
+  while (params_.states[static_cast<std::size_t>(state_)].swing_foot_down) ++state_;
   lifted_ = false;
+  ik_valid_ = false;
   state_start_s_ = start_s_ = last_time_s_ = d.time;
   const Vector3d forward = quat_at(d.xquat + 4 * pelvis_) * Vector3d::UnitX();
   heading_ = std::atan2(forward.y(), forward.x());
@@ -210,9 +300,9 @@ double TorqueGait::speed_lean_rad() const {
                     -p.speed_lean_limit_rad, p.speed_lean_limit_rad);
 }
 
-double TorqueGait::swing_time_s() const {
-  const TorqueGaitParams& p = params_;
-  return std::max(p.swing_time_s - p.swing_time_per_m_s * (speed_ - p.reference_speed_m_s), 0.05);
+double TorqueGait::state_duration_s(int state) const {
+  const TorqueGaitState& st = params_.states[static_cast<std::size_t>(state)];
+  return std::max(st.duration_s - st.duration_per_m_s * (speed_ - params_.reference_speed_m_s), 0.05);
 }
 
 double TorqueGait::hinge_pd(CharacterController& c, const mjModel& m, const mjData& d, int dof, double target,
@@ -236,21 +326,27 @@ void TorqueGait::drive(CharacterController& c, const mjModel& m, const mjData& d
   heading_ += heading_rate_ * std::max(d.time - last_time_s_, 0.0);
   last_time_s_ = d.time;
   const sim::CenterOfMass com = sim::center_of_mass(m, d);  // for the speed regulation and placement
-  // State machine: early swing on time, late swing until the swing foot touches the floor
-  // after having left it.
+  // State machine (params.states): time states in order, then the last state until the swing
+  // foot touches the floor after having left it.
   int swing = 1 - stance_;
   const bool touches = sim::floor_contact_count(m, d, floor_geom_, foot_[swing]) > 0 ||
                        (toes_[swing] >= 0 && sim::floor_contact_count(m, d, floor_geom_, toes_[swing]) > 0);
   if (!touches) lifted_ = true;
-  if (early_ && d.time - state_start_s_ >= swing_time_s()) early_ = false;
-  if (early_ && !std::isnan(swing_target_)) {
-    // A placed step comes down as soon as its ankle is over the target (a short step would
-    // otherwise be overtaken by the hip).
-    const double ch = std::cos(heading_), sh = std::sin(heading_);
-    const Vector3d delta = vec_at(d.xpos + 3 * foot_[swing]) - vec_at(d.xpos + 3 * foot_[stance_]);
-    if (ch * delta.x() + sh * delta.y() >= swing_target_ - kPlacedLandingReach_m) early_ = false;
+  if (!p.states[static_cast<std::size_t>(state_)].ends_at_strike) {
+    bool done = d.time - state_start_s_ >= state_duration_s(state_);
+    if (!done && !std::isnan(swing_target_) && !p.states[static_cast<std::size_t>(state_)].swing_foot_down) {
+      // A placed step comes down as soon as its ankle is over the target (a short step would
+      // otherwise be overtaken by the hip).
+      const double ch = std::cos(heading_), sh = std::sin(heading_);
+      const Vector3d delta = vec_at(d.xpos + 3 * foot_[swing]) - vec_at(d.xpos + 3 * foot_[stance_]);
+      done = ch * delta.x() + sh * delta.y() >= swing_target_ - kPlacedLandingReach_m;
+    }
+    if (done) {
+      ++state_;
+      state_start_s_ = d.time;
+    }
   }
-  if (!stopped_ && !early_ && touches && lifted_) {
+  if (!stopped_ && p.states[static_cast<std::size_t>(state_)].ends_at_strike && touches && lifted_) {
     const Vector3d delta = vec_at(d.xpos + 3 * foot_[swing]) - vec_at(d.xpos + 3 * foot_[stance_]);
     const double ch = std::cos(heading_), sh = std::sin(heading_);
     // Speed regulation: the step's mean CoM speed along the heading against the command
@@ -286,12 +382,13 @@ void TorqueGait::drive(CharacterController& c, const mjModel& m, const mjData& d
     }
     stance_ = swing;
     swing = 1 - stance_;
-    early_ = true;
+    state_ = 0;
     lifted_ = false;
     state_start_s_ = d.time;
   }
+  const TorqueGaitState& st = p.states[static_cast<std::size_t>(state_)];
   c.set_stance(stance_, true);
-  c.set_stance(swing, false);
+  c.set_stance(swing, st.swing_foot_down);
 
   // Everything but the legs holds the standing pose. The lumbar's torque on the pelvis is
   // minus its torque on the upper body (about its hinge axes): the stance hip takes it below.
@@ -317,14 +414,15 @@ void TorqueGait::drive(CharacterController& c, const mjModel& m, const mjData& d
 
   const Quaterniond q_heading(AngleAxisd(heading_, Vector3d::UnitZ()));
   // Constrained stepping (paper §4.2): the ankle goes to its target by the 2D IK triangle in the
-  // heading frame's sagittal plane: above it by the clearance in early swing, onto the floor
-  // (1 cm into it, so it strikes) in late swing.
-  const bool placed = !std::isnan(swing_target_);
+  // heading frame's sagittal plane: above it by the clearance in the time states (early swing),
+  // onto the floor (1 cm into it, so it strikes) in the state that ends at the strike.
+  const bool placed = !std::isnan(swing_target_) && !st.swing_foot_down;
+  const bool landing = st.ends_at_strike;
   LegTriangle ik;
   if (placed) {
     const Vector3d stance_ankle = q_heading.conjugate() * vec_at(d.xpos + 3 * foot_[stance_]);
     const Vector3d hip = q_heading.conjugate() * vec_at(d.xpos + 3 * thigh_[swing]);
-    const double lift = early_ ? p.step_clearance_m : -0.01;
+    const double lift = landing ? -0.01 : p.step_clearance_m;
     const double dz = ankle_height_ + lift - hip.z();
     double dx = stance_ankle.x() + swing_target_ - hip.x();
     {
@@ -332,9 +430,9 @@ void TorqueGait::drive(CharacterController& c, const mjModel& m, const mjData& d
       // placement_gain x the overshoot, and in late swing by the shortfall too.
       const Vector3d ankle = q_heading.conjugate() * vec_at(d.xpos + 3 * foot_[swing]);
       const double overshoot = ankle.x() - (stance_ankle.x() + swing_target_);
-      if (!early_ || overshoot > 0) dx -= p.placement_gain * overshoot;
+      if (landing || overshoot > 0) dx -= p.placement_gain * overshoot;
     }
-    if (!early_) {
+    if (landing) {
       // Out of reach on the floor: the closest reachable point instead (paper §4.2), so the
       // foot comes down rather than waiting in the air for the hip.
       const double reach = kPlacedReachFraction * (thigh_length_[swing] + shank_length_[swing]);
@@ -344,16 +442,16 @@ void TorqueGait::drive(CharacterController& c, const mjModel& m, const mjData& d
     ik = solve_leg_triangle(thigh_length_[swing], shank_length_[swing], Vector3d(dx, 0, dz), 1.0, 0.0,
                             kMaxSwingKnee_rad);
     // The target is fixed on the floor while the hip moves: the IK angles' rates (by finite
-    // difference within one swing state) are the PD's velocity targets, so the leg does not lag.
+    // difference within one state) are the PD's velocity targets, so the leg does not lag.
     const double h = d.time - ik_time_s_;
-    if (ik_valid_ && ik_early_ == early_ && h > 0 && h < 0.05) {  // a strike makes early_ true
+    if (ik_valid_ && ik_state_ == state_ && h > 0 && h < 0.05) {  // a strike goes back to state 0
       ik_pitch_rate_ = (ik.hip_flexion_rad - ik_pitch_) / h;
       ik_knee_rate_ = (ik.knee_flexion_rad - ik_knee_) / h;
     } else {
       ik_pitch_rate_ = ik_knee_rate_ = 0;
     }
     ik_valid_ = true;
-    ik_early_ = early_;
+    ik_state_ = state_;
     ik_time_s_ = d.time;
     ik_pitch_ = ik.hip_flexion_rad;
     ik_knee_ = ik.knee_flexion_rad;
@@ -366,17 +464,17 @@ void TorqueGait::drive(CharacterController& c, const mjModel& m, const mjData& d
     const bool stance = s == stance_;
     const JointGroup& knee = groups_[static_cast<std::size_t>(knee_[s])];
     const JointGroup& ankle = groups_[static_cast<std::size_t>(ankle_[s])];
-    const double swing_knee = placed ? ik.knee_flexion_rad : early_ ? p.swing_knee_early_rad : p.swing_knee_late_rad;
-    hinge_pd(c, m, d, knee.dof_begin, stance ? p.stance_knee_rad : swing_knee, p.knee_kp,
+    const double swing_knee = placed ? ik.knee_flexion_rad : st.swing_knee_rad;
+    hinge_pd(c, m, d, knee.dof_begin, stance ? st.stance_knee_rad : swing_knee, p.knee_kp,
              !stance && placed ? ik_knee_rate_ : 0.0);
-    double dorsiflexion = p.stance_ankle_rad;
-    if (!stance) {
+    double dorsiflexion = stance ? st.stance_ankle_rad : st.swing_ankle_rad;
+    if (!stance && !st.swing_foot_down) {
       // The sole level in the heading frame (toes up by toe_up): the shank's pitch undone.
       // Pitch about the heading frame's +y (toes down positive); dorsiflexion turns the foot
       // about -y, so the foot's pitch is shank_pitch - dorsiflexion.
       const Vector3d shank_x = q_heading.conjugate() * (quat_at(d.xquat + 4 * shank_[s]) * Vector3d::UnitX());
       const double shank_pitch = std::atan2(-shank_x.z(), shank_x.x());
-      dorsiflexion = (early_ ? p.swing_ankle_early_rad : 0.0) + shank_pitch + p.toe_up_rad;
+      dorsiflexion = st.swing_ankle_rad + shank_pitch + p.toe_up_rad;
     }
     hinge_pd(c, m, d, ankle.dof_begin, dorsiflexion, p.ankle_kp);
     for (int k = 1; k < ankle.dof_count; ++k) hinge_pd(c, m, d, ankle.dof_begin + k, 0.0, p.ankle_kp);
@@ -390,8 +488,7 @@ void TorqueGait::drive(CharacterController& c, const mjModel& m, const mjData& d
   // Stopping: the swing foot lands further ahead per m/s of forward speed (braking).
   const double brake = stopping_ ? p.stop_brake_rad_per_m_s * vel.x() : 0.0;
   const double pitch = placed ? ik.hip_flexion_rad
-                              : brake + (early_ ? p.swing_hip_early_rad : p.swing_hip_late_rad) +
-                                    p.sagittal_cd * rel.x() + p.sagittal_cv * vel.x();
+                              : brake + st.swing_hip_rad + p.sagittal_cd * rel.x() + p.sagittal_cv * vel.x();
   const double roll = out * p.swing_hip_out_rad + p.frontal_cd * rel.y() + p.frontal_cv * vel.y() + roll_integral_;
   const Quaterniond q_thigh_goal =
       q_heading * Quaterniond(AngleAxisd(-pitch, Vector3d::UnitY())) * Quaterniond(AngleAxisd(roll, Vector3d::UnitX()));

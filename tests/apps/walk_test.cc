@@ -177,11 +177,15 @@ TEST_CASE("walk inputs out of range are rejected by name", "[apps][walk]") {
   p.push->onset_phase = 1.0;
   CHECK_THROWS_WITH(scenarios::run_walk(&sim, p), Catch::Contains("onset-phase"));
   p = scenarios::WalkRunParams{};
-  p.gait_json = R"({"swing_time_s": 0.4, "hip_kpp": 900})";
+  p.gait_json = R"({"hip_kp": 400, "hip_kpp": 900})";
   p.gait_source = "my_gait.json";
   CHECK_THROWS_WITH(scenarios::run_walk(&sim, p), Catch::Contains("my_gait.json.hip_kpp") && Catch::Contains("unknown key"));
-  p.gait_json = R"({"swing_time_s": -1})";
-  CHECK_THROWS_WITH(scenarios::run_walk(&sim, p), Catch::Contains("swing_time_s") && Catch::Contains("-1"));
+  p.gait_json = R"({"hip_kp": -1})";
+  CHECK_THROWS_WITH(scenarios::run_walk(&sim, p), Catch::Contains("hip_kp") && Catch::Contains("-1"));
+  p.gait_json = R"({"states": [{"name": "swing", "end": "strike", "swing_knee_rad": 0.5, "knee": 1}]})";
+  CHECK_THROWS_WITH(scenarios::run_walk(&sim, p), Catch::Contains("my_gait.json.states[0].knee") && Catch::Contains("unknown key"));
+  p.gait_json = R"({"states": [{"name": "swing", "end": "later"}]})";
+  CHECK_THROWS_WITH(scenarios::run_walk(&sim, p), Catch::Contains("states[0].end") && Catch::Contains("later"));
   p.gait_json = "{";
   CHECK_THROWS_WITH(scenarios::run_walk(&sim, p), Catch::Contains("my_gait.json") && Catch::Contains("not valid JSON"));
   p = scenarios::WalkRunParams{};

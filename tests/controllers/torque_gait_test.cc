@@ -1,6 +1,7 @@
 // The torque walker (SIMBICON on the generated character): it walks from standing, by joint
 // torques and foot contacts only.
 #include <cmath>
+#include <vector>
 
 #include "biodyn/controllers/character_controller.h"
 #include "biodyn/controllers/gait_controller.h"
@@ -8,6 +9,7 @@
 #include "biodyn/models/mjcf.h"
 #include "biodyn/sim/errors.h"
 #include "biodyn/sim/simulation.h"
+#include "biodyn/sim/queries.h"
 #include "test_support.h"
 
 using namespace biodyn;
@@ -19,10 +21,15 @@ struct WalkResult {
   double time_s = 0, distance_m = 0, lateral_m = 0, root_force_max = 0;
   int strikes = 0;
   double mean_step_m = 0;
+  std::vector<int> state_order;   // each state entered, in order (first 12)
+  double state0_time_s = 0;       // time spent in state 0
+  int state0_entries = 0;
+  double state0_both_feet = 0;    // fraction of state 0's steps with both feet on the floor
 };
 
 // Walks the default character from standing for `duration_s` with the default parameters.
-WalkResult walk(double duration_s, const char* weld) {
+WalkResult walk(double duration_s, const char* weld,
+               const controllers::TorqueGaitParams& params = controllers::TorqueGaitParams{}) {
   sim::Simulation sim(testing::load_inline(models::to_mjcf(models::generate_character(models::CharacterSpec{}))));
   const mjModel& m = sim.model();
   mjData& d = sim.data();
@@ -31,15 +38,31 @@ WalkResult walk(double duration_s, const char* weld) {
   config.weld.mode = controllers::parse_weld_mode(weld);
   controllers::CharacterController controller(&sim, controllers::default_params(m, groups), config);
   controller.reset_in_pose(controllers::pose_scenario("stand", groups, 0)[0]);
-  controllers::TorqueGait gait(m, groups, controllers::TorqueGaitParams{});
+  controllers::TorqueGait gait(m, groups, params);
+  const int floor = mj_name2id(&m, mjOBJ_GEOM, "floor");
+  const int feet[2] = {mj_name2id(&m, mjOBJ_BODY, "foot_l"), mj_name2id(&m, mjOBJ_BODY, "foot_r")};
+  const int toes[2] = {mj_name2id(&m, mjOBJ_BODY, "toes_l"), mj_name2id(&m, mjOBJ_BODY, "toes_r")};
+  const auto down = [&](int s) {
+    return sim::floor_contact_count(m, d, floor, feet[s]) > 0 || sim::floor_contact_count(m, d, floor, toes[s]) > 0;
+  };
   gait.reset(d);
   controller.set_driver(&gait);
   const double x0 = d.qpos[0], y0 = d.qpos[1], z0 = d.qpos[2], t0 = d.time;
   WalkResult r;
   double steps = 0;
-  int counted = 0, last = 0;
+  int counted = 0, last = 0, state = -1, state0_steps = 0, both_feet_steps = 0;
   while (d.time - t0 < duration_s) {
     controller.step();
+    if (gait.state() != state) {
+      state = gait.state();
+      if (r.state_order.size() < 12) r.state_order.push_back(state);
+      if (state == 0) ++r.state0_entries;
+    }
+    if (state == 0) {
+      r.state0_time_s += m.opt.timestep;
+      ++state0_steps;
+      if (down(0) && down(1)) ++both_feet_steps;
+    }
     for (int k = 0; k < 6; ++k) r.root_force_max = std::max(r.root_force_max, std::abs(d.qfrc_applied[k]));
     if (gait.strike_count() != last) {
       last = gait.strike_count();
@@ -58,6 +81,7 @@ WalkResult walk(double duration_s, const char* weld) {
   r.lateral_m = d.qpos[1] - y0;
   r.strikes = gait.strike_count();
   r.mean_step_m = counted ? steps / counted : 0;
+  r.state0_both_feet = state0_steps ? static_cast<double>(both_feet_steps) / state0_steps : 0;
   return r;
 }
 
@@ -79,13 +103,48 @@ TEST_CASE("The torque walker walks from standing by joint torques and contacts o
   }
 }
 
+TEST_CASE("The walker's states are data: a double support state added in front runs in order", "[gait][walk]") {
+  controllers::TorqueGaitParams p;
+  controllers::TorqueGaitState ds;
+  ds.name = "double support";
+  ds.duration_s = 0.08;
+  ds.swing_foot_down = true;
+  ds.swing_hip_rad = -0.3;    // the trailing thigh behind the hip
+  ds.swing_knee_rad = 0.3;
+  ds.swing_ankle_rad = -0.2;  // push-off
+  ds.stance_knee_rad = p.states[0].stance_knee_rad;
+  ds.stance_ankle_rad = p.states[0].stance_ankle_rad;
+  p.states.insert(p.states.begin(), ds);
+  const WalkResult r = walk(10.0, "honest", p);
+  CHECK_FALSE(r.fallen);
+  // From standing the first step starts with the lift (state 1), then 1, 2, 0, 1, 2, 0, ...
+  REQUIRE(r.state_order.size() >= 7);
+  CHECK(r.state_order[0] == 1);
+  for (std::size_t i = 1; i < r.state_order.size(); ++i)
+    CHECK(r.state_order[i] == (r.state_order[i - 1] + 1) % 3);
+  // Each double support lasts its duration (one state per strike) with both feet down.
+  REQUIRE(r.state0_entries >= 10);
+  CHECK(r.state0_time_s / r.state0_entries == Approx(0.08).margin(0.004));
+  CHECK(r.state0_both_feet > 0.8);
+}
+
 TEST_CASE("The torque walker rejects invalid parameters and models without legs by name", "[gait]") {
   const sim::Model model = testing::load_inline(models::to_mjcf(models::generate_character(models::CharacterSpec{})));
   const mjModel& m = *model.get();
   const auto groups = controllers::find_joint_groups(m);
   controllers::TorqueGaitParams p;
-  p.swing_time_s = 0;
-  CHECK_THROWS_WITH(controllers::TorqueGait(m, groups, p), Catch::Matchers::Contains("swing_time_s"));
+  p.states[0].duration_s = 0;
+  CHECK_THROWS_WITH(controllers::TorqueGait(m, groups, p), Catch::Matchers::Contains("states[0].duration_s"));
+  p = controllers::TorqueGaitParams{};
+  p.states[1].ends_at_strike = false;  // no state ends at the strike
+  CHECK_THROWS_WITH(controllers::TorqueGait(m, groups, p),
+                    Catch::Matchers::Contains("states[1].end") && Catch::Matchers::Contains("must end at the strike"));
+  p = controllers::TorqueGaitParams{};
+  p.states[1].name = p.states[0].name;
+  CHECK_THROWS_WITH(controllers::TorqueGait(m, groups, p), Catch::Matchers::Contains("states[1].name"));
+  p = controllers::TorqueGaitParams{};
+  p.states.clear();
+  CHECK_THROWS_WITH(controllers::TorqueGait(m, groups, p), Catch::Matchers::Contains("at least one state"));
   p = controllers::TorqueGaitParams{};
   p.damping_time_s = -1;
   CHECK_THROWS_WITH(controllers::TorqueGait(m, groups, p), Catch::Matchers::Contains("damping_time_s"));
@@ -97,7 +156,8 @@ TEST_CASE("The torque walker rejects invalid parameters and models without legs 
 
 TEST_CASE("The torque walker's parameter file round-trips and overrides only what it names", "[gait]") {
   controllers::TorqueGaitParams p;
-  p.swing_time_s = 0.41;
+  p.states[0].duration_s = 0.41;
+  p.states[1].swing_knee_rad = 0.3;
   p.hip_kp = 912.5;
   p.speed_integral_rad_per_m = 0.0;
   controllers::TorqueGaitParams q;

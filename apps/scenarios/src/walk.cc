@@ -224,7 +224,7 @@ WalkRunResult run_walk(sim::Simulation* sim, const WalkRunParams& params,
   }
   const auto wall_start = std::chrono::steady_clock::now();
   if (params.trace) {
-    *params.trace << "time_s,com_x,com_y,com_z,com_vx,com_vy,pelvis_z,heading_deg,stance,early_swing,strikes,"
+    *params.trace << "time_s,com_x,com_y,com_z,com_vx,com_vy,pelvis_z,heading_deg,stance,state,strikes,"
                      "contacts_l,contacts_r,weld_l,weld_r,knee_l_deg,knee_r_deg,max_torque_ratio,push_fx,push_fy\n";
   }
   const int max_steps = static_cast<int>(std::lround(
@@ -376,7 +376,7 @@ WalkRunResult run_walk(sim::Simulation* sim, const WalkRunParams& params,
       *params.trace << d.time << ',' << com.position_W.x() << ',' << com.position_W.y() << ','
                     << com.position_W.z() << ',' << com.velocity_W.x() << ',' << com.velocity_W.y() << ','
                     << d.xpos[3 * pelvis + 2] << ',' << gait.heading_rad() * kRadToDeg
-                    << ',' << gait.stance_side() << ',' << gait.early_swing() << ',' << gait.strike_count() << ','
+                    << ',' << gait.stance_side() << ',' << gait.state() << ',' << gait.strike_count() << ','
                     << static_cast<int>(feet[0].touching) << ',' << static_cast<int>(feet[1].touching) << ','
                     << rep.weld_active[0] << ',' << rep.weld_active[1] << ','
                     << d.qpos[m.jnt_qposadr[m.dof_jntid[knee_dof[0]]]] * kRadToDeg << ','

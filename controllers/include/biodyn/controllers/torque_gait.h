@@ -6,8 +6,11 @@
 ///
 /// Per step (a TargetDriver: every DOF's torque is set with limit_torque_once, so the joint
 /// controller's muscle limits tau_max and reaction-time rate limit still apply):
-///  - Two target states per step: "early swing" for swing_time_s, then "late swing" until the
-///    swing foot touches the floor (after having left it), which swaps the legs.
+///  - A finite-state machine of target states per step (paper Fig. 2), data in
+///    TorqueGaitParams::states (JSON "states"): each state ends on time or, the last one, at
+///    the swing foot's strike (touching the floor after having left it), which swaps the legs.
+///    The default gait has two: "early swing" (time), "late swing" (strike), as SIMBICON; a
+///    double support state (swing_foot_down) can be put first.
 ///  - Every joint except the hips: PD towards its state target, tau = kp (theta_d - theta) -
 ///    kp damping_time omega. The swing ankle holds the sole level in the heading frame (toes
 ///    up by toe_up), so the foot neither scuffs nor stubs whatever the shank does.
@@ -39,26 +42,41 @@
 
 namespace biodyn::controllers {
 
+/// One target state of a step, written for the swing leg and mirrored for either side.
+/// Angles in rad; the swing hip's is the swing thigh's pitch forward of vertical in the heading
+/// frame, before the balance feedback; the swing ankle's is added to the level sole (in a
+/// swing_foot_down state it is the joint angle itself: the foot is on the floor).
+struct TorqueGaitState {
+  std::string name;
+  bool ends_at_strike = false;    ///< JSON "end": "time" (after duration_s) or "strike"
+  double duration_s = 0.3;        ///< a time state's length at reference_speed_m_s
+  /// The state shortens by this much per m/s of commanded speed above the reference (people
+  /// step faster as they walk faster, not only longer).
+  double duration_per_m_s = 0;
+  double swing_hip_rad = 0;
+  double swing_knee_rad = 0;
+  double swing_ankle_rad = 0;
+  double stance_knee_rad = 0;
+  double stance_ankle_rad = 0;    ///< dorsiflexion positive
+  /// Double support: the swing foot stays in stance (the welds may hold it) and a planned
+  /// step's IK waits for the next state.
+  bool swing_foot_down = false;
+};
+
+/// The documented default gait: "early swing" then "late swing" (SIMBICON's two states).
+std::vector<TorqueGaitState> default_torque_gait_states();
+
 /// Parameters of the torque walker; angles in rad, gains in N m/rad for an 80 kg body. The
 /// defaults were found by a cross-entropy search on the walker (12 s walks at 0.5-1.5 m/s on
 /// three bodies, from standing, with a human cadence band; controllers/README.md).
 struct TorqueGaitParams {
-  double swing_time_s = 0.471;         ///< length of the early-swing state at reference_speed_m_s
-  /// The early swing shortens by this much per m/s of commanded speed above the reference
-  /// (people step faster as they walk faster, not only longer).
-  double swing_time_per_m_s = 0.011;
-  double swing_hip_early_rad = 0.698;  ///< swing thigh pitch forward of vertical, early swing
-  double swing_hip_late_rad = 0.095;   ///< ... late swing
+  /// The step's states in order; the last one ends at the strike (validate()).
+  std::vector<TorqueGaitState> states = default_torque_gait_states();
   double sagittal_cd = 0.246;          ///< rad/m of CoM ahead of the stance ankle
   double sagittal_cv = 0.225;          ///< rad per m/s of forward CoM velocity
   double frontal_cd = -0.020;          ///< rad/m of CoM beside the stance ankle
   double frontal_cv = 0.480;           ///< rad per m/s of sideways CoM velocity
   double swing_hip_out_rad = -0.075;   ///< swing thigh roll outwards (the step width offset)
-  double swing_knee_early_rad = 1.323;
-  double swing_knee_late_rad = 0.186;
-  double stance_knee_rad = 0.207;
-  double stance_ankle_rad = -0.047;    ///< dorsiflexion positive
-  double swing_ankle_early_rad = -0.019;  ///< added to the level sole in early swing
   double toe_up_rad = 0.070;             ///< swing sole pitch, toes up
   double pelvis_pitch_rad = 0.125;       ///< forward lean of the pelvis in the world
   double start_pitch_rad = 0.073;        ///< extra lean for the first start_time_s (from standing)
@@ -99,7 +117,7 @@ struct TorqueGaitParams {
 };
 
 /// Overrides the fields a JSON object gives (keys are the member names above, e.g.
-/// {"swing_time_s": 0.4, "hip_kp": 900}); unknown keys, non-numbers and values out of range are
+/// {"hip_kp": 900, "states": [...]}; "states" replaces the whole list); unknown keys, non-numbers and values out of range are
 /// errors naming `source`, the field, the rule and the value (sim::InvalidArgument). On error
 /// `params` is unchanged.
 void apply_torque_gait_json(const std::string& json_text, const std::string& source, TorqueGaitParams* params);
@@ -131,8 +149,8 @@ class TorqueGait : public TargetDriver {
   double speed_command() const { return speed_; }
   /// rad, the lean the speed regulation adds now (feed-forward + integral).
   double speed_lean_rad() const;
-  /// s, the early swing's length at the commanded speed.
-  double swing_time_s() const;
+  /// s, a time state's length at the commanded speed.
+  double state_duration_s(int state) const;
   /// Constrained stepping: the next steps' lengths, m, along the heading (ankle to ankle),
   /// from the swing that starts at the next strike; afterwards the steps are free again.
   /// Replaces any plan not yet walked. Throws sim::InvalidArgument for a length outside
@@ -155,7 +173,8 @@ class TorqueGait : public TargetDriver {
 
   const TorqueGaitParams& params() const { return params_; }
   int stance_side() const { return stance_; }
-  bool early_swing() const { return early_; }
+  /// The current state's index in params().states.
+  int state() const { return state_; }
   int strike_count() const { return strikes_; }
   const TorqueGaitStrike& last_strike() const { return last_strike_; }
   double heading_rad() const { return heading_; }
@@ -177,7 +196,8 @@ class TorqueGait : public TargetDriver {
   std::vector<bool> leg_;   // per group: hip, knee, ankle or toe
 
   int stance_ = 0, strikes_ = 0;
-  bool early_ = true, lifted_ = false;
+  int state_ = 0;
+  bool lifted_ = false;
   double state_start_s_ = 0, start_s_ = 0, heading_ = 0, heading_rate_ = 0, last_time_s_ = 0;
   double speed_ = 1.0, lean_integral_ = 0, roll_integral_ = 0;
   double thigh_length_[2] = {0, 0}, shank_length_[2] = {0, 0}, ankle_height_ = 0;
@@ -186,7 +206,8 @@ class TorqueGait : public TargetDriver {
   bool stopping_ = false, stopped_ = false;
   double swing_target_ = std::numeric_limits<double>::quiet_NaN();
   // The last IK solution of a placed step, for its rates.
-  bool ik_valid_ = false, ik_early_ = false;
+  bool ik_valid_ = false;
+  int ik_state_ = -1;
   double ik_time_s_ = 0, ik_pitch_ = 0, ik_knee_ = 0, ik_pitch_rate_ = 0, ik_knee_rate_ = 0;
   Eigen::Vector3d com_at_strike_ = Eigen::Vector3d::Zero();
   TorqueGaitStrike last_strike_;
