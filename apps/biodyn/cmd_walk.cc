@@ -72,6 +72,7 @@ nlohmann::json walk_json(const scenarios::WalkRunResult& r) {
                       {"joint_ranges_deg", ranges},
                       {"swing_knee_peak_deg", r.swing_knee_peak_deg},
                       {"heel_strike_fraction", r.heel_strike_fraction},
+                      {"base_polygon_steps", r.base_polygon_steps},
                       {"max_foot_slip", r.max_foot_slip_m},
                       {"mean_foot_slip", r.mean_foot_slip_m},
                       {"weld", r.weld},

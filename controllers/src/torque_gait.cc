@@ -5,7 +5,9 @@
 #include <string>
 #include <utility>
 
+#include "biodyn/controllers/foot_contact.h"
 #include "biodyn/controllers/gait_controller.h"
+#include "biodyn/controllers/support_polygon.h"
 #include "biodyn/sim/errors.h"
 #include "json_fields.h"
 #include "biodyn/sim/queries.h"
@@ -58,7 +60,7 @@ constexpr NamedField kFields[] = {
     BIODYN_FIELD(distal_kp),           BIODYN_FIELD(damping_time_s),       BIODYN_FIELD(reference_speed_m_s),
     BIODYN_FIELD(speed_lean_rad_per_m_s), BIODYN_FIELD(speed_integral_rad_per_m), BIODYN_FIELD(speed_lean_limit_rad),
     BIODYN_FIELD(lateral_integral_rad_per_m), BIODYN_FIELD(step_clearance_m), BIODYN_FIELD(placement_gain),
-    BIODYN_FIELD(stop_brake_rad_per_m_s), BIODYN_FIELD(stop_speed_m_s)};
+    BIODYN_FIELD(stop_brake_rad_per_m_s), BIODYN_FIELD(stop_speed_m_s), BIODYN_FIELD(tolerance_fraction)};
 #undef BIODYN_FIELD
 
 // A state's numbers by their JSON names.
@@ -130,6 +132,7 @@ void apply_torque_gait_json(const std::string& json_text, const std::string& sou
   for (const NamedField& f : kFields) {
     keys[f.name] = [&p, f](const nlohmann::json& v, const std::string& w) { p.*(f.member) = json_fields::read_number(v, w); };
   }
+  keys["base_polygon_rule"] = [&p](const nlohmann::json& v, const std::string& w) { p.base_polygon_rule = json_fields::boolean(v, w); };
   keys["states"] = [&p](const nlohmann::json& v, const std::string& w) {
     if (!v.is_array()) json_fields::fail(w, "must be an array of states", v.dump());
     p.states.clear();
@@ -157,6 +160,7 @@ std::string torque_gait_json(const TorqueGaitParams& params) {
   }
   j["states"] = states;
   for (const NamedField& f : kFields) j[f.name] = params.*(f.member);
+  j["base_polygon_rule"] = params.base_polygon_rule;
   return j.dump(2) + "\n";
 }
 
@@ -213,6 +217,8 @@ void TorqueGaitParams::validate() const {
   check(std::abs(stop_brake_rad_per_m_s) <= 2, w + "stop_brake_rad_per_m_s", "must be within +-2",
         stop_brake_rad_per_m_s);
   check(stop_speed_m_s > 0 && stop_speed_m_s <= 1, w + "stop_speed_m_s", "must be in (0, 1] m/s", stop_speed_m_s);
+  check(tolerance_fraction > 0 && tolerance_fraction <= 0.5, w + "tolerance_fraction", "must be in (0, 0.5]",
+        tolerance_fraction);
   check(placement_gain >= 0 && placement_gain <= 10, w + "placement_gain", "must be in [0, 10]", placement_gain);
   check(speed_lean_limit_rad >= 0 && speed_lean_limit_rad <= 0.5, w + "speed_lean_limit_rad", "must be in [0, 0.5] rad",
         speed_lean_limit_rad);
@@ -235,6 +241,14 @@ TorqueGait::TorqueGait(const mjModel& m, const std::vector<JointGroup>& groups, 
   }
   lumbar_ = require_group(groups_, "lumbar");
   plan_.reserve(8);  // the stop plan is made inside drive(): no allocation there
+  contacts_.reserve(64);  // the base-polygon rule's buffers, filled inside drive()
+  points_.reserve(64);
+  hull_.reserve(128);
+  tolerance_.reserve(128);
+  hip_spacing_ = std::abs(m.body_pos[3 * thigh_[0] + 1] - m.body_pos[3 * thigh_[1] + 1]);
+  const Sole sole = find_sole(m, foot_[0]);
+  foot_length_ = sole.x_max - sole.x_min;
+  foot_width_ = sole.y_max - sole.y_min;
   for (int s = 0; s < 2; ++s) {
     thigh_length_[s] = vec_at(m.body_pos + 3 * shank_[s]).norm();  // hip to knee
     shank_length_[s] = vec_at(m.body_pos + 3 * foot_[s]).norm();   // knee to ankle
@@ -277,6 +291,11 @@ void TorqueGait::reset(const mjData& d) {
   plan_.clear();
   plan_next_ = 0;
   swing_target_ = std::numeric_limits<double>::quiet_NaN();
+  rule_length_ = rule_width_ = std::numeric_limits<double>::quiet_NaN();
+  rule_steps_ = 0;
+  rule_bound_ = false;
+  hull_.clear();
+  tolerance_.clear();
   stopping_ = stopped_ = false;
 }
 
@@ -334,7 +353,10 @@ void TorqueGait::drive(CharacterController& c, const mjModel& m, const mjData& d
   if (!touches) lifted_ = true;
   if (!p.states[static_cast<std::size_t>(state_)].ends_at_strike) {
     bool done = d.time - state_start_s_ >= state_duration_s(state_);
-    if (!done && !std::isnan(swing_target_) && !p.states[static_cast<std::size_t>(state_)].swing_foot_down) {
+    // (Not the closing step of a stop: it starts beside its target and needs the time to
+    // move the foot out to the standing width.)
+    const bool closing = stopping_ && swing_target_ == 0.0;
+    if (!done && !closing && !std::isnan(swing_target_) && !p.states[static_cast<std::size_t>(state_)].swing_foot_down) {
       // A placed step comes down as soon as its ankle is over the target (a short step would
       // otherwise be overtaken by the hip).
       const double ch = std::cos(heading_), sh = std::sin(heading_);
@@ -352,7 +374,8 @@ void TorqueGait::drive(CharacterController& c, const mjModel& m, const mjData& d
     // Speed regulation: the step's mean CoM speed along the heading against the command
     // (not during the start from standing, and not before there was a step).
     const Vector3d& com_now = com.position_W;
-    if (strikes_ > 0 && d.time - start_s_ >= p.start_time_s && std::isnan(swing_target_)) {
+    // Planned steps and steps the base-polygon rule moved are not the gait's own.
+    if (strikes_ > 0 && d.time - start_s_ >= p.start_time_s && std::isnan(swing_target_) && !base_polygon_rule_active()) {
       const double t_step = d.time - last_strike_.time_s;
       const double v_step = (ch * (com_now.x() - com_at_strike_.x()) + sh * (com_now.y() - com_at_strike_.y())) /
                             std::max(t_step, 1e-3);
@@ -367,6 +390,9 @@ void TorqueGait::drive(CharacterController& c, const mjModel& m, const mjData& d
     swing_target_ = plan_next_ < static_cast<int>(plan_.size()) ? plan_[static_cast<std::size_t>(plan_next_++)]
                                                                  : std::numeric_limits<double>::quiet_NaN();
     ++strikes_;
+    if (base_polygon_rule_active()) ++rule_steps_;
+    rule_length_ = rule_width_ = std::numeric_limits<double>::quiet_NaN();
+    rule_bound_ = false;
     if (stopping_) {
       if (!std::isnan(last_strike_.target_length_m) && last_strike_.target_length_m == 0.0) {
         stopped_ = true;  // the feet are side by side: no more steps
@@ -413,10 +439,21 @@ void TorqueGait::drive(CharacterController& c, const mjModel& m, const mjData& d
   }
 
   const Quaterniond q_heading(AngleAxisd(heading_, Vector3d::UnitZ()));
+  // The balance feedback's inputs (SIMBICON): CoM relative to the stance ankle, and its
+  // velocity, in the heading frame.
+  const Vector3d rel = q_heading.conjugate() * (com.position_W - vec_at(d.xpos + 3 * foot_[stance_]));
+  const Vector3d vel = q_heading.conjugate() * com.velocity_W;
+  const double out = swing == 0 ? 1.0 : -1.0;  // +y is outwards for the left leg
+  // Stopping: the swing foot lands further ahead per m/s of forward speed (braking).
+  const double brake = stopping_ ? p.stop_brake_rad_per_m_s * vel.x() : 0.0;
+  const double free_roll = out * p.swing_hip_out_rad + p.frontal_cd * rel.y() + p.frontal_cv * vel.y() + roll_integral_;
+  if (p.base_polygon_rule && !stopped_ && !st.swing_foot_down && std::isnan(swing_target_))
+    apply_base_polygon_rule(m, d, com.position_W, vel);
   // Constrained stepping (paper §4.2): the ankle goes to its target by the 2D IK triangle in the
   // heading frame's sagittal plane: above it by the clearance in the time states (early swing),
   // onto the floor (1 cm into it, so it strikes) in the state that ends at the strike.
-  const bool placed = !std::isnan(swing_target_) && !st.swing_foot_down;
+  const double target = swing_target_;
+  const bool placed = !std::isnan(target) && !st.swing_foot_down;
   const bool landing = st.ends_at_strike;
   LegTriangle ik;
   if (placed) {
@@ -424,12 +461,12 @@ void TorqueGait::drive(CharacterController& c, const mjModel& m, const mjData& d
     const Vector3d hip = q_heading.conjugate() * vec_at(d.xpos + 3 * thigh_[swing]);
     const double lift = landing ? -0.01 : p.step_clearance_m;
     const double dz = ankle_height_ + lift - hip.z();
-    double dx = stance_ankle.x() + swing_target_ - hip.x();
+    double dx = stance_ankle.x() + target - hip.x();
     {
       // Outer loop on the ankle's place (the PD lags): aim short of the target by
       // placement_gain x the overshoot, and in late swing by the shortfall too.
       const Vector3d ankle = q_heading.conjugate() * vec_at(d.xpos + 3 * foot_[swing]);
-      const double overshoot = ankle.x() - (stance_ankle.x() + swing_target_);
+      const double overshoot = ankle.x() - (stance_ankle.x() + target);
       if (landing || overshoot > 0) dx -= p.placement_gain * overshoot;
     }
     if (landing) {
@@ -481,15 +518,37 @@ void TorqueGait::drive(CharacterController& c, const mjModel& m, const mjData& d
     if (toe_[s] >= 0) hinge_pd(c, m, d, groups_[static_cast<std::size_t>(toe_[s])].dof_begin, 0.0, p.toe_kp);
   }
 
-  // Swing thigh in the heading frame, placed by the balance feedback (SIMBICON).
-  const Vector3d rel = q_heading.conjugate() * (com.position_W - vec_at(d.xpos + 3 * foot_[stance_]));
-  const Vector3d vel = q_heading.conjugate() * com.velocity_W;
-  const double out = swing == 0 ? 1.0 : -1.0;  // +y is outwards for the left leg
-  // Stopping: the swing foot lands further ahead per m/s of forward speed (braking).
-  const double brake = stopping_ ? p.stop_brake_rad_per_m_s * vel.x() : 0.0;
-  const double pitch = placed ? ik.hip_flexion_rad
-                              : brake + st.swing_hip_rad + p.sagittal_cd * rel.x() + p.sagittal_cv * vel.x();
-  const double roll = out * p.swing_hip_out_rad + p.frontal_cd * rel.y() + p.frontal_cv * vel.y() + roll_integral_;
+  // Swing thigh in the heading frame, placed by the balance feedback (SIMBICON), or by the IK.
+  double pitch = placed ? ik.hip_flexion_rad
+                        : brake + st.swing_hip_rad + p.sagittal_cd * rel.x() + p.sagittal_cv * vel.x();
+  double roll = free_roll;
+  if (placed && stopping_ && swing_target_ == 0.0) {
+    // The closing step of a stop puts the feet side by side at the standing width (the hips'
+    // spacing), where the standing controller's pose expects them; the balance feedback's
+    // width is narrower (measured: 6 cm, and the standing character fell sideways).
+    const Vector3d hip = q_heading.conjugate() * (vec_at(d.xpos + 3 * thigh_[swing]) - vec_at(d.xpos + 3 * foot_[stance_]));
+    const double leg = kPlacedReachFraction * (thigh_length_[swing] + shank_length_[swing]);
+    roll = std::asin(std::clamp((out * hip_spacing_ - hip.y()) / leg, -0.9, 0.9));
+  }
+  if (!placed && (!std::isnan(rule_length_) || !std::isnan(rule_width_))) {
+    // The base-polygon rule's step (paper §4.3): the thigh pitched (rolled) at least so far that
+    // the leg, nearly straight, puts the ankle at the rule's length (width) from the stance
+    // ankle, from where the hip is now.
+    const Vector3d hip = q_heading.conjugate() * (vec_at(d.xpos + 3 * thigh_[swing]) - vec_at(d.xpos + 3 * foot_[stance_]));
+    const double leg = kPlacedReachFraction * (thigh_length_[swing] + shank_length_[swing]);
+    if (!std::isnan(rule_length_)) {
+      const double pitch_rule = std::asin(std::clamp((rule_length_ - hip.x()) / leg, -0.9, 0.9));
+      const double bound = rule_length_ > 0 ? std::max(pitch, pitch_rule) : std::min(pitch, pitch_rule);
+      if (bound != pitch) rule_bound_ = true;
+      pitch = bound;
+    }
+    if (!std::isnan(rule_width_)) {
+      const double roll_rule = std::asin(std::clamp((out * rule_width_ - hip.y()) / leg, -0.9, 0.9));
+      const double bound = out > 0 ? std::max(roll, roll_rule) : std::min(roll, roll_rule);
+      if (bound != roll) rule_bound_ = true;
+      roll = bound;
+    }
+  }
   const Quaterniond q_thigh_goal =
       q_heading * Quaterniond(AngleAxisd(-pitch, Vector3d::UnitY())) * Quaterniond(AngleAxisd(roll, Vector3d::UnitX()));
   const Vector3d w_pelvis = vec_at(d.cvel + 6 * pelvis_);
@@ -511,6 +570,75 @@ void TorqueGait::drive(CharacterController& c, const mjModel& m, const mjData& d
                              k_torso * p.damping_time_s * w_pelvis;
   hip_torque(c, d, swing, tau_swing);
   hip_torque(c, d, stance_, -tau_torso - tau_swing - tau_lumbar);
+}
+
+void TorqueGait::apply_base_polygon_rule(const mjModel& m, const mjData& d, const Vector3d& com_W,
+                                         const Vector3d& com_velocity_H) {
+  const TorqueGaitParams& p = params_;
+  const int swing = 1 - stance_;
+  // Support polygon from the feet's actual floor contacts; the tolerance polygon is it scaled by
+  // 2 tolerance_fraction about its centre (edges at that fraction of its extent from the centre).
+  sim::floor_contacts(m, d, floor_geom_, &contacts_);
+  points_.clear();
+  for (const sim::FloorContact& fc : contacts_) {
+    if (fc.distance > 0) continue;
+    for (int s = 0; s < 2; ++s)
+      if (fc.body == foot_[s] || fc.body == toes_[s]) points_.push_back(fc.position_W.head<2>());
+  }
+  convex_hull(&points_, &hull_);
+  tolerance_.clear();
+  if (hull_.size() < 3) return;
+  Eigen::Vector2d centre = Eigen::Vector2d::Zero();
+  for (const Eigen::Vector2d& q : hull_) centre += q;
+  centre /= static_cast<double>(hull_.size());
+  const double scale = 2.0 * p.tolerance_fraction;
+  for (const Eigen::Vector2d& q : hull_) tolerance_.push_back(centre + scale * (q - centre));
+  if (inside_convex(tolerance_, com_W.head<2>())) return;
+
+  // Heading frame, from the stance ankle.
+  const double ch = std::cos(heading_), sh = std::sin(heading_);
+  const Eigen::Vector2d ankle(d.xpos[3 * foot_[stance_]], d.xpos[3 * foot_[stance_] + 1]);
+  const auto local = [&](const Eigen::Vector2d& w) {
+    const Eigen::Vector2d r = w - ankle;
+    return Eigen::Vector2d(ch * r.x() + sh * r.y(), -sh * r.x() + ch * r.y());
+  };
+  double rear = 1e9, front = -1e9, right = 1e9, left = -1e9, cx = 0, cy = 0;
+  for (const Eigen::Vector2d& w : hull_) {
+    const Eigen::Vector2d q = local(w);
+    rear = std::min(rear, q.x());
+    front = std::max(front, q.x());
+    right = std::min(right, q.y());
+    left = std::max(left, q.y());
+    cx += q.x();
+    cy += q.y();
+  }
+  cx /= static_cast<double>(hull_.size());
+  cy /= static_cast<double>(hull_.size());
+  const Eigen::Vector2d c = local(com_W.head<2>());
+  const double sagittal_tol = p.tolerance_fraction * (front - rear);
+  if (c.x() > cx + sagittal_tol) {
+    // Ahead: b_P the polygon's rear edge; the step (ankle to ankle, as heel to heel) at least
+    // base_polygon_step. In normal walking the gait's own step is longer: it binds only when
+    // the CoM has run further ahead.
+    const double length = base_polygon_step(c.x() - rear, foot_length_);
+    if (length > 0) rule_length_ = std::isnan(rule_length_) ? length : std::max(rule_length_, length);
+  } else if (c.x() < cx - sagittal_tol && com_velocity_H.x() < 0) {
+    // Behind and moving backwards: the mirror image from the front edge (a step back). Behind
+    // but moving forwards is every step's start: the CoM comes over the foot by itself.
+    const double length = -base_polygon_step(front - c.x(), foot_length_);
+    if (length < 0) rule_length_ = std::isnan(rule_length_) ? length : std::min(rule_length_, length);
+  }
+  // Frontal counterpart (step width): the CoM beyond the tolerance band towards the swing side
+  // and moving that way (every stance starts with the CoM on the swing side, coming back);
+  // b_P the stance foot's outer edge, the foot width for the foot length. Towards the stance
+  // side the rule would need a cross-over step: not taken (the legs would collide).
+  const double side = swing == 0 ? 1.0 : -1.0;  // +1: the swing foot is the left one (+y)
+  const double frontal_tol = p.tolerance_fraction * (left - right);
+  if (side * (c.y() - cy) > frontal_tol && side * com_velocity_H.y() > 0) {
+    const double outer = side > 0 ? right : left;
+    const double width = base_polygon_step(side * (c.y() - outer), foot_width_);
+    if (width > 0) rule_width_ = std::isnan(rule_width_) ? width : std::max(rule_width_, width);
+  }
 }
 
 }  // namespace biodyn::controllers

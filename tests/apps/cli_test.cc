@@ -235,7 +235,8 @@ TEST_CASE("biodyn walk writes the walk JSON and says what the weld assumes", "[a
   REQUIRE(r.exit_code == 0);
   const auto j = nlohmann::json::parse(slurp(dir / "walk.json"));
   for (const char* key : {"fallen", "time_fallen", "distance", "mean_speed", "steps", "step_lengths", "cadence",
-                          "joint_ranges_deg", "max_foot_slip", "weld", "weld_tension_steps", "realtime_factor"})
+                          "joint_ranges_deg", "max_foot_slip", "weld", "weld_tension_steps", "realtime_factor",
+                          "base_polygon_steps"})
     CHECK(j.contains(key));
   CHECK(j["weld"] == "glue");
   CHECK(j["step_lengths"].size() == j["steps"].get<std::size_t>());

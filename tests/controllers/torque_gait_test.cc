@@ -5,6 +5,7 @@
 
 #include "biodyn/controllers/character_controller.h"
 #include "biodyn/controllers/gait_controller.h"
+#include "biodyn/controllers/support_polygon.h"
 #include "biodyn/controllers/torque_gait.h"
 #include "biodyn/models/mjcf.h"
 #include "biodyn/sim/errors.h"
@@ -25,7 +26,20 @@ struct WalkResult {
   double state0_time_s = 0;       // time spent in state 0
   int state0_entries = 0;
   double state0_both_feet = 0;    // fraction of state 0's steps with both feet on the floor
+  int base_polygon_steps = 0;
+  double tolerance_area_ratio = 0;  // tolerance / support polygon area, at the last evaluation
+  bool tolerance_inside_support = false;
 };
+
+double polygon_area(const std::vector<Eigen::Vector2d>& p) {
+  double a = 0;
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    const Eigen::Vector2d& u = p[i];
+    const Eigen::Vector2d& v = p[(i + 1) % p.size()];
+    a += u.x() * v.y() - u.y() * v.x();
+  }
+  return a / 2;
+}
 
 // Walks the default character from standing for `duration_s` with the default parameters.
 WalkResult walk(double duration_s, const char* weld,
@@ -82,6 +96,14 @@ WalkResult walk(double duration_s, const char* weld,
   r.strikes = gait.strike_count();
   r.mean_step_m = counted ? steps / counted : 0;
   r.state0_both_feet = state0_steps ? static_cast<double>(both_feet_steps) / state0_steps : 0;
+  r.base_polygon_steps = gait.base_polygon_steps();
+  const auto& support = gait.support_polygon();
+  const auto& tolerance = gait.tolerance_polygon();
+  if (support.size() >= 3 && tolerance.size() == support.size()) {
+    r.tolerance_area_ratio = polygon_area(tolerance) / polygon_area(support);
+    r.tolerance_inside_support = true;
+    for (const Eigen::Vector2d& q : tolerance) r.tolerance_inside_support &= controllers::inside_convex(support, q);
+  }
   return r;
 }
 
@@ -126,6 +148,31 @@ TEST_CASE("The walker's states are data: a double support state added in front r
   REQUIRE(r.state0_entries >= 10);
   CHECK(r.state0_time_s / r.state0_entries == Approx(0.08).margin(0.004));
   CHECK(r.state0_both_feet > 0.8);
+}
+
+TEST_CASE("Base-polygon balance: the rule leaves the tuned gait alone and moves steps when the CoM runs off", "[gait][walk]") {
+  // The tuned gait: its velocity feedback already steps further than the rule asks, so the
+  // rule moves no step and the walk is the same with it off (measured: 0 steps at 0.5-1.5 m/s).
+  controllers::TorqueGaitParams off;
+  off.base_polygon_rule = false;
+  const WalkResult with_rule = walk(8.0, "honest");
+  const WalkResult without = walk(8.0, "honest", off);
+  CHECK_FALSE(with_rule.fallen);
+  CHECK(with_rule.base_polygon_steps == 0);
+  CHECK(with_rule.distance_m == without.distance_m);
+  // Tolerance polygon: the support polygon scaled by 2 x 25% about its centre: a quarter of its
+  // area, inside it.
+  CHECK(with_rule.tolerance_area_ratio == Approx(0.25).margin(1e-9));
+  CHECK(with_rule.tolerance_inside_support);
+  // Without the sagittal feedback and with the late swing's thigh behind the vertical, the
+  // CoM runs ahead of the stance foot's tolerance polygon: the rule lengthens steps.
+  controllers::TorqueGaitParams weak;
+  weak.sagittal_cd = weak.sagittal_cv = 0;
+  weak.states[1].swing_hip_rad = -0.1;
+  const WalkResult ruled = walk(2.0, "honest", weak);
+  CHECK(ruled.base_polygon_steps >= 1);
+  weak.base_polygon_rule = false;
+  CHECK(walk(2.0, "honest", weak).base_polygon_steps == 0);
 }
 
 TEST_CASE("The torque walker rejects invalid parameters and models without legs by name", "[gait]") {

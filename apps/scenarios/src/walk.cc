@@ -224,7 +224,7 @@ WalkRunResult run_walk(sim::Simulation* sim, const WalkRunParams& params,
   }
   const auto wall_start = std::chrono::steady_clock::now();
   if (params.trace) {
-    *params.trace << "time_s,com_x,com_y,com_z,com_vx,com_vy,pelvis_z,heading_deg,stance,state,strikes,"
+    *params.trace << "time_s,com_x,com_y,com_z,com_vx,com_vy,pelvis_z,heading_deg,stance,state,strikes,base_polygon_rule,"
                      "contacts_l,contacts_r,weld_l,weld_r,knee_l_deg,knee_r_deg,max_torque_ratio,push_fx,push_fy\n";
   }
   const int max_steps = static_cast<int>(std::lround(
@@ -377,6 +377,7 @@ WalkRunResult run_walk(sim::Simulation* sim, const WalkRunParams& params,
                     << com.position_W.z() << ',' << com.velocity_W.x() << ',' << com.velocity_W.y() << ','
                     << d.xpos[3 * pelvis + 2] << ',' << gait.heading_rad() * kRadToDeg
                     << ',' << gait.stance_side() << ',' << gait.state() << ',' << gait.strike_count() << ','
+                    << gait.base_polygon_rule_active() << ','
                     << static_cast<int>(feet[0].touching) << ',' << static_cast<int>(feet[1].touching) << ','
                     << rep.weld_active[0] << ',' << rep.weld_active[1] << ','
                     << d.qpos[m.jnt_qposadr[m.dof_jntid[knee_dof[0]]]] * kRadToDeg << ','
@@ -434,6 +435,7 @@ WalkRunResult run_walk(sim::Simulation* sim, const WalkRunParams& params,
     if (e.hi >= e.lo) r.joint_ranges_deg[e.name] = {e.lo * kRadToDeg, e.hi * kRadToDeg};
   r.swing_knee_peak_deg = swing_count > 0 ? knee_peak_sum / swing_count * kRadToDeg : 0;
   r.heel_strike_fraction = touchdowns > 0 ? static_cast<double>(heel_strikes) / touchdowns : 0;
+  r.base_polygon_steps = gait.base_polygon_steps();
   r.mean_foot_slip_m = stances > 0 ? slip_sum / stances : 0;
 
   if (!params.steps_m.empty()) {

@@ -33,12 +33,14 @@
 #include <mujoco/mujoco.h>
 
 #include <Eigen/Core>
+#include <cmath>
 #include <limits>
 #include <string>
 #include <vector>
 
 #include "biodyn/controllers/character_controller.h"
 #include "biodyn/controllers/joint_groups.h"
+#include "biodyn/sim/queries.h"
 
 namespace biodyn::controllers {
 
@@ -113,6 +115,12 @@ struct TorqueGaitParams {
   /// at a strike, the next step brings the feet side by side.
   double stop_brake_rad_per_m_s = 0.1;
   double stop_speed_m_s = 0.3;
+  /// Base-polygon balance (paper §4.3): the tolerance polygon is the support polygon (the
+  /// feet's floor contacts) scaled about its centre so that its edges lie this fraction of the
+  /// polygon's extent from the centre; when the CoM's projection leaves it during a swing, the
+  /// strike is moved to at least base_polygon_step() ahead (or behind, or aside).
+  double tolerance_fraction = 0.25;
+  bool base_polygon_rule = true;
   void validate() const;  ///< throws sim::InvalidArgument naming the field
 };
 
@@ -169,6 +177,13 @@ class TorqueGait : public TargetDriver {
   int planned_steps_left() const { return static_cast<int>(plan_.size()) - plan_next_; }
   /// The current swing's planned length (NaN for a free step).
   double swing_target_m() const { return swing_target_; }
+  /// Base-polygon balance: whether the rule moves the current swing's strike, and how many
+  /// steps it has moved since reset(). The last evaluated support and tolerance polygons
+  /// (world xy, counter-clockwise; empty when not evaluated).
+  bool base_polygon_rule_active() const { return rule_bound_; }
+  int base_polygon_steps() const { return rule_steps_; }
+  const std::vector<Eigen::Vector2d>& support_polygon() const { return hull_; }
+  const std::vector<Eigen::Vector2d>& tolerance_polygon() const { return tolerance_; }
   void drive(CharacterController& controller, const mjModel& m, const mjData& d) override;
 
   const TorqueGaitParams& params() const { return params_; }
@@ -184,6 +199,11 @@ class TorqueGait : public TargetDriver {
   double hinge_pd(CharacterController& c, const mjModel& m, const mjData& d, int dof, double target, double kp,
                   double target_rate = 0) const;
   void hip_torque(CharacterController& c, const mjData& d, int side, const Eigen::Vector3d& torque_W) const;
+  /// Paper §4.3 during a swing: updates rule_length_ / rule_width_ (heading frame, from the
+  /// stance ankle) when the CoM's projection is outside the tolerance polygon; drive() then
+  /// pitches (rolls) the swing thigh at least far enough for them. com_velocity_H: heading frame.
+  void apply_base_polygon_rule(const mjModel& m, const mjData& d, const Eigen::Vector3d& com_W,
+                               const Eigen::Vector3d& com_velocity_H);
 
   TorqueGaitParams params_;
   std::vector<JointGroup> groups_;
@@ -201,6 +221,14 @@ class TorqueGait : public TargetDriver {
   double state_start_s_ = 0, start_s_ = 0, heading_ = 0, heading_rate_ = 0, last_time_s_ = 0;
   double speed_ = 1.0, lean_integral_ = 0, roll_integral_ = 0;
   double thigh_length_[2] = {0, 0}, shank_length_[2] = {0, 0}, ankle_height_ = 0;
+  double foot_length_ = 0, foot_width_ = 0, hip_spacing_ = 0;
+  // Base-polygon balance: the rule's step length and width for this swing (NaN: not moved).
+  double rule_length_ = std::numeric_limits<double>::quiet_NaN();
+  double rule_width_ = std::numeric_limits<double>::quiet_NaN();
+  int rule_steps_ = 0;
+  bool rule_bound_ = false;  // the rule's step has overridden the balance feedback this swing
+  std::vector<sim::FloorContact> contacts_;
+  std::vector<Eigen::Vector2d> points_, hull_, tolerance_;
   std::vector<double> plan_;
   int plan_next_ = 0;
   bool stopping_ = false, stopped_ = false;

@@ -103,6 +103,7 @@ struct WalkRunResult {
   std::map<std::string, std::array<double, 2>> joint_ranges_deg;
   double swing_knee_peak_deg = 0;    ///< deg, mean over swings of the peak knee flexion
   double heel_strike_fraction = 0;   ///< strikes whose first floor contact is behind the sole centre
+  int base_polygon_steps = 0;        ///< steps the base-polygon rule moved (paper §4.3; torque_gait.h)
   double max_foot_slip_m = 0;        ///< m, largest move of a flat foot within one stance
   double mean_foot_slip_m = 0;       ///< m, mean over stances
   int weld_tension_steps = 0;
