@@ -23,6 +23,10 @@
 ///    pitch and the knee angle
 ///    (an unreachable target gives the straight leg pointing at it, the closest reachable
 ///    state). The roll stays with the balance feedback.
+///  - Base-polygon balance (paper §4.3; base_polygon_rule): when the CoM's projection leaves
+///    the tolerance polygon (the feet's contact polygon shrunk about its centre), the swing
+///    thigh pitches (rolls) at least far enough for the paper's step d = 4(c - b_P)/3 -
+///    2 foot_length (base_polygon_step, gait_controller.h) ahead, behind or aside.
 ///  - Stance hip: the pelvis's orientation in the world (upright, pitched pelvis_pitch, facing
 ///    the heading) by a virtual torso torque tau_torso; the stance hip takes
 ///    tau_stance = -tau_torso - tau_swing - tau_lumbar so that the joints' reactions on the
