@@ -252,21 +252,9 @@ void GaitController::advance(const mjData& d) {
 
 void GaitController::support_polygons(const mjModel& m, const mjData& d) {
   sim::floor_contacts(m, d, floor_geom_, &contacts_);
-  points_.clear();
-  for (const sim::FloorContact& c : contacts_) {
-    if (c.distance > 0) continue;
-    for (int s = 0; s < 2; ++s)
-      if (c.body == foot_[s] || c.body == toes_[s]) points_.push_back(c.position_W.head<2>());
-  }
-  convex_hull(&points_, &hull_);
-  tolerance_.clear();
-  if (hull_.empty()) return;
-  Vector2d centre = Vector2d::Zero();
-  for (const Vector2d& p : hull_) centre += p;
-  centre /= static_cast<double>(hull_.size());
-  // Edges at tolerance_fraction of the polygon's extent from its centre: scale by 2x.
-  const double scale = 2.0 * params_.placement.tolerance_fraction;
-  for (const Vector2d& p : hull_) tolerance_.push_back(centre + scale * (p - centre));
+  const int feet[4] = {foot_[0], foot_[1], toes_[0], toes_[1]};
+  contact_support_polygon(contacts_, feet, 4, &points_, &hull_);
+  controllers::tolerance_polygon(hull_, params_.placement.tolerance_fraction, &tolerance_);
 }
 
 void GaitController::plan_foot(const mjData& d, const sim::CenterOfMass& com) {

@@ -60,4 +60,24 @@ double distance_outside(const std::vector<Vector2d>& polygon, const Vector2d& p)
   return inside ? 0.0 : best;
 }
 
+void contact_support_polygon(const std::vector<sim::FloorContact>& contacts, const int* bodies, int body_count,
+                             std::vector<Vector2d>* points, std::vector<Vector2d>* hull) {
+  points->clear();
+  for (const sim::FloorContact& c : contacts) {
+    if (c.distance > 0) continue;
+    if (std::find(bodies, bodies + body_count, c.body) != bodies + body_count) points->push_back(c.position_W.head<2>());
+  }
+  convex_hull(points, hull);
+}
+
+void tolerance_polygon(const std::vector<Vector2d>& support, double fraction, std::vector<Vector2d>* tolerance) {
+  tolerance->clear();
+  if (support.empty()) return;
+  Vector2d centre = Vector2d::Zero();
+  for (const Vector2d& p : support) centre += p;
+  centre /= static_cast<double>(support.size());
+  const double scale = 2.0 * fraction;
+  for (const Vector2d& p : support) tolerance->push_back(centre + scale * (p - centre));
+}
+
 }  // namespace biodyn::controllers

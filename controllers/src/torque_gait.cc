@@ -579,20 +579,11 @@ void TorqueGait::apply_base_polygon_rule(const mjModel& m, const mjData& d, cons
   // Support polygon from the feet's actual floor contacts; the tolerance polygon is it scaled by
   // 2 tolerance_fraction about its centre (edges at that fraction of its extent from the centre).
   sim::floor_contacts(m, d, floor_geom_, &contacts_);
-  points_.clear();
-  for (const sim::FloorContact& fc : contacts_) {
-    if (fc.distance > 0) continue;
-    for (int s = 0; s < 2; ++s)
-      if (fc.body == foot_[s] || fc.body == toes_[s]) points_.push_back(fc.position_W.head<2>());
-  }
-  convex_hull(&points_, &hull_);
+  const int feet[4] = {foot_[0], foot_[1], toes_[0], toes_[1]};
+  contact_support_polygon(contacts_, feet, 4, &points_, &hull_);
   tolerance_.clear();
   if (hull_.size() < 3) return;
-  Eigen::Vector2d centre = Eigen::Vector2d::Zero();
-  for (const Eigen::Vector2d& q : hull_) centre += q;
-  centre /= static_cast<double>(hull_.size());
-  const double scale = 2.0 * p.tolerance_fraction;
-  for (const Eigen::Vector2d& q : hull_) tolerance_.push_back(centre + scale * (q - centre));
+  controllers::tolerance_polygon(hull_, p.tolerance_fraction, &tolerance_);
   if (inside_convex(tolerance_, com_W.head<2>())) return;
 
   // Heading frame, from the stance ankle.
