@@ -355,8 +355,7 @@ void TorqueGait::drive(CharacterController& c, const mjModel& m, const mjData& d
     bool done = d.time - state_start_s_ >= state_duration_s(state_);
     // (Not the closing step of a stop: it starts beside its target and needs the time to
     // move the foot out to the standing width.)
-    const bool closing = stopping_ && swing_target_ == 0.0;
-    if (!done && !closing && !std::isnan(swing_target_) && !p.states[static_cast<std::size_t>(state_)].swing_foot_down) {
+    if (!done && !closing_step() && !std::isnan(swing_target_) && !p.states[static_cast<std::size_t>(state_)].swing_foot_down) {
       // A placed step comes down as soon as its ankle is over the target (a short step would
       // otherwise be overtaken by the hip).
       const double ch = std::cos(heading_), sh = std::sin(heading_);
@@ -522,28 +521,30 @@ void TorqueGait::drive(CharacterController& c, const mjModel& m, const mjData& d
   double pitch = placed ? ik.hip_flexion_rad
                         : brake + st.swing_hip_rad + p.sagittal_cd * rel.x() + p.sagittal_cv * vel.x();
   double roll = free_roll;
-  if (placed && stopping_ && swing_target_ == 0.0) {
+  // The thigh angle that puts the nearly straight leg's ankle `offset` (m, heading frame) from
+  // the hip, along or across the heading.
+  const double leg = kPlacedReachFraction * (thigh_length_[swing] + shank_length_[swing]);
+  const auto straight_leg_angle = [leg](double offset) { return std::asin(std::clamp(offset / leg, -0.9, 0.9)); };
+  const bool rule_moves = !placed && (!std::isnan(rule_length_) || !std::isnan(rule_width_));
+  const Vector3d hip = q_heading.conjugate() * (vec_at(d.xpos + 3 * thigh_[swing]) - vec_at(d.xpos + 3 * foot_[stance_]));
+  if (placed && closing_step()) {
     // The closing step of a stop puts the feet side by side at the standing width (the hips'
     // spacing), where the standing controller's pose expects them; the balance feedback's
     // width is narrower (measured: 6 cm, and the standing character fell sideways).
-    const Vector3d hip = q_heading.conjugate() * (vec_at(d.xpos + 3 * thigh_[swing]) - vec_at(d.xpos + 3 * foot_[stance_]));
-    const double leg = kPlacedReachFraction * (thigh_length_[swing] + shank_length_[swing]);
-    roll = std::asin(std::clamp((out * hip_spacing_ - hip.y()) / leg, -0.9, 0.9));
+    roll = straight_leg_angle(out * hip_spacing_ - hip.y());
   }
-  if (!placed && (!std::isnan(rule_length_) || !std::isnan(rule_width_))) {
+  if (rule_moves) {
     // The base-polygon rule's step (paper §4.3): the thigh pitched (rolled) at least so far that
     // the leg, nearly straight, puts the ankle at the rule's length (width) from the stance
     // ankle, from where the hip is now.
-    const Vector3d hip = q_heading.conjugate() * (vec_at(d.xpos + 3 * thigh_[swing]) - vec_at(d.xpos + 3 * foot_[stance_]));
-    const double leg = kPlacedReachFraction * (thigh_length_[swing] + shank_length_[swing]);
     if (!std::isnan(rule_length_)) {
-      const double pitch_rule = std::asin(std::clamp((rule_length_ - hip.x()) / leg, -0.9, 0.9));
+      const double pitch_rule = straight_leg_angle(rule_length_ - hip.x());
       const double bound = rule_length_ > 0 ? std::max(pitch, pitch_rule) : std::min(pitch, pitch_rule);
       if (bound != pitch) rule_bound_ = true;
       pitch = bound;
     }
     if (!std::isnan(rule_width_)) {
-      const double roll_rule = std::asin(std::clamp((out * rule_width_ - hip.y()) / leg, -0.9, 0.9));
+      const double roll_rule = straight_leg_angle(out * rule_width_ - hip.y());
       const double bound = out > 0 ? std::max(roll, roll_rule) : std::min(roll, roll_rule);
       if (bound != roll) rule_bound_ = true;
       roll = bound;

@@ -203,6 +203,8 @@ class TorqueGait : public TargetDriver {
   double hinge_pd(CharacterController& c, const mjModel& m, const mjData& d, int dof, double target, double kp,
                   double target_rate = 0) const;
   void hip_torque(CharacterController& c, const mjData& d, int side, const Eigen::Vector3d& torque_W) const;
+  /// The stop's closing step (the planned step of length 0 that brings the feet side by side).
+  bool closing_step() const { return stopping_ && swing_target_ == 0.0; }
   /// Paper §4.3 during a swing: updates rule_length_ / rule_width_ (heading frame, from the
   /// stance ankle) when the CoM's projection is outside the tolerance polygon; drive() then
   /// pitches (rolls) the swing thigh at least far enough for them. com_velocity_H: heading frame.
