@@ -91,7 +91,7 @@ void FootWeldParams::validate() const {
 }
 
 FootWelds::FootWelds(const mjModel& m, FootWeldParams params)
-    : params_(params), qfrc_(static_cast<std::size_t>(m.nv)) {
+    : params_(params), qfrc_(static_cast<std::size_t>(m.nv)), jacobian_row_(static_cast<std::size_t>(m.nv)) {
   contacts_.reserve(static_cast<std::size_t>(m.nconmax));
   for (int b = 0; b < m.nbody; ++b) weight_ += m.body_mass[b];
   weight_ *= std::abs(m.opt.gravity[2]);
@@ -198,8 +198,9 @@ int FootWelds::measure(const mjModel& m, const mjData& d) {
       for (int r = 0; r < d.nefc; ++r) {
         if (d.efc_type[r] != mjCNSTR_EQUALITY || d.efc_id[r] != f.eq) continue;
         has_rows = true;
-        const mjtNum* J = d.efc_J + static_cast<std::ptrdiff_t>(r) * m.nv;
-        for (int i = 0; i < m.nv; ++i) qfrc_[static_cast<std::size_t>(i)] += J[i] * d.efc_force[r];
+        sim::efc_jacobian_row(m, d, r, jacobian_row_.data());
+        for (int i = 0; i < m.nv; ++i)
+          qfrc_[static_cast<std::size_t>(i)] += jacobian_row_[static_cast<std::size_t>(i)] * d.efc_force[r];
       }
       const auto q = [&](int i) { return qfrc_[static_cast<std::size_t>(root_dof_ + i)]; };
       out.force_W = Vector3d(q(0), q(1), q(2));

@@ -71,8 +71,7 @@ std::string to_mjcf(const Character& c, const PhysicsOptions& o) {
          {"cone", o.elliptic_cone ? "elliptic" : "pyramidal"},
          {"impratio", fmt(o.impratio)},
          {"solver", "Newton"},
-         // Dense constraint Jacobians: the whole-body controller reads efc_J rows directly.
-         {"jacobian", "dense"},
+         {"jacobian", o.sparse_jacobian ? "sparse" : "dense"},
          {"iterations", std::to_string(o.solver_iterations)},
          {"tolerance", fmt(o.solver_tolerance)}});
   child(root, "size", {{"nconmax", std::to_string(o.nconmax)}, {"njmax", std::to_string(o.njmax)}});

@@ -3,16 +3,12 @@
 #include <algorithm>
 #include <cmath>
 
-#include "biodyn/sim/errors.h"
+#include "biodyn/sim/queries.h"
 
 namespace biodyn::sim {
 namespace {
 
 enum Mode : std::uint8_t { kPrescribedAcc, kZeroForce, kAtMin, kAtMax };
-
-bool uses_sparse_jacobian(const mjModel& m) {
-  return m.opt.jacobian == mjJAC_SPARSE || (m.opt.jacobian == mjJAC_AUTO && m.nv >= 60);
-}
 
 // In-place Cholesky of the n x n row-major SPD matrix A (lower triangle). False if not SPD.
 bool cholesky(mjtNum* A, int n) {
@@ -49,12 +45,10 @@ void cholesky_solve(const mjtNum* L, int n, mjtNum* x) {
 
 HybridDynamics::HybridDynamics(const mjModel& m, HybridDynamicsOptions options)
     : options_(options), nv_(m.nv) {
-  if (uses_sparse_jacobian(m)) {
-    throw InvalidArgument(
-        "hybrid dynamics: the model uses sparse constraint Jacobians (option jacobian); set "
-        "<option jacobian=\"dense\"/>");
-  }
   const auto nv = static_cast<std::size_t>(m.nv);
+  // Sparse rows are expanded once per solve: the Hessian reads rows restricted to the
+  // unknowns, which is simplest on dense rows (nefc x nv, small next to the solve).
+  if (mj_isSparse(&m)) J_dense_.resize(static_cast<std::size_t>(std::max(m.njmax, 1)) * nv);
   M_.resize(nv * nv);
   b_.resize(nv);
   a_.resize(nv);
@@ -91,12 +85,12 @@ void HybridDynamics::project_on_equalities(const mjData& d,
   const auto inv_w = [&](int i) { return actuated[i] ? 1.0 : kRootInverseWeight; };
   // (E W^-1 E') lambda = E a0 - aref;  a = a0 - W^-1 E' lambda.
   for (int r = 0; r < n; ++r) {
-    const mjtNum* Er = d.efc_J + static_cast<std::ptrdiff_t>(eq_rows_[static_cast<std::size_t>(r)]) * nv_;
+    const mjtNum* Er = J_ + static_cast<std::ptrdiff_t>(eq_rows_[static_cast<std::size_t>(r)]) * nv_;
     mjtNum rhs = -d.efc_aref[eq_rows_[static_cast<std::size_t>(r)]];
     for (int i = 0; i < nv_; ++i) rhs += Er[i] * desired_[static_cast<std::size_t>(i)];
     eq_rhs_[static_cast<std::size_t>(r)] = rhs;
     for (int c = 0; c <= r; ++c) {
-      const mjtNum* Ec = d.efc_J + static_cast<std::ptrdiff_t>(eq_rows_[static_cast<std::size_t>(c)]) * nv_;
+      const mjtNum* Ec = J_ + static_cast<std::ptrdiff_t>(eq_rows_[static_cast<std::size_t>(c)]) * nv_;
       mjtNum v = 0;
       for (int i = 0; i < nv_; ++i) v += Er[i] * inv_w(i) * Ec[i];
       eq_lhs_[static_cast<std::size_t>(r * n + c)] = v;
@@ -107,7 +101,7 @@ void HybridDynamics::project_on_equalities(const mjData& d,
   if (!cholesky(eq_lhs_.data(), n)) return;  // degenerate: keep the wish as it is
   cholesky_solve(eq_lhs_.data(), n, eq_rhs_.data());
   for (int r = 0; r < n; ++r) {
-    const mjtNum* Er = d.efc_J + static_cast<std::ptrdiff_t>(eq_rows_[static_cast<std::size_t>(r)]) * nv_;
+    const mjtNum* Er = J_ + static_cast<std::ptrdiff_t>(eq_rows_[static_cast<std::size_t>(r)]) * nv_;
     const mjtNum lambda = eq_rhs_[static_cast<std::size_t>(r)];
     for (int i = 0; i < nv_; ++i) desired_[static_cast<std::size_t>(i)] -= inv_w(i) * Er[i] * lambda;
   }
@@ -157,7 +151,7 @@ int HybridDynamics::minimize(const mjModel& m, mjData& d, bool* converged) {
         const mjContact& con = d.contact[d.efc_id[e]];
         const int dim = con.dim;
         for (int k = 0; k < dim; ++k) {
-          const mjtNum* J = d.efc_J + static_cast<std::ptrdiff_t>(e + k) * nv_;
+          const mjtNum* J = J_ + static_cast<std::ptrdiff_t>(e + k) * nv_;
           for (int u = 0; u < n; ++u)
             cone_rows_[static_cast<std::size_t>(k * n + u)] = J[unknown_[static_cast<std::size_t>(u)]];
         }
@@ -178,7 +172,7 @@ int HybridDynamics::minimize(const mjModel& m, mjData& d, bool* converged) {
         continue;
       }
       if (state != mjCNSTRSTATE_QUADRATIC) continue;
-      const mjtNum* J = d.efc_J + static_cast<std::ptrdiff_t>(e) * nv_;
+      const mjtNum* J = J_ + static_cast<std::ptrdiff_t>(e) * nv_;
       bool any = false;
       for (int u = 0; u < n; ++u) {
         row_[static_cast<std::size_t>(u)] = J[unknown_[static_cast<std::size_t>(u)]];
@@ -232,6 +226,13 @@ HybridDynamicsResult HybridDynamics::solve(const mjModel& m, mjData& d,
                                            const mjtNum* force_max, const mjtNum* qfrc_other,
                                            mjtNum* force, mjtNum* qacc) {
   HybridDynamicsResult result;
+  if (J_dense_.empty()) {
+    J_ = d.efc_J;
+  } else {
+    for (int r = 0; r < d.nefc; ++r)
+      efc_jacobian_row(m, d, r, J_dense_.data() + static_cast<std::ptrdiff_t>(r) * nv_);
+    J_ = J_dense_.data();
+  }
   mj_fullM(&m, M_.data(), d.qM);
   project_on_equalities(d, actuated, qacc_desired);
   qacc_desired = desired_.data();

@@ -1,5 +1,7 @@
 #include "biodyn/sim/queries.h"
 
+#include <algorithm>
+
 #include <string>
 
 #include "biodyn/sim/errors.h"
@@ -126,6 +128,17 @@ double mechanical_energy(const mjModel& m, const mjData& d) {
     potential += 0.5 * m.jnt_stiffness[j] * dq * dq;
   }
   return kinetic + potential;
+}
+
+void efc_jacobian_row(const mjModel& m, const mjData& d, int r, mjtNum* out) {
+  const std::ptrdiff_t nv = m.nv;
+  if (!mj_isSparse(&m)) {
+    std::copy(d.efc_J + r * nv, d.efc_J + (r + 1) * nv, out);
+    return;
+  }
+  std::fill(out, out + nv, 0.0);
+  const int adr = d.efc_J_rowadr[r];
+  for (int k = 0; k < d.efc_J_rownnz[r]; ++k) out[d.efc_J_colind[adr + k]] = d.efc_J[adr + k];
 }
 
 }  // namespace biodyn::sim

@@ -143,6 +143,7 @@ class FootWelds {
   std::array<Foot, 2> feet_;
   std::array<WeldWrench, 2> wrench_;
   std::vector<mjtNum> qfrc_;  // nv scratch
+  std::vector<mjtNum> jacobian_row_;  // nv scratch: one efc_J row, dense
   std::vector<sim::FloorContact> contacts_;
   double weight_ = 0;  // N, body weight
   static constexpr int root_body_ = 1;  // the free root is the first body of a character

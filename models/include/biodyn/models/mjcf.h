@@ -15,6 +15,10 @@ struct PhysicsOptions {
   /// Elliptic friction cones with impratio 5 reduce foot creep (mujoco-2.2.2.md).
   bool elliptic_cone = true;
   double impratio = 5.0;
+  /// Sparse constraint Jacobians: Newton's Hessian factorisation then follows the kinematic
+  /// tree. Same answers to rounding; measured on the full character walking 20 s at 1 m/s:
+  /// 34x real time against 26x with dense rows (MuJoCo's "auto" picks dense below 60 DOF).
+  bool sparse_jacobian = true;
   int solver_iterations = 50;
   double solver_tolerance = 1e-8;  ///< MuJoCo's default; Newton needs ~1.5 iterations here
   /// Static sizes (2.2.2 drops contacts past these with only a warning). Boxes give up to 4

@@ -67,8 +67,7 @@ struct HybridDynamicsResult {
 /// Preallocated solver for one model (one per thread, like the data it works on).
 class HybridDynamics {
  public:
-  /// Allocates work space for `m`. Throws InvalidArgument if the model uses sparse
-  /// constraint Jacobians (set <option jacobian="dense">; the generated characters do).
+  /// Allocates work space for `m` (dense or sparse constraint Jacobians).
   explicit HybridDynamics(const mjModel& m, HybridDynamicsOptions options = {});
 
   /// Solves for the current state of `d`. Arrays have length nv:
@@ -112,6 +111,8 @@ class HybridDynamics {
   std::vector<mjtNum> eq_lhs_;     // projection system, (6 neq)^2
   std::vector<mjtNum> eq_rhs_;     // 6 neq
   std::vector<int> eq_rows_;       // efc rows of equality constraints
+  std::vector<mjtNum> J_dense_;    // efc_J expanded to dense rows (sparse models only)
+  const mjtNum* J_ = nullptr;      // dense efc_J rows of the current solve
 
   // Projects qacc_desired onto the equality rows into desired_.
   void project_on_equalities(const mjData& d, const std::uint8_t* actuated,

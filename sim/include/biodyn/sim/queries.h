@@ -69,4 +69,9 @@ Eigen::Quaterniond joint_quaternion(const mjModel& m, const mjData& d, int joint
 /// (2.2.2's mj_energyPos/Vel return 0 unless the model enables the energy flag.)
 double mechanical_energy(const mjModel& m, const mjData& d);
 
+/// Row `r` (< d.nefc) of the constraint Jacobian efc_J as a dense row of nv values in `out`,
+/// whichever storage the model uses (<option jacobian>: dense rows, or 2.2.2's compressed
+/// rows efc_J_rownnz/rowadr/colind). No allocation.
+void efc_jacobian_row(const mjModel& m, const mjData& d, int r, mjtNum* out);
+
 }  // namespace biodyn::sim
