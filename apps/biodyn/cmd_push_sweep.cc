@@ -114,7 +114,7 @@ Command add_push_sweep_command(CLI::App* app) {
             int threads = o->threads > 0 ? o->threads : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
             const models::CharacterSpec spec = o->walk.character.to_spec();
             const models::Character character = models::generate_character(spec);
-            const std::string mjcf = models::to_mjcf(character);
+            const std::string mjcf = models::to_mjcf(character, o->walk.physics());
             const double mass = character.total_mass_kg();
 
             struct Job {
@@ -130,7 +130,8 @@ Command add_push_sweep_command(CLI::App* app) {
             std::cout << "biodyn push-sweep: " << jobs.size() << " cells (" << o->directions << " directions x "
                       << durations.size() << " durations x " << o->phases << " phases) on " << threads
                       << " threads; " << o->body << " pushes after " << o->settle_strides
-                      << " steady strides, speed " << base.speed_m_s << " m/s, weld " << o->walk.weld << "\n"
+                      << " steady strides, speed " << base.speed_m_s << " m/s, weld " << o->walk.weld << ", timestep "
+                      << 1000 * o->walk.timestep_s << " ms\n"
                       << "  " << weld_assumption(o->walk.weld) << "\n";
             std::atomic<std::size_t> next{0}, done{0};
             std::mutex error_mutex;

@@ -1,5 +1,6 @@
 // biodyn walk / biodyn push: walking headless under the torque walker, and one push during
 // steady walking (issue 4; references.md, push protocol).
+#include <algorithm>
 #include <fstream>
 #include <iomanip>
 #include <iostream>
@@ -27,6 +28,19 @@ void WalkOptions::add_to(CLI::App* cmd) {
   cmd->add_option("--reaction-time", reaction_time_s,
                   "Muscle reaction time t_r for every joint, s (default: the controller params, 0.02)");
   cmd->add_option("--params", params_path, "Walker parameters (JSON; see --print-params)");
+  cmd->add_option("--timestep", timestep_s, "Physics timestep, s, in [0.0005, 0.004]")->capture_default_str();
+}
+
+models::PhysicsOptions WalkOptions::physics() const {
+  if (!(timestep_s >= 0.0005 && timestep_s <= 0.004)) {
+    throw sim::InvalidArgument("--timestep: must be in [0.0005, 0.004] s, got " + std::to_string(timestep_s));
+  }
+  models::PhysicsOptions o;
+  o.timestep_s = timestep_s;
+  // MuJoCo stiffens a constraint faster than 2 steps silently (mujoco-2.2.2.md): say it here.
+  o.limit_time_constant_s = std::max(o.limit_time_constant_s, 2 * timestep_s);
+  o.weld_time_constant_s = std::max(o.weld_time_constant_s, 2 * timestep_s);
+  return o;
 }
 
 scenarios::WalkRunParams WalkOptions::to_params() const {
@@ -190,10 +204,11 @@ void write_walk_outputs(const scenarios::WalkRunResult& r, const nlohmann::json&
 
 // Builds the character's simulation and runs the walk with a progress bar; the trace (if
 // `with_trace`) comes back in `trace`.
-scenarios::WalkRunResult run_walk_on(const models::CharacterSpec& spec, scenarios::WalkRunParams p,
-                                     bool with_trace, const std::string& label, std::string* trace) {
+scenarios::WalkRunResult run_walk_on(const models::CharacterSpec& spec, const models::PhysicsOptions& physics,
+                                     scenarios::WalkRunParams p, bool with_trace, const std::string& label,
+                                     std::string* trace) {
   const models::Character character = models::generate_character(spec);
-  sim::Simulation sim(sim::Model::from_string(models::to_mjcf(character), "<character>"));
+  sim::Simulation sim(sim::Model::from_string(models::to_mjcf(character, physics), "<character>"));
   std::ostringstream text;
   if (with_trace) p.trace = &text;
   scenarios::WalkRunResult r;
@@ -250,9 +265,10 @@ Command add_walk_command(CLI::App* app) {
             const models::CharacterSpec spec = o->walk.character.to_spec();
             std::cout << "biodyn walk: " << to_string(spec.sex) << " " << spec.height_m << " m " << spec.mass_kg
                       << " kg (" << to_string(spec.detail) << "), " << p.duration_s << " s, weld " << o->walk.weld
-                      << ", speed " << p.speed_m_s << " m/s, heading rate " << p.heading_rate_deg_s << " deg/s\n";
+                      << ", speed " << p.speed_m_s << " m/s, heading rate " << p.heading_rate_deg_s << " deg/s, timestep "
+                      << 1000 * o->walk.timestep_s << " ms\n";
             std::string trace;
-            const scenarios::WalkRunResult r = run_walk_on(spec, p, !o->csv.empty(), "walk", &trace);
+            const scenarios::WalkRunResult r = run_walk_on(spec, o->walk.physics(), p, !o->csv.empty(), "walk", &trace);
             nlohmann::json inputs = o->walk.inputs_json(spec);
             inputs["duration_s"] = p.duration_s;
             write_walk_outputs(r, inputs, trace, o->csv, o->json);
@@ -265,7 +281,7 @@ nlohmann::json WalkOptions::inputs_json(const models::CharacterSpec& spec) const
           {"sex", to_string(spec.sex)},    {"detail", to_string(spec.detail)},
           {"speed_m_s", speed_m_s},        {"heading_rate_deg_s", heading_rate_deg_s},
           {"weld", weld},                  {"reaction_time_s", reaction_time_s},
-          {"params", params_path}};
+          {"params", params_path},        {"timestep_s", timestep_s}};
 }
 
 Command add_push_command(CLI::App* app) {
@@ -300,9 +316,10 @@ Command add_push_command(CLI::App* app) {
             std::cout << "biodyn push: " << o->push.force_N << " N for " << o->push.duration_s << " s on the "
                       << o->push.body << ", " << o->push.direction_deg << " deg from the heading, at "
                       << o->push.onset_phase << " of the stride after " << o->push.settle_strides
-                      << " strides; weld " << o->walk.weld << ", speed " << p.speed_m_s << " m/s\n";
+                      << " strides; weld " << o->walk.weld << ", speed " << p.speed_m_s << " m/s, timestep "
+                      << 1000 * o->walk.timestep_s << " ms\n";
             std::string trace;
-            const scenarios::WalkRunResult r = run_walk_on(spec, p, !o->csv.empty(), "push", &trace);
+            const scenarios::WalkRunResult r = run_walk_on(spec, o->walk.physics(), p, !o->csv.empty(), "push", &trace);
             const scenarios::WalkPushOutcome& po = *r.push;
             std::cout << std::fixed << std::setprecision(2) << "  " << (po.survived ? "SURVIVED" : "FAILED: " + po.failure)
                       << "; impulse " << po.impulse_N_s << " N s, delta-v " << po.delta_v_m_s << " m/s, onset "

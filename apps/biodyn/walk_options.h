@@ -6,6 +6,7 @@
 #include <ostream>
 #include <string>
 
+#include "biodyn/models/mjcf.h"
 #include "biodyn/scenarios/walk.h"
 #include "cli_common.h"
 
@@ -18,9 +19,16 @@ struct WalkOptions {
   std::string weld = "honest";
   double reaction_time_s = 0;
   std::string params_path;
+  /// s, physics timestep. 2 ms is the default of every biodyn model; 3 ms walks the same
+  /// (controllers/README.md, "Timestep and speed") at 1.5x the speed.
+  double timestep_s = 0.002;
 
-  /// Adds the character options and --speed --heading-rate --weld --reaction-time --params.
+  /// Adds the character options and --speed --heading-rate --weld --reaction-time --params
+  /// --timestep.
   void add_to(CLI::App* cmd);
+  /// The model's physics options for --timestep (joint-limit time constant kept >= 2 steps).
+  /// Throws sim::InvalidArgument.
+  models::PhysicsOptions physics() const;
   /// The run parameters (reads the params file). Throws sim::InvalidArgument.
   scenarios::WalkRunParams to_params() const;
   nlohmann::json inputs_json(const models::CharacterSpec& spec) const;

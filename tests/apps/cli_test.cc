@@ -216,6 +216,8 @@ TEST_CASE("Bad pose options exit 2 with one line naming the value, nothing writt
       {"stand-push --welds superglue", "superglue"},
       {"stand-push --resolution 0", "resolution"},
       {"bench --weld tape", "tape"},
+      {"walk --timestep 0.01", "--timestep"},
+      {"push --timestep 0 --force 100", "--timestep"},
   };
   for (const auto& [args, value] : cases) {
     INFO(args);
@@ -244,6 +246,20 @@ TEST_CASE("biodyn walk writes the walk JSON and says what the weld assumes", "[a
   CHECK(r.out.find("welded to the floor") != std::string::npos);
   CHECK(j["weld_assumption"].get<std::string>().find("welded to the floor") != std::string::npos);
   CHECK(fs::exists(dir / "trace.csv"));
+  CHECK(j["inputs"]["timestep_s"] == 0.002);
+}
+
+TEST_CASE("biodyn walk --timestep steps the model at that timestep", "[apps][cli][walk]") {
+  const fs::path dir = fresh_dir("walk_timestep");
+  const Run r = run_biodyn("walk --duration 1.5 --timestep 0.003 --json w.json --csv trace.csv", dir);
+  INFO(r.out << r.err);
+  REQUIRE(r.exit_code == 0);
+  CHECK(r.out.find("timestep 3 ms") != std::string::npos);
+  CHECK(nlohmann::json::parse(slurp(dir / "w.json"))["inputs"]["timestep_s"] == 0.003);
+  // One trace line per physics step after the header: 1.5 s / 3 ms = 500.
+  const std::string trace = slurp(dir / "trace.csv");
+  const auto lines = std::count(trace.begin(), trace.end(), '\n');
+  CHECK(lines - 1 == Approx(500).margin(1));
 }
 
 TEST_CASE("biodyn walk --steps reports the stepping stones; a bad length is refused", "[apps][cli][walk][stones]") {
