@@ -263,12 +263,13 @@ Command add_walk_command(CLI::App* app) {
             p.stop_at_s = o->stop_at_s;
             p.validate();
             const models::CharacterSpec spec = o->walk.character.to_spec();
+            const models::PhysicsOptions physics = o->walk.physics();
             std::cout << "biodyn walk: " << to_string(spec.sex) << " " << spec.height_m << " m " << spec.mass_kg
                       << " kg (" << to_string(spec.detail) << "), " << p.duration_s << " s, weld " << o->walk.weld
                       << ", speed " << p.speed_m_s << " m/s, heading rate " << p.heading_rate_deg_s << " deg/s, timestep "
                       << 1000 * o->walk.timestep_s << " ms\n";
             std::string trace;
-            const scenarios::WalkRunResult r = run_walk_on(spec, o->walk.physics(), p, !o->csv.empty(), "walk", &trace);
+            const scenarios::WalkRunResult r = run_walk_on(spec, physics, p, !o->csv.empty(), "walk", &trace);
             nlohmann::json inputs = o->walk.inputs_json(spec);
             inputs["duration_s"] = p.duration_s;
             write_walk_outputs(r, inputs, trace, o->csv, o->json);
@@ -313,13 +314,14 @@ Command add_push_command(CLI::App* app) {
             p.push = o->push;
             p.validate();
             const models::CharacterSpec spec = o->walk.character.to_spec();
+            const models::PhysicsOptions physics = o->walk.physics();
             std::cout << "biodyn push: " << o->push.force_N << " N for " << o->push.duration_s << " s on the "
                       << o->push.body << ", " << o->push.direction_deg << " deg from the heading, at "
                       << o->push.onset_phase << " of the stride after " << o->push.settle_strides
                       << " strides; weld " << o->walk.weld << ", speed " << p.speed_m_s << " m/s, timestep "
                       << 1000 * o->walk.timestep_s << " ms\n";
             std::string trace;
-            const scenarios::WalkRunResult r = run_walk_on(spec, o->walk.physics(), p, !o->csv.empty(), "push", &trace);
+            const scenarios::WalkRunResult r = run_walk_on(spec, physics, p, !o->csv.empty(), "push", &trace);
             const scenarios::WalkPushOutcome& po = *r.push;
             std::cout << std::fixed << std::setprecision(2) << "  " << (po.survived ? "SURVIVED" : "FAILED: " + po.failure)
                       << "; impulse " << po.impulse_N_s << " N s, delta-v " << po.delta_v_m_s << " m/s, onset "

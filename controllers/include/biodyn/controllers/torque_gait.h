@@ -117,8 +117,8 @@ struct TorqueGaitParams {
   /// Stopping: while braking, the swing thigh pitches this much further per m/s of forward
   /// CoM speed (the foot lands ahead of the CoM); once the CoM is slower than stop_speed_m_s
   /// at a strike, the next step brings the feet side by side.
-  double stop_brake_rad_per_m_s = 0.1;
-  double stop_speed_m_s = 0.3;
+  double stop_brake_rad_per_m_s = 0.025;
+  double stop_speed_m_s = 0.325;
   /// Base-polygon balance (paper §4.3): the tolerance polygon is the support polygon (the
   /// feet's floor contacts) scaled about its centre so that its edges lie this fraction of the
   /// polygon's extent from the centre; when the CoM's projection leaves it during a swing, the
