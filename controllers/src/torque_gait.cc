@@ -59,7 +59,7 @@ constexpr NamedField kFields[] = {
     BIODYN_FIELD(toe_kp),              BIODYN_FIELD(trunk_kp),             BIODYN_FIELD(arm_kp),
     BIODYN_FIELD(distal_kp),           BIODYN_FIELD(damping_time_s),       BIODYN_FIELD(reference_speed_m_s),
     BIODYN_FIELD(speed_lean_rad_per_m_s), BIODYN_FIELD(speed_integral_rad_per_m), BIODYN_FIELD(speed_lean_limit_rad),
-    BIODYN_FIELD(lateral_integral_rad_per_m), BIODYN_FIELD(step_clearance_m), BIODYN_FIELD(placement_gain),
+    BIODYN_FIELD(lateral_integral_rad_per_m), BIODYN_FIELD(step_clearance_m), BIODYN_FIELD(placement_gain), BIODYN_FIELD(placed_wait_s),
     BIODYN_FIELD(stop_brake_rad_per_m_s), BIODYN_FIELD(stop_speed_m_s), BIODYN_FIELD(tolerance_fraction)};
 #undef BIODYN_FIELD
 
@@ -220,6 +220,7 @@ void TorqueGaitParams::validate() const {
   check(tolerance_fraction > 0 && tolerance_fraction <= 0.5, w + "tolerance_fraction", "must be in (0, 0.5]",
         tolerance_fraction);
   check(placement_gain >= 0 && placement_gain <= 10, w + "placement_gain", "must be in [0, 10]", placement_gain);
+  check(placed_wait_s >= 0 && placed_wait_s <= 0.5, w + "placed_wait_s", "must be in [0, 0.5] s", placed_wait_s);
   check(speed_lean_limit_rad >= 0 && speed_lean_limit_rad <= 0.5, w + "speed_lean_limit_rad", "must be in [0, 0.5] rad",
         speed_lean_limit_rad);
 }
@@ -458,9 +459,14 @@ void TorqueGait::drive(CharacterController& c, const mjModel& m, const mjData& d
   if (placed) {
     const Vector3d stance_ankle = q_heading.conjugate() * vec_at(d.xpos + 3 * foot_[stance_]);
     const Vector3d hip = q_heading.conjugate() * vec_at(d.xpos + 3 * thigh_[swing]);
-    const double lift = landing ? -0.01 : p.step_clearance_m;
-    const double dz = ankle_height_ + lift - hip.z();
+    const double reach = kPlacedReachFraction * (thigh_length_[swing] + shank_length_[swing]);
+    const auto reach_ahead = [reach](double dz) { return reach > std::abs(dz) ? std::sqrt(reach * reach - dz * dz) : 0.0; };
     double dx = stance_ankle.x() + target - hip.x();
+    double lift = landing ? -0.01 : p.step_clearance_m;
+    // Out of reach on the floor early in late swing: wait in the air for the hip.
+    if (landing && d.time - state_start_s_ < p.placed_wait_s && dx > reach_ahead(ankle_height_ + lift - hip.z()))
+      lift = p.step_clearance_m;
+    const double dz = ankle_height_ + lift - hip.z();
     {
       // Outer loop on the ankle's place (the PD lags): aim short of the target by
       // placement_gain x the overshoot, and in late swing by the shortfall too.
@@ -471,9 +477,7 @@ void TorqueGait::drive(CharacterController& c, const mjModel& m, const mjData& d
     if (landing) {
       // Out of reach on the floor: the closest reachable point instead (paper §4.2), so the
       // foot comes down rather than waiting in the air for the hip.
-      const double reach = kPlacedReachFraction * (thigh_length_[swing] + shank_length_[swing]);
-      const double dx_max = reach > std::abs(dz) ? std::sqrt(reach * reach - dz * dz) : 0.0;
-      dx = std::clamp(dx, -dx_max, dx_max);
+      dx = std::clamp(dx, -reach_ahead(dz), reach_ahead(dz));
     }
     ik = solve_leg_triangle(thigh_length_[swing], shank_length_[swing], Vector3d(dx, 0, dz), 1.0, 0.0,
                             kMaxSwingKnee_rad);

@@ -114,6 +114,10 @@ struct TorqueGaitParams {
   /// Constrained stepping: the IK aims short of the target by this times the ankle's
   /// overshoot (in late swing: its miss either way), correcting the PD's lag.
   double placement_gain = 2.0;
+  /// Constrained stepping: in late swing a target still out of reach on the floor keeps the
+  /// ankle at the clearance height for up to this long (the hip catches up) before it comes
+  /// down at the closest reachable point.
+  double placed_wait_s = 0.15;
   /// Stopping: while braking, the swing thigh pitches this much further per m/s of forward
   /// CoM speed (the foot lands ahead of the CoM); once the CoM is slower than stop_speed_m_s
   /// at a strike, the next step brings the feet side by side.
