@@ -103,7 +103,7 @@ struct TorqueGaitParams {
   /// heading (held within +-speed_lean_limit_rad).
   double reference_speed_m_s = 1.0;
   double speed_lean_rad_per_m_s = 0.1;
-  double speed_integral_rad_per_m = 0.02;
+  double speed_integral_rad_per_m = 0.03;
   double speed_lean_limit_rad = 0.2;
   /// The frontal counterpart: after every step the swing thigh's roll gains
   /// lateral_integral_rad_per_m times the CoM's sideways travel in that step (heading frame), so
@@ -121,7 +121,7 @@ struct TorqueGaitParams {
   /// Stopping: while braking, the swing thigh pitches this much further per m/s of forward
   /// CoM speed (the foot lands ahead of the CoM); once the CoM is slower than stop_speed_m_s
   /// at a strike, the next step brings the feet side by side.
-  double stop_brake_rad_per_m_s = 0.025;
+  double stop_brake_rad_per_m_s = 0.0;
   double stop_speed_m_s = 0.325;
   /// Base-polygon balance (paper §4.3): the tolerance polygon is the support polygon (the
   /// feet's floor contacts) scaled about its centre so that its edges lie this fraction of the
