@@ -1,6 +1,5 @@
 // biodyn walk / biodyn push: walking headless under the torque walker, and one push during
 // steady walking (issue 4; references.md, push protocol).
-#include <algorithm>
 #include <fstream>
 #include <iomanip>
 #include <iostream>
@@ -36,10 +35,7 @@ models::PhysicsOptions WalkOptions::physics() const {
     throw sim::InvalidArgument("--timestep: must be in [0.0005, 0.004] s, got " + std::to_string(timestep_s));
   }
   models::PhysicsOptions o;
-  o.timestep_s = timestep_s;
-  // MuJoCo stiffens a constraint faster than 2 steps silently (mujoco-2.2.2.md): say it here.
-  o.limit_time_constant_s = std::max(o.limit_time_constant_s, 2 * timestep_s);
-  o.weld_time_constant_s = std::max(o.weld_time_constant_s, 2 * timestep_s);
+  o.timestep_s = timestep_s;  // to_mjcf keeps the limit and weld time constants >= 2 steps
   return o;
 }
 

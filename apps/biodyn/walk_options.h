@@ -26,7 +26,7 @@ struct WalkOptions {
   /// Adds the character options and --speed --heading-rate --weld --reaction-time --params
   /// --timestep.
   void add_to(CLI::App* cmd);
-  /// The model's physics options for --timestep (joint-limit time constant kept >= 2 steps).
+  /// The model's physics options for --timestep.
   /// Throws sim::InvalidArgument.
   models::PhysicsOptions physics() const;
   /// The run parameters (reads the params file). Throws sim::InvalidArgument.

@@ -475,8 +475,8 @@ void TorqueGait::drive(CharacterController& c, const mjModel& m, const mjData& d
       if (landing || overshoot > 0) dx -= p.placement_gain * overshoot;
     }
     if (landing) {
-      // Out of reach on the floor: the closest reachable point instead (paper §4.2), so the
-      // foot comes down rather than waiting in the air for the hip.
+      // Out of reach on the floor (after placed_wait_s): the closest reachable point instead
+      // (paper §4.2), so the foot comes down rather than waiting longer for the hip.
       dx = std::clamp(dx, -reach_ahead(dz), reach_ahead(dz));
     }
     ik = solve_leg_triangle(thigh_length_[swing], shank_length_[swing], Vector3d(dx, 0, dz), 1.0, 0.0,

@@ -2,6 +2,7 @@
 
 #include <tinyxml2.h>
 
+#include <algorithm>
 #include <cmath>
 #include <initializer_list>
 #include <iomanip>
@@ -42,6 +43,12 @@ tinyxml2::XMLElement* child(tinyxml2::XMLElement* parent, const char* name, Attr
 
 void set(tinyxml2::XMLElement* e, const char* attr, const std::string& value) {
   e->SetAttribute(attr, value.c_str());
+}
+
+// A solref time constant as written: at least 2 timesteps, because MuJoCo 2.2.2 silently
+// stiffens a faster one to that (mujoco-2.2.2.md), so the file says what the solver does.
+double solref_time_constant(const PhysicsOptions& o, double time_constant_s) {
+  return std::max(time_constant_s, 2 * o.timestep_s);
 }
 
 }  // namespace
@@ -105,7 +112,7 @@ std::string to_mjcf(const Character& c, const PhysicsOptions& o) {
          {"condim", "3"},
          {"friction", fmt(o.friction) + " 0.005 0.0001"},
          {"material", "body"}});
-  child(defaults, "joint", {{"solreflimit", fmt(o.limit_time_constant_s) + " 1"}});
+  child(defaults, "joint", {{"solreflimit", fmt(solref_time_constant(o, o.limit_time_constant_s)) + " 1"}});
   child(defaults, "site",
         {{"size", fmt(kMarkerSiteRadius)},
          {"group", std::to_string(kMarkerSiteGroup)},
@@ -226,7 +233,7 @@ std::string to_mjcf(const Character& c, const PhysicsOptions& o) {
           {{"name", std::string(kFootWeldPrefix) + side},
            {"body1", foot},
            {"active", "false"},
-           {"solref", fmt(o.weld_time_constant_s) + " 1"}});
+           {"solref", fmt(solref_time_constant(o, o.weld_time_constant_s)) + " 1"}});
   }
 
   tinyxml2::XMLPrinter printer;
