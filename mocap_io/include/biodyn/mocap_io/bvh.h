@@ -1,0 +1,86 @@
+#pragma once
+/// BVH (Biovision hierarchy) reader, writer and forward kinematics. Any hierarchy; per-joint
+/// channel order, where rotations are intrinsic and applied in the listed order (a joint
+/// listing "Zrotation Xrotation Yrotation" has R = Rz * Rx * Ry); roots with or without
+/// position channels; end sites; frame time. Units and up axis are not stated in the file:
+/// BvhUnits says how to read them (references.md: CMU is x 0.056444 -> metres, y up).
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <string>
+#include <vector>
+
+namespace biodyn::mocap_io {
+
+/// One channel of a BVH joint.
+enum class BvhChannel { kXposition, kYposition, kZposition, kXrotation, kYrotation, kZrotation };
+
+const char* to_string(BvhChannel channel);
+
+/// One joint (or end site) of the hierarchy, in file order (parents before children).
+struct BvhJoint {
+  std::string name;  ///< "End Site" joints get "<parent>_end"
+  int parent = -1;   ///< index into BvhMotion::joints; -1 for a root
+  bool end_site = false;
+  Eigen::Vector3d offset = Eigen::Vector3d::Zero();  ///< file units, parent frame
+  std::vector<BvhChannel> channels;                  ///< in the listed order; empty for end sites
+  int first_channel = 0;  ///< index of channels[0] in a frame's values
+};
+
+/// A BVH file: hierarchy and motion, values exactly as in the file (file units, degrees).
+struct BvhMotion {
+  std::vector<BvhJoint> joints;
+  double frame_time_s = 0.0;  ///< s, > 0
+  /// frames x channel_count(): each frame's values in file order (positions in file units,
+  /// rotations in degrees).
+  Eigen::MatrixXd values;
+
+  int frame_count() const { return static_cast<int>(values.rows()); }
+  int channel_count() const { return static_cast<int>(values.cols()); }
+  /// Index of the joint named `name`, or -1.
+  int find(const std::string& name) const;
+};
+
+/// Vertical axis of a BVH file's world frame.
+enum class UpAxis { kY, kZ };
+
+/// How to interpret a BVH file's units and axes when mapping it to biodyn's world (z up,
+/// metres). With kY up, file (x, y, z) maps to world (z, x, y) (a right-handed rotation: the
+/// file's forward +z becomes world +x, the file's up +y becomes world +z).
+struct BvhUnits {
+  double metres_per_unit = 0.01;  ///< m per file length unit (cm is the most common)
+  UpAxis up = UpAxis::kY;
+  /// CMU motion-capture database preset (references.md: x 0.056444 -> m, y up).
+  static BvhUnits cmu() { return {0.056444, UpAxis::kY}; }
+};
+
+/// Parses BVH text; `source` names the file in errors. Throws ParseError naming the line, what
+/// was expected and what was found (unknown keyword, wrong channel count, missing frames,
+/// non-number, a frame with too few or too many values, ...).
+BvhMotion parse_bvh(const std::string& text, const std::string& source);
+/// Reads a BVH file (parse_bvh on its contents; sim::InvalidArgument if it cannot be read).
+BvhMotion read_bvh(const std::string& path);
+
+/// BVH text of `motion` with values printed to `precision` significant digits (parse_bvh of the
+/// result reproduces the values to that precision; 10 digits keeps a round trip to 1e-6).
+std::string format_bvh(const BvhMotion& motion, int precision = 10);
+/// Writes format_bvh(motion) to `path` whole or not at all; throws sim::Error if it cannot.
+void write_bvh(const std::string& path, const BvhMotion& motion, int precision = 10);
+
+/// Local rotation of joint j at frame f (its rotation channels composed intrinsically in listed
+/// order) as a rotation matrix in the file's axes.
+Eigen::Matrix3d local_rotation(const BvhMotion& motion, int j, int f);
+
+/// World poses of every joint (and end site) at frame f, in biodyn's world (metres, z up) per
+/// `units`: positions (3 x joints) and orientations (rotation from the joint's frame, in file
+/// axes, to the world).
+struct BvhPose {
+  Eigen::Matrix3Xd positions_W;
+  std::vector<Eigen::Matrix3d> rotations_W;
+};
+BvhPose forward_kinematics(const BvhMotion& motion, int f, const BvhUnits& units);
+
+/// The rotation from the file's axes to biodyn's world axes for `up`.
+Eigen::Matrix3d file_to_world(UpAxis up);
+
+}  // namespace biodyn::mocap_io
