@@ -21,11 +21,14 @@ struct MarkerData {
   /// m, lab frame of the file; frames x (3 * markers): row f holds x, y, z of marker 0, then
   /// marker 1, ... A gap (invalid or missing sample) is NaN in all three coordinates.
   Eigen::MatrixXd positions_m;
+  /// s, time of each frame as the file states it (TRC's Time column), relative to nothing in
+  /// particular; empty when frames are evenly spaced at rate_hz from 0 (C3D, BVH).
+  std::vector<double> times_s;
 
   int frame_count() const { return static_cast<int>(positions_m.rows()); }
   int marker_count() const { return static_cast<int>(labels.size()); }
-  /// s, time of frame f relative to the first frame.
-  double time_s(int f) const { return f / rate_hz; }
+  /// s, time of frame f: times_s[f] when the file gave times, else f / rate_hz.
+  double time_s(int f) const { return times_s.empty() ? f / rate_hz : times_s[f]; }
   /// m, position of marker m at frame f (NaN when it is a gap).
   Eigen::Vector3d position(int f, int m) const {
     return positions_m.row(f).segment<3>(3 * m).transpose();

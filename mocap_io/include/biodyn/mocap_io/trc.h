@@ -1,0 +1,42 @@
+#pragma once
+/// TRC (track row column, OpenSim / Motion Analysis) marker files: a 5-line header (path line,
+/// the DataRate ... OrigNumFrames keys and their values, the marker labels, X1 Y1 Z1 ...
+/// column names), then one row per frame: Frame#, Time, x y z per marker. A gap is "NaN" or an
+/// empty field (both occur in the wild).
+
+#include <string>
+#include <vector>
+
+#include "biodyn/mocap_io/marker_data.h"
+
+namespace biodyn::mocap_io {
+
+/// A TRC file's contents; positions converted from its Units to metres.
+struct TrcFile {
+  /// times_s holds the Time column; first_frame the first Frame#; rate_hz the header's DataRate.
+  MarkerData markers;
+  std::string units;  ///< the file's Units ("mm", "cm" or "m")
+  /// Places where the header and the rows disagree (NumFrames vs rows, DataRate vs the Time
+  /// column's spacing), each naming both values and saying which one was used. Empty for a
+  /// consistent file.
+  std::vector<std::string> inconsistencies;
+};
+
+/// Parses TRC text; `source` names the file in errors. Throws ParseError naming the line, what
+/// was expected and what was found (missing header key, unknown Units, label count against
+/// NumMarkers, a row with the wrong number of fields or a non-number, no rows). Never returns
+/// a partial motion.
+TrcFile parse_trc(const std::string& text, const std::string& source);
+/// Reads a TRC file (parse_trc of its contents; sim::InvalidArgument if it cannot be read).
+TrcFile read_trc(const std::string& path);
+
+/// TRC text of `markers` in `units` ("mm" or "m"), values to `precision` significant digits,
+/// gaps as NaN. Frame numbers start at markers.first_frame; times are markers.time_s(f).
+/// `file_name` goes into the PathFileType line. Throws sim::InvalidArgument for other units.
+std::string format_trc(const MarkerData& markers, const std::string& units = "mm",
+                       const std::string& file_name = "", int precision = 10);
+/// Writes format_trc(...) to `path` whole or not at all; throws sim::Error if it cannot.
+void write_trc(const std::string& path, const MarkerData& markers,
+               const std::string& units = "mm", int precision = 10);
+
+}  // namespace biodyn::mocap_io

@@ -1,0 +1,318 @@
+#include "biodyn/mocap_io/trc.h"
+
+#include <algorithm>
+#include <cerrno>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <limits>
+#include <map>
+#include <sstream>
+
+#include "biodyn/mocap_io/errors.h"
+#include "biodyn/mocap_io/file_io.h"
+#include "biodyn/sim/errors.h"
+
+namespace biodyn::mocap_io {
+namespace {
+
+/// Relative difference between DataRate and the Time column's rate above which the header and
+/// the rows are reported as disagreeing (TRC files print times to ~6 digits).
+constexpr double kRateMismatchTolerance = 1e-3;
+
+/// One line of the file with its 1-based number.
+struct Line {
+  long number = 0;
+  std::string text;
+};
+
+std::vector<Line> split_lines(const std::string& text) {
+  std::vector<Line> lines;
+  std::istringstream in(text);
+  std::string s;
+  long n = 0;
+  while (std::getline(in, s)) {
+    ++n;
+    if (!s.empty() && s.back() == '\r') s.pop_back();
+    lines.push_back({n, s});
+  }
+  return lines;
+}
+
+bool blank(const std::string& s) {
+  return std::all_of(s.begin(), s.end(), [](char c) { return c == ' ' || c == '\t'; });
+}
+
+std::string trim(const std::string& s) {
+  const size_t b = s.find_first_not_of(" \t");
+  if (b == std::string::npos) return "";
+  const size_t e = s.find_last_not_of(" \t");
+  return s.substr(b, e - b + 1);
+}
+
+/// Fields of a line: tab-separated when it has tabs (empty fields kept: a gap in a data row),
+/// else whitespace-separated (some writers use spaces).
+std::vector<std::string> split_fields(const std::string& s) {
+  std::vector<std::string> fields;
+  if (s.find('\t') != std::string::npos) {
+    size_t start = 0;
+    while (true) {
+      const size_t tab = s.find('\t', start);
+      fields.push_back(trim(s.substr(start, tab == std::string::npos ? std::string::npos
+                                                                      : tab - start)));
+      if (tab == std::string::npos) break;
+      start = tab + 1;
+    }
+  } else {
+    std::istringstream in(s);
+    std::string f;
+    while (in >> f) fields.push_back(f);
+  }
+  return fields;
+}
+
+/// Parses a whole field as a number ("NaN" included); false if it is not one.
+bool parse_number(const std::string& s, double* value) {
+  if (s.empty()) return false;
+  errno = 0;
+  char* end = nullptr;
+  *value = std::strtod(s.c_str(), &end);
+  return *end == '\0' && errno != ERANGE;
+}
+
+double metres_per_unit(const std::string& units, const std::string& source, long line) {
+  if (units == "mm") return 1e-3;
+  if (units == "cm") return 1e-2;
+  if (units == "m") return 1.0;
+  throw ParseError(source, ParseError::line(line), "Units mm, cm or m", "'" + units + "'");
+}
+
+std::string number_text(double v) {
+  std::ostringstream s;
+  s.precision(8);
+  s << v;
+  return s.str();
+}
+
+}  // namespace
+
+TrcFile parse_trc(const std::string& text, const std::string& source) {
+  const std::vector<Line> lines = split_lines(text);
+  auto line_at = [&](size_t i, const std::string& expected) -> const Line& {
+    if (i >= lines.size()) {
+      throw ParseError(source, ParseError::line(static_cast<long>(lines.size()) + 1), expected,
+                       "end of file");
+    }
+    return lines[i];
+  };
+  // Line 1: PathFileType 4 (X/Y/Z) name.
+  const Line& path_line = line_at(0, "the PathFileType line");
+  if (path_line.text.rfind("PathFileType", 0) != 0) {
+    throw ParseError(source, ParseError::line(1), "'PathFileType' (a TRC file)",
+                     "'" + path_line.text.substr(0, 40) + "'");
+  }
+  // Lines 2-3: header keys and their values.
+  const Line& key_line = line_at(1, "the header keys (DataRate, NumFrames, ...)");
+  const Line& value_line = line_at(2, "the header values");
+  const std::vector<std::string> keys = split_fields(key_line.text);
+  const std::vector<std::string> values = split_fields(value_line.text);
+  if (values.size() < keys.size()) {
+    throw ParseError(source, ParseError::line(value_line.number),
+                     std::to_string(keys.size()) + " header values (one per key on line " +
+                         std::to_string(key_line.number) + ")",
+                     std::to_string(values.size()));
+  }
+  std::map<std::string, std::string> header;
+  for (size_t i = 0; i < keys.size(); ++i) header[keys[i]] = values[i];
+  auto header_number = [&](const std::string& key) {
+    const auto it = header.find(key);
+    if (it == header.end()) {
+      throw ParseError(source, ParseError::line(key_line.number), "the header key " + key,
+                       "'" + key_line.text.substr(0, 80) + "'");
+    }
+    double v = 0.0;
+    if (!parse_number(it->second, &v) || !std::isfinite(v)) {
+      throw ParseError(source, ParseError::line(value_line.number), key + " as a number",
+                       "'" + it->second + "'");
+    }
+    return v;
+  };
+  TrcFile file;
+  const double rate_hz = header_number("DataRate");
+  if (!(rate_hz > 0.0)) {
+    throw ParseError(source, ParseError::line(value_line.number), "DataRate > 0",
+                     number_text(rate_hz));
+  }
+  const double num_frames = header_number("NumFrames");
+  const double num_markers = header_number("NumMarkers");
+  if (num_markers < 1 || num_markers != std::floor(num_markers)) {
+    throw ParseError(source, ParseError::line(value_line.number), "NumMarkers a whole number >= 1",
+                     number_text(num_markers));
+  }
+  const auto units_it = header.find("Units");
+  if (units_it == header.end()) {
+    throw ParseError(source, ParseError::line(key_line.number), "the header key Units",
+                     "'" + key_line.text.substr(0, 80) + "'");
+  }
+  file.units = units_it->second;
+  const double scale = metres_per_unit(file.units, source, value_line.number);
+
+  // Line 4: Frame# Time label (label columns are followed by two empty ones).
+  const Line& label_line = line_at(3, "the marker labels line (Frame# Time ...)");
+  const std::vector<std::string> label_fields = split_fields(label_line.text);
+  if (label_fields.size() < 2 || label_fields[0] != "Frame#" || label_fields[1] != "Time") {
+    throw ParseError(source, ParseError::line(label_line.number), "'Frame#' and 'Time' columns",
+                     "'" + label_line.text.substr(0, 40) + "'");
+  }
+  MarkerData& m = file.markers;
+  for (size_t i = 2; i < label_fields.size(); ++i) {
+    if (!label_fields[i].empty()) m.labels.push_back(label_fields[i]);
+  }
+  const int n = static_cast<int>(num_markers);
+  if (m.marker_count() != n) {
+    throw ParseError(source, ParseError::line(label_line.number),
+                     std::to_string(n) + " marker labels (NumMarkers)",
+                     std::to_string(m.marker_count()));
+  }
+  // Line 5: X1 Y1 Z1 ...; then optional blank lines before the rows.
+  line_at(4, "the coordinate names line (X1 Y1 Z1 ...)");
+  const size_t columns = 2 + 3 * static_cast<size_t>(n);
+  std::vector<std::vector<double>> rows;
+  std::vector<double> times;
+  std::vector<long> row_lines;
+  int first_frame = 1;
+  for (size_t i = 5; i < lines.size(); ++i) {
+    if (blank(lines[i].text)) continue;
+    std::vector<std::string> fields = split_fields(lines[i].text);
+    // Trailing empty fields (a trailing tab) are not data.
+    while (fields.size() > columns && fields.back().empty()) fields.pop_back();
+    if (fields.size() != columns) {
+      throw ParseError(source, ParseError::line(lines[i].number),
+                       std::to_string(columns) + " fields (Frame#, Time and 3 per marker)",
+                       std::to_string(fields.size()) + " fields");
+    }
+    double frame = 0.0, time = 0.0;
+    if (!parse_number(fields[0], &frame) || !parse_number(fields[1], &time) ||
+        !std::isfinite(time)) {
+      throw ParseError(source, ParseError::line(lines[i].number), "a frame number and a time",
+                       "'" + fields[0] + "', '" + fields[1] + "'");
+    }
+    if (!times.empty() && !(time > times.back())) {
+      throw ParseError(source, ParseError::line(lines[i].number),
+                       "a time later than the previous row's " + number_text(times.back()),
+                       number_text(time));
+    }
+    if (rows.empty()) first_frame = static_cast<int>(frame);
+    std::vector<double> row(3 * static_cast<size_t>(n));
+    for (size_t k = 0; k < row.size(); ++k) {
+      const std::string& f = fields[2 + k];
+      double v = std::numeric_limits<double>::quiet_NaN();
+      if (!f.empty() && !parse_number(f, &v)) {
+        throw ParseError(source, ParseError::line(lines[i].number),
+                         "a number, NaN or an empty field for " + m.labels[k / 3] + " " +
+                             "XYZ"[k % 3],
+                         "'" + f + "'");
+      }
+      row[k] = v * scale;
+    }
+    // A gap is a gap in all three coordinates.
+    for (size_t k = 0; k < row.size(); k += 3) {
+      if (std::isnan(row[k]) || std::isnan(row[k + 1]) || std::isnan(row[k + 2])) {
+        row[k] = row[k + 1] = row[k + 2] = std::numeric_limits<double>::quiet_NaN();
+      }
+    }
+    rows.push_back(std::move(row));
+    times.push_back(time);
+    row_lines.push_back(lines[i].number);
+  }
+  if (rows.empty()) {
+    throw ParseError(source, ParseError::line(static_cast<long>(lines.size()) + 1),
+                     "at least one data row", "end of file");
+  }
+  m.rate_hz = rate_hz;
+  m.first_frame = first_frame;
+  m.times_s = times;
+  m.positions_m.resize(static_cast<Eigen::Index>(rows.size()), 3 * n);
+  for (size_t f = 0; f < rows.size(); ++f) {
+    for (int k = 0; k < 3 * n; ++k) m.positions_m(static_cast<Eigen::Index>(f), k) = rows[f][k];
+  }
+  // Fewer rows than NumFrames is a truncated file: refused. More rows are reported and read.
+  if (num_frames > static_cast<double>(rows.size())) {
+    throw ParseError(source, ParseError::line(static_cast<long>(lines.size()) + 1),
+                     number_text(num_frames) + " rows (NumFrames on line " +
+                         std::to_string(value_line.number) + ")",
+                     std::to_string(rows.size()) + " rows (a truncated file?)");
+  }
+  if (num_frames < static_cast<double>(rows.size())) {
+    file.inconsistencies.push_back("NumFrames is " + number_text(num_frames) + " but there are " +
+                                   std::to_string(rows.size()) + " rows; all rows are read");
+  }
+  if (times.size() >= 2) {
+    std::vector<double> steps;
+    for (size_t i = 1; i < times.size(); ++i) steps.push_back(times[i] - times[i - 1]);
+    std::nth_element(steps.begin(), steps.begin() + steps.size() / 2, steps.end());
+    const double median_step = steps[steps.size() / 2];
+    if (std::abs(median_step * rate_hz - 1.0) > kRateMismatchTolerance) {
+      file.inconsistencies.push_back(
+          "DataRate is " + number_text(rate_hz) + " Hz but the Time column steps " +
+          number_text(median_step) + " s (" + number_text(1.0 / median_step) +
+          " Hz); each frame keeps its time from the Time column");
+    }
+  }
+  return file;
+}
+
+TrcFile read_trc(const std::string& path) { return parse_trc(read_file_bytes(path), path); }
+
+std::string format_trc(const MarkerData& markers, const std::string& units,
+                       const std::string& file_name, int precision) {
+  double per_metre = 0.0;
+  if (units == "mm") {
+    per_metre = 1e3;
+  } else if (units == "m") {
+    per_metre = 1.0;
+  } else {
+    throw sim::InvalidArgument("TRC units: expected mm or m, got '" + units + "'");
+  }
+  const int n = markers.marker_count();
+  if (markers.positions_m.cols() != 3 * n) {
+    throw sim::InvalidArgument("TRC: positions have " + std::to_string(markers.positions_m.cols()) +
+                               " columns, expected 3 per label (" + std::to_string(3 * n) + ")");
+  }
+  std::ostringstream out;
+  out.precision(precision);
+  out << "PathFileType\t4\t(X/Y/Z)\t" << file_name << "\n";
+  out << "DataRate\tCameraRate\tNumFrames\tNumMarkers\tUnits\tOrigDataRate\tOrigDataStartFrame\t"
+         "OrigNumFrames\n";
+  out << markers.rate_hz << "\t" << markers.rate_hz << "\t" << markers.frame_count() << "\t" << n
+      << "\t" << units << "\t" << markers.rate_hz << "\t" << markers.first_frame << "\t"
+      << markers.frame_count() << "\n";
+  out << "Frame#\tTime";
+  for (const std::string& label : markers.labels) out << "\t" << label << "\t\t";
+  out << "\n\t";
+  for (int i = 1; i <= n; ++i) out << "\tX" << i << "\tY" << i << "\tZ" << i;
+  out << "\n\n";
+  for (int f = 0; f < markers.frame_count(); ++f) {
+    out << markers.first_frame + f << "\t" << markers.time_s(f);
+    for (int k = 0; k < 3 * n; ++k) {
+      const double v = markers.positions_m(f, k);
+      out << "\t";
+      if (std::isnan(v)) {
+        out << "NaN";
+      } else {
+        out << v * per_metre;
+      }
+    }
+    out << "\n";
+  }
+  return out.str();
+}
+
+void write_trc(const std::string& path, const MarkerData& markers, const std::string& units,
+               int precision) {
+  const size_t slash = path.find_last_of('/');
+  const std::string name = slash == std::string::npos ? path : path.substr(slash + 1);
+  write_file_whole(path, format_trc(markers, units, name, precision));
+}
+
+}  // namespace biodyn::mocap_io
