@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <optional>
+#include <set>
 #include <sstream>
 #include <tuple>
 
@@ -199,6 +200,18 @@ void CharacterSpec::validate() const {
     if (o.length_m && !(std::isfinite(*o.length_m) && *o.length_m > 0 && *o.length_m < 1.5)) {
       throw InvalidArgument("overrides." + name + ".length_m: must be within (0, 1.5) m, got " +
                             std::to_string(*o.length_m));
+    }
+  }
+  std::set<std::string> names;
+  for (const MarkerPlacement& m : markers) {
+    if (m.name.empty()) throw InvalidArgument("markers: a marker has an empty name");
+    if (!names.insert(m.name).second) {
+      throw InvalidArgument("markers: names must be unique, got '" + m.name + "' twice");
+    }
+    for (double v : {m.along, m.ant, m.lat, m.sup}) {
+      if (!std::isfinite(v)) {
+        throw InvalidArgument("markers." + m.name + ": along/ant/lat/sup must be finite numbers");
+      }
     }
   }
 }
@@ -633,8 +646,26 @@ Segment assemble_segment(const Build& b, const SegmentPlan& plan,
   return seg;
 }
 
-/// The thesis's 26 markers on the skin of their part (markers_26.csv explains the columns),
-/// attached to the body that carries that part; arm markers only where there are arms.
+/// The marker placements of the spec (the thesis's 26 of markers_26.csv when it gives none).
+std::vector<MarkerPlacement> marker_placements(const Build& b) {
+  if (!b.spec.markers.empty()) return b.spec.markers;
+  std::vector<MarkerPlacement> out;
+  for (const MarkerRow& mr : b.T.markers) {
+    MarkerPlacement p;
+    p.name = mr.marker;
+    p.part = mr.segment;
+    p.along = mr.along;
+    p.ant = mr.ant;
+    p.lat = mr.lat;
+    p.sup = mr.sup;
+    p.description = mr.description;
+    out.push_back(p);
+  }
+  return out;
+}
+
+/// Marker sites on the skin of their part (MarkerPlacement explains the terms), attached to
+/// the body that carries that part; arm markers only where there are arms.
 std::vector<Marker> place_markers(const Build& b, const Character& c,
                                   const std::vector<SegmentPlan>& plan) {
   std::map<std::string, std::string> part_to_segment;
@@ -642,16 +673,27 @@ std::vector<Marker> place_markers(const Build& b, const Character& c,
     for (const std::string& part : p.parts) part_to_segment[part] = p.name;
   }
   std::vector<Marker> markers;
-  for (const MarkerRow& mr : b.T.markers) {
-    const auto pit = b.parts.find(mr.segment);
+  for (const MarkerPlacement& mr : marker_placements(b)) {
+    const auto pit = b.parts.find(mr.part);
     if (pit == b.parts.end()) {
-      throw sim::Error("markers_26.csv: marker " + mr.marker + " names no segment '" + mr.segment +
-                       "'");
+      std::string names;
+      for (const auto& [name, part] : b.parts) names += (names.empty() ? "" : ", ") + name;
+      throw InvalidArgument("marker " + mr.name + ": part must be one of " + names + ", got '" +
+                            mr.part + "'");
     }
     const Part& part = pit->second;
     const bool arm = part.kind == "clavicle" || part.kind == "upper_arm" ||
                      part.kind == "forearm" || part.kind == "hand";
     if (b.spec.detail == Detail::kGait && arm) continue;  // no arms in the gait model
+    Marker m;
+    m.name = mr.name;
+    m.segment = part_to_segment.at(part.name);
+    m.description = mr.description;
+    if (mr.position_B) {
+      m.position_B = *mr.position_B;
+      markers.push_back(m);
+      continue;
+    }
     const double lateral_sign = part.side.empty() ? 1.0 : side_sign(part.side);
     Vector3d pos_W;
     if (part.kind == "foot") {  // along: heel -> toe tip; sup: sole -> dorsum
@@ -667,11 +709,7 @@ std::vector<Marker> place_markers(const Build& b, const Character& c,
               Vector3d(mr.ant * part.half_extent.x(), mr.lat * lateral_sign * part.half_extent.y(),
                        mr.sup * part.half_extent.z());
     }
-    Marker m;
-    m.name = mr.marker;
-    m.segment = part_to_segment.at(part.name);
     m.position_B = pos_W - c.find(m.segment)->origin_W;
-    m.description = mr.description;
     markers.push_back(m);
   }
   return markers;

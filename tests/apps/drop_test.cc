@@ -32,7 +32,7 @@ TEST_CASE("Zero-torque drop: no warnings, no NaN, no energy gain, a collapse", "
   };
   for (const Case& k : cases) {
     testing::MujocoWarningGuard guard;
-    models::CharacterSpec spec{k.height, k.mass, k.sex, k.detail, {}};
+    models::CharacterSpec spec{k.height, k.mass, k.sex, k.detail, {}, {}};
     INFO(k.height << " m, " << k.mass << " kg, " << models::to_string(k.sex) << ", "
                   << models::to_string(k.detail));
     sim::Simulation sim(testing::load_inline(models::to_mjcf(models::generate_character(spec))));

@@ -141,7 +141,7 @@ TEST_CASE("Generated characters meet the anthropometric and physical invariants"
     for (const double mass : {40.0, 80.0, 150.0}) {
       for (const models::Sex sex : {models::Sex::kMale, models::Sex::kFemale}) {
         for (const models::Detail detail : {models::Detail::kGait, models::Detail::kFull}) {
-          check_character({height, mass, sex, detail, {}});
+          check_character({height, mass, sex, detail, {}, {}});
         }
       }
     }
@@ -157,7 +157,7 @@ TEST_CASE("Invariants hold for random bodies across the supported range", "[mode
                      mass(rng),
                      i % 2 ? models::Sex::kMale : models::Sex::kFemale,
                      (i / 2) % 2 ? models::Detail::kFull : models::Detail::kGait,
-                     {}});
+                     {}, {}});
   }
 }
 
@@ -166,7 +166,7 @@ TEST_CASE("Generated MJCF compiles in stock MuJoCo 2.2.2 (mujoco-compile)", "[mo
     for (const double mass : {40.0, 150.0}) {
       for (const models::Sex sex : {models::Sex::kMale, models::Sex::kFemale}) {
         for (const models::Detail detail : {models::Detail::kGait, models::Detail::kFull}) {
-          models::CharacterSpec spec{height, mass, sex, detail, {}};
+          models::CharacterSpec spec{height, mass, sex, detail, {}, {}};
           const std::string path = testing::binary_dir() + "/stock_compile_" +
                                    std::to_string(static_cast<int>(height * 100)) + "_" +
                                    std::to_string(static_cast<int>(mass)) + "_" +

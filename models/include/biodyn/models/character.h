@@ -26,6 +26,21 @@ struct SegmentOverride {
   std::optional<double> length_m;  ///< m, > 0; scales the segment's geometry and inertia
 };
 
+/// Where a marker sits on the skin, relative to its part's geometry, so it scales with the body
+/// (markers_26.csv explains the terms): position = proximal joint + along * (axis to the distal
+/// end) + ant/lat/sup * the part's surface half-extent (lat mirrored: + is away from the
+/// midline). For the foot, along runs heel -> toe tip and sup sole (0) -> dorsum (1). Or, with
+/// position_B, a fixed offset in the body frame of the segment carrying the part.
+struct MarkerPlacement {
+  std::string name;  ///< e.g. "LASI"
+  /// A full-detail part: pelvis, lumbar, thorax, neck, head, clavicle_l, upper_arm_l,
+  /// forearm_l, hand_l, thigh_l, shank_l, foot_l, toes_l (and _r).
+  std::string part;
+  double along = 0.0, ant = 0.0, lat = 0.0, sup = 0.0;  ///< fractions (see above)
+  std::optional<Eigen::Vector3d> position_B;  ///< m, body frame: replaces the fractions if set
+  std::string description;
+};
+
 /// What to generate. Defaults: the default character of `biodyn model` and `./run.sh`.
 struct CharacterSpec {
   double height_m = 1.80;  ///< m, standing height (vertex to sole), in [kMinHeight, kMaxHeight]
@@ -34,6 +49,9 @@ struct CharacterSpec {
   Detail detail = Detail::kFull;
   /// Keyed by segment name ("thigh_l") or by name without side ("thigh": both sides).
   std::map<std::string, SegmentOverride> overrides;
+  /// Marker sites to place; empty: the thesis's 26 markers (markers_26.csv). A marker on an arm
+  /// part is left out of the gait detail (it has no arms).
+  std::vector<MarkerPlacement> markers;
 
   static constexpr double kMinHeight = 0.5;  ///< m; below: not a standing human
   static constexpr double kMaxHeight = 2.8;  ///< m; taller than any recorded human
