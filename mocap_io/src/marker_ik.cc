@@ -16,6 +16,7 @@ constexpr double kDampingDecrease = 1.0 / 3.0;
 constexpr double kDampingIncrease = 4.0;
 constexpr double kMaxDamping = 1e8;  ///< beyond this a step cannot lower the cost: stop
 constexpr double kMinDamping = 1e-12;
+constexpr double kLimitSlack = 1e-9;  ///< rad or m: a DOF this close to a limit is on it
 constexpr int kMinRootMarkers = 3;   ///< thesis: the root is placed from the 3 pelvis markers
 
 bool finite3(const double* p) {
@@ -86,6 +87,7 @@ MarkerIk::MarkerIk(const mjModel& model, const std::vector<std::string>& labels,
   jtj_ = Eigen::MatrixXd::Zero(m_.nv, m_.nv);
   system_ = Eigen::MatrixXd::Zero(m_.nv, m_.nv);
   jtr_ = Eigen::VectorXd::Zero(m_.nv);
+  rhs_ = Eigen::VectorXd::Zero(m_.nv);
   step_ = Eigen::VectorXd::Zero(m_.nv);
   ldlt_ = Eigen::LDLT<Eigen::MatrixXd>(m_.nv);
   jac_site_.assign(3 * static_cast<size_t>(m_.nv), 0.0);
@@ -184,6 +186,25 @@ void MarkerIk::place_root(const double* targets_m, mjtNum* qpos) {
   qpos[a + 6] = q.z();
 }
 
+void MarkerIk::hold_dofs_at_limits(const mjtNum* qpos) {
+  // Active set for hinge and slide limits: a DOF sitting on a limit whose descent direction
+  // (J' r) points out of the range is held this iteration, so the other DOFs take the step
+  // instead of it being projected away iteration after iteration.
+  for (int j = 0; j < m_.njnt; ++j) {
+    const mjtJoint type = static_cast<mjtJoint>(m_.jnt_type[j]);
+    if (!m_.jnt_limited[j] || (type != mjJNT_HINGE && type != mjJNT_SLIDE)) continue;
+    const int a = m_.jnt_qposadr[j], v = m_.jnt_dofadr[j];
+    const double lo = m_.jnt_range[2 * j], hi = m_.jnt_range[2 * j + 1];
+    const bool out_low = qpos[a] <= lo + kLimitSlack && rhs_(v) < 0;
+    const bool out_high = qpos[a] >= hi - kLimitSlack && rhs_(v) > 0;
+    if (!out_low && !out_high) continue;
+    system_.row(v).setZero();
+    system_.col(v).setZero();
+    system_(v, v) = 1.0;
+    rhs_(v) = 0.0;
+  }
+}
+
 MarkerIkFrame MarkerIk::solve(const double* targets_m, bool have_previous, mjtNum* qpos) {
   MarkerIkFrame out;
   int visible = 0, root_visible = 0;
@@ -200,6 +221,10 @@ MarkerIkFrame MarkerIk::solve(const double* targets_m, bool have_previous, mjtNu
     return out;  // too few markers: not solved, qpos untouched
   }
   if (!have_previous) place_root(targets_m, qpos);
+  weight_sum_visible_ = 0.0;
+  for (size_t i = 0; i < site_of_.size(); ++i) {
+    if (site_of_[i] >= 0 && finite3(targets_m + 3 * i)) weight_sum_visible_ += weight_[i];
+  }
 
   double cost = evaluate(targets_m, qpos, true);
   jtj_.noalias() = jacobian_.transpose() * jacobian_;
@@ -212,8 +237,10 @@ MarkerIkFrame MarkerIk::solve(const double* targets_m, bool have_previous, mjtNu
     system_ = jtj_;
     system_.diagonal() += damping * jtj_.diagonal();
     system_.diagonal().array() += options_.regularization;
+    rhs_ = jtr_;
+    hold_dofs_at_limits(qpos);
     ldlt_.compute(system_);
-    step_ = ldlt_.solve(jtr_);
+    step_ = ldlt_.solve(rhs_);
     mju_copy(trial_qpos_.data(), qpos, m_.nq);
     mj_integratePos(&m_, trial_qpos_.data(), step_.data(), 1.0);
     project_limits(trial_qpos_.data());
@@ -225,9 +252,14 @@ MarkerIkFrame MarkerIk::solve(const double* targets_m, bool have_previous, mjtNu
     }
     mju_copy(qpos, trial_qpos_.data(), m_.nq);
     damping = std::max(damping * kDampingDecrease, kMinDamping);
-    // A step that moved no DOF by more than the tolerance (rad or m: about the marker motion at
-    // a 1 m lever arm) has converged.
-    if (step_.cwiseAbs().maxCoeff() < options_.tolerance_m) break;
+    // Converged when the step moved no DOF by more than the tolerance (rad or m: about the
+    // marker motion at a 1 m lever arm) or lowered the weighted RMS marker error by less.
+    const double total_weight = std::max(weight_sum_visible_, 1e-12);
+    const double rms_gain =
+        std::sqrt(cost / total_weight) - std::sqrt(trial_cost / total_weight);
+    if (step_.cwiseAbs().maxCoeff() < options_.tolerance_m || rms_gain < options_.tolerance_m) {
+      break;
+    }
     cost = evaluate(targets_m, qpos, true);
     jtj_.noalias() = jacobian_.transpose() * jacobian_;
     jtr_.noalias() = jacobian_.transpose() * residual_;

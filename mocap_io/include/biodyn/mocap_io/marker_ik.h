@@ -22,7 +22,9 @@ namespace biodyn::mocap_io {
 /// Settings of the per-frame solve.
 struct MarkerIkOptions {
   int max_iterations = 15;          ///< LM iterations per frame (the thesis's cap: 15)
-  double tolerance_m = 1e-6;        ///< m; stop when a step moves no marker more than this
+  /// m (or rad); stop when a step moves no DOF by more than this or lowers the weighted RMS
+  /// marker error by less.
+  double tolerance_m = 1e-6;
   double initial_damping = 1e-3;    ///< LM lambda (relative to diag(J'J)) at the first step
   /// 1/rad^2-like regulariser added to every DOF (in m^2 per unit of q): keeps DOFs the markers
   /// do not see (e.g. arms in a lower-body set) at the previous frame instead of drifting.
@@ -72,6 +74,7 @@ class MarkerIk {
   double evaluate(const double* targets_m, const mjtNum* qpos, bool with_jacobian);
   void place_root(const double* targets_m, mjtNum* qpos);
   void project_limits(mjtNum* qpos) const;
+  void hold_dofs_at_limits(const mjtNum* qpos);
 
   const mjModel& m_;
   sim::Data data_;
@@ -85,7 +88,8 @@ class MarkerIk {
   Eigen::MatrixXd jacobian_;  ///< (3 * labels) x nv, weighted rows (zero for gaps)
   Eigen::VectorXd residual_;  ///< 3 * labels, weighted
   Eigen::MatrixXd jtj_, system_;
-  Eigen::VectorXd jtr_, step_;
+  Eigen::VectorXd jtr_, rhs_, step_;
+  double weight_sum_visible_ = 0.0;
   Eigen::LDLT<Eigen::MatrixXd> ldlt_;
   std::vector<mjtNum> jac_site_;  ///< 3 x nv, one site's translational Jacobian
   std::vector<mjtNum> trial_qpos_;
