@@ -3,6 +3,7 @@
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <sstream>
 
@@ -11,6 +12,10 @@
 namespace biodyn::mocap_io {
 
 std::string read_file_bytes(const std::string& path) {
+  std::error_code ec;
+  if (std::filesystem::is_directory(path, ec)) {
+    throw sim::InvalidArgument(path + ": cannot read: it is a directory");
+  }
   std::ifstream in(path, std::ios::binary);
   if (!in) {
     throw sim::InvalidArgument(path + ": cannot open for reading (" + std::strerror(errno) + ")");
