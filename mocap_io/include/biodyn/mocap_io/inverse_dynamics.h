@@ -1,0 +1,75 @@
+#pragma once
+/// Inverse dynamics of captured motion on any generated body (thesis: recursive Newton-Euler;
+/// MuJoCo's mj_inverse). Positions are low-pass filtered (zero-lag Butterworth), velocities and
+/// accelerations are finite differences on the configuration manifold (mj_differentiatePos);
+/// mj_inverse then gives the generalised force every DOF needs. The 6 root entries are the
+/// residual force and moment: the "helping hand" the motion needs beyond what the ground gives
+/// (mujoco-2.2.2.md); with measured ground reaction forces applied it should be small.
+
+#include <mujoco/mujoco.h>
+
+#include <Eigen/Core>
+#include <string>
+#include <vector>
+
+#include "biodyn/mocap_io/marker_data.h"
+#include "biodyn/mocap_io/motion_csv.h"
+
+namespace biodyn::mocap_io {
+
+/// Zero-lag low-pass: a 2nd-order Butterworth run forward and backward (4th order, no phase
+/// lag), the cut-off corrected for the double pass (Winter 2009, §3.4.4.4: f / 0.802).
+struct LowPassFilter {
+  double cutoff_hz = 6.0;  ///< Hz; Winter 2009 uses ~6 Hz for gait kinematics; 0: no filtering
+};
+
+/// Filters each column of `samples` (rows at `rate_hz`) in place. Ends are padded by odd
+/// reflection so they do not ring. Throws sim::InvalidArgument if the cut-off is not below the
+/// Nyquist frequency.
+void low_pass(Eigen::MatrixXd* samples, double rate_hz, const LowPassFilter& filter);
+
+/// Where the ground reaction comes from.
+enum class GroundForces {
+  kNone,        ///< none applied: the root residual is the whole ground reaction the motion needs
+  kForcePlates  ///< measured force plates, applied at the centre of pressure to the nearest foot
+};
+
+struct InverseDynamicsOptions {
+  LowPassFilter filter;
+  GroundForces ground = GroundForces::kNone;
+  /// Joint armature and damping are the simulation's numerical stabilisers (walking-notes.md),
+  /// not body properties: off by default so the torques are the body's. On to reproduce what the
+  /// simulator itself applied.
+  bool include_armature_damping = false;
+  /// Frames at each end dropped from the result: finite differences need neighbours.
+  int trim_frames = 1;
+};
+
+/// Per frame (frames x columns) results, SI units.
+struct InverseDynamicsResult {
+  std::vector<double> times_s;
+  std::vector<std::string> dof_names;  ///< nv names: root dofs, then each joint's
+  Eigen::MatrixXd qvel, qacc;          ///< frames x nv
+  /// frames x nv: N (root translation) or N m (rotations) each DOF needs (root entries: the
+  /// residual, in MuJoCo's free-joint frames).
+  Eigen::MatrixXd generalized_force;
+  Eigen::MatrixXd residual_force_N;    ///< frames x 3, world frame, on the root
+  Eigen::MatrixXd residual_moment_Nm;  ///< frames x 3, world frame, about the root body origin
+  Eigen::MatrixXd ground_force_N;      ///< frames x 3, world: the ground reaction applied (0: none)
+};
+
+/// Runs inverse dynamics of `motion` (its columns must be `model`'s qpos; frames evenly spaced)
+/// on `model`. `plates` (in the model's world frame) are needed for kForcePlates; their samples
+/// are interpolated to the motion's times, which must be on the plates' clock (capture time).
+/// Throws sim::InvalidArgument for a mismatched motion, NaN frames, uneven times, too few frames
+/// or missing plates.
+InverseDynamicsResult inverse_dynamics(const mjModel& model, const Motion& motion,
+                                       const InverseDynamicsOptions& options,
+                                       const std::vector<ForcePlate>& plates = {},
+                                       double plate_rate_hz = 0.0);
+
+/// The names of `model`'s DOFs: root_tx, root_ty, root_tz, root_rx, root_ry, root_rz for the free
+/// joint, <joint>_x/_y/_z for balls, <joint> for hinges.
+std::vector<std::string> dof_names(const mjModel& model);
+
+}  // namespace biodyn::mocap_io

@@ -1,0 +1,259 @@
+#include "biodyn/mocap_io/inverse_dynamics.h"
+
+#include <algorithm>
+#include <cmath>
+#include <memory>
+
+#include "biodyn/sim/errors.h"
+#include "biodyn/sim/model.h"
+
+namespace biodyn::mocap_io {
+namespace {
+
+/// Winter 2009 §3.4.4.4: a 2nd-order filter run twice has its -3 dB point at 0.802 of the
+/// single pass's cut-off; dividing by it keeps the asked cut-off.
+constexpr double kDoublePassCorrection = 0.802;
+/// Timing tolerance for "evenly spaced" frames, relative to the step.
+constexpr double kUnevenTolerance = 1e-3;
+/// A plate with less vertical force than this has no meaningful centre of pressure (N).
+constexpr double kMinPlateLoad_N = 20.0;
+
+/// One pass of the 2nd-order Butterworth low-pass (bilinear transform, pre-warped) over x.
+void butterworth_pass(std::vector<double>* x, double cutoff_hz, double rate_hz) {
+  const double k = std::tan(M_PI * cutoff_hz / rate_hz);
+  const double norm = 1.0 / (1.0 + std::sqrt(2.0) * k + k * k);
+  const double b0 = k * k * norm, b1 = 2.0 * b0, b2 = b0;
+  const double a1 = 2.0 * (k * k - 1.0) * norm, a2 = (1.0 - std::sqrt(2.0) * k + k * k) * norm;
+  // Start at rest on the first sample (unit DC gain): no start-up transient.
+  double x1 = (*x)[0], x2 = (*x)[0], y1 = (*x)[0], y2 = (*x)[0];
+  for (double& v : *x) {
+    const double y = b0 * v + b1 * x1 + b2 * x2 - a1 * y1 - a2 * y2;
+    x2 = x1;
+    x1 = v;
+    y2 = y1;
+    y1 = y;
+    v = y;
+  }
+}
+
+bool is_quaternion_start(const mjModel& m, int q, int* joint) {
+  for (int j = 0; j < m.njnt; ++j) {
+    const int a = m.jnt_qposadr[j];
+    if ((m.jnt_type[j] == mjJNT_BALL && q == a) || (m.jnt_type[j] == mjJNT_FREE && q == a + 3)) {
+      *joint = j;
+      return true;
+    }
+  }
+  return false;
+}
+
+}  // namespace
+
+void low_pass(Eigen::MatrixXd* samples, double rate_hz, const LowPassFilter& filter) {
+  if (filter.cutoff_hz == 0.0 || samples->rows() < 2) return;
+  const double cutoff = filter.cutoff_hz / kDoublePassCorrection;
+  if (!(filter.cutoff_hz > 0) || !(cutoff < 0.5 * rate_hz)) {
+    throw sim::InvalidArgument("filter cut-off: must be > 0 and, corrected for the double pass (/" +
+                               std::to_string(kDoublePassCorrection) + "), below the Nyquist "
+                               "frequency " + std::to_string(0.5 * rate_hz) + " Hz, got " +
+                               std::to_string(filter.cutoff_hz) + " Hz");
+  }
+  const Eigen::Index n = samples->rows();
+  // Pad each end by odd reflection over about two cut-off periods.
+  const Eigen::Index pad = std::min<Eigen::Index>(n - 1, static_cast<Eigen::Index>(
+                                                             std::ceil(2.0 * rate_hz / cutoff)));
+  std::vector<double> x(static_cast<size_t>(n + 2 * pad));
+  for (Eigen::Index c = 0; c < samples->cols(); ++c) {
+    const auto col = samples->col(c);
+    for (Eigen::Index i = 0; i < pad; ++i) {
+      x[static_cast<size_t>(i)] = 2.0 * col(0) - col(pad - i);
+      x[static_cast<size_t>(n + pad + i)] = 2.0 * col(n - 1) - col(n - 2 - i);
+    }
+    for (Eigen::Index i = 0; i < n; ++i) x[static_cast<size_t>(pad + i)] = col(i);
+    butterworth_pass(&x, cutoff, rate_hz);
+    std::reverse(x.begin(), x.end());
+    butterworth_pass(&x, cutoff, rate_hz);
+    std::reverse(x.begin(), x.end());
+    for (Eigen::Index i = 0; i < n; ++i) samples->col(c)(i) = x[static_cast<size_t>(pad + i)];
+  }
+}
+
+std::vector<std::string> dof_names(const mjModel& m) {
+  std::vector<std::string> names;
+  for (int j = 0; j < m.njnt; ++j) {
+    const char* jn = mj_id2name(&m, mjOBJ_JOINT, j);
+    const std::string joint = jn ? jn : "joint" + std::to_string(j);
+    switch (m.jnt_type[j]) {
+      case mjJNT_FREE:
+        for (const char* s : {"root_tx", "root_ty", "root_tz", "root_rx", "root_ry", "root_rz"}) {
+          names.push_back(s);
+        }
+        break;
+      case mjJNT_BALL:
+        for (const char* s : {"_x", "_y", "_z"}) names.push_back(joint + s);
+        break;
+      default:
+        names.push_back(joint);
+    }
+  }
+  return names;
+}
+
+InverseDynamicsResult inverse_dynamics(const mjModel& model, const Motion& motion,
+                                       const InverseDynamicsOptions& options,
+                                       const std::vector<ForcePlate>& plates,
+                                       double plate_rate_hz) {
+  check_motion_matches(motion, model, "motion");
+  const int frames = motion.frame_count();
+  const int trim = std::max(options.trim_frames, 1);
+  if (frames < 2 * trim + 1) {
+    throw sim::InvalidArgument("inverse dynamics: needs at least " + std::to_string(2 * trim + 1) +
+                               " frames, got " + std::to_string(frames));
+  }
+  for (int f = 0; f < frames; ++f) {
+    if (!motion.qpos.row(f).allFinite()) {
+      throw sim::InvalidArgument("inverse dynamics: frame " + std::to_string(f) + " (t = " +
+                                 std::to_string(motion.times_s[static_cast<size_t>(f)]) +
+                                 " s) has no pose (an unsolved IK frame); give a motion without "
+                                 "gaps (see longest_solved_span)");
+    }
+  }
+  const double dt = (motion.times_s.back() - motion.times_s.front()) / (frames - 1);
+  for (int f = 1; f < frames; ++f) {
+    const double step = motion.times_s[static_cast<size_t>(f)] - motion.times_s[static_cast<size_t>(f - 1)];
+    if (std::abs(step - dt) > kUnevenTolerance * dt) {
+      throw sim::InvalidArgument("inverse dynamics: frames must be evenly spaced; frame " +
+                                 std::to_string(f) + " steps " + std::to_string(step) +
+                                 " s, the mean step is " + std::to_string(dt) + " s");
+    }
+  }
+  if (options.ground == GroundForces::kForcePlates && (plates.empty() || !(plate_rate_hz > 0))) {
+    throw sim::InvalidArgument("inverse dynamics: ground from force plates, but the capture has "
+                               "no force plates");
+  }
+
+  // The model ID runs on: no constraints (contacts, limits, welds: the ground reaction is either
+  // measured or left in the residual) and, unless asked, no armature or joint damping.
+  std::unique_ptr<mjModel, sim::ModelDeleter> m(mj_copyModel(nullptr, &model));
+  m->opt.disableflags |= mjDSBL_CONSTRAINT;
+  if (!options.include_armature_damping) {
+    for (int v = 0; v < m->nv; ++v) {
+      m->dof_armature[v] = 0.0;
+      m->dof_damping[v] = 0.0;
+    }
+  }
+  sim::Data data(*m);
+  mjData* d = data.get();
+  const int nq = m->nq, nv = m->nv;
+
+  // Filter positions (quaternions kept in one hemisphere first, renormalised after).
+  Eigen::MatrixXd q = motion.qpos;
+  for (int c = 0; c < nq; ++c) {
+    int joint = -1;
+    if (!is_quaternion_start(*m, c, &joint)) continue;
+    for (int f = 1; f < frames; ++f) {
+      if (q.row(f).segment<4>(c).dot(q.row(f - 1).segment<4>(c)) < 0) q.row(f).segment<4>(c) *= -1;
+    }
+  }
+  low_pass(&q, 1.0 / dt, options.filter);
+  for (int c = 0; c < nq; ++c) {
+    int joint = -1;
+    if (!is_quaternion_start(*m, c, &joint)) continue;
+    for (int f = 0; f < frames; ++f) q.row(f).segment<4>(c).normalize();
+  }
+
+  // Velocities (central) and accelerations (second difference) on the configuration manifold.
+  std::vector<mjtNum> qa(static_cast<size_t>(nq)), qb(static_cast<size_t>(nq)),
+      v_back(static_cast<size_t>(nv)), v_fwd(static_cast<size_t>(nv));
+  auto diff = [&](int f0, int f1, std::vector<mjtNum>* out) {
+    for (int k = 0; k < nq; ++k) {
+      qa[static_cast<size_t>(k)] = q(f0, k);
+      qb[static_cast<size_t>(k)] = q(f1, k);
+    }
+    mj_differentiatePos(m.get(), out->data(), dt, qa.data(), qb.data());
+  };
+  const int out_frames = frames - 2 * trim;
+  InverseDynamicsResult r;
+  r.dof_names = dof_names(*m);
+  r.qvel.resize(out_frames, nv);
+  r.qacc.resize(out_frames, nv);
+  r.generalized_force.resize(out_frames, nv);
+  r.residual_force_N.resize(out_frames, 3);
+  r.residual_moment_Nm.resize(out_frames, 3);
+  r.ground_force_N = Eigen::MatrixXd::Zero(out_frames, 3);
+  std::vector<mjtNum> qfrc_ground(static_cast<size_t>(nv));
+  int root_joint = -1;
+  for (int j = 0; j < m->njnt; ++j) {
+    if (m->jnt_type[j] == mjJNT_FREE) root_joint = j;
+  }
+  const int foot_bodies[] = {mj_name2id(m.get(), mjOBJ_BODY, "foot_l"),
+                             mj_name2id(m.get(), mjOBJ_BODY, "foot_r")};
+  for (int i = 0; i < out_frames; ++i) {
+    const int f = i + trim;
+    diff(f - 1, f, &v_back);
+    diff(f, f + 1, &v_fwd);
+    for (int k = 0; k < nq; ++k) d->qpos[k] = q(f, k);
+    for (int v = 0; v < nv; ++v) {
+      d->qvel[v] = 0.5 * (v_back[static_cast<size_t>(v)] + v_fwd[static_cast<size_t>(v)]);
+      d->qacc[v] = (v_fwd[static_cast<size_t>(v)] - v_back[static_cast<size_t>(v)]) / dt;
+      r.qvel(i, v) = d->qvel[v];
+      r.qacc(i, v) = d->qacc[v];
+    }
+    mj_inverse(m.get(), d);
+    std::fill(qfrc_ground.begin(), qfrc_ground.end(), 0.0);
+    if (options.ground == GroundForces::kForcePlates) {
+      const double t = motion.times_s[static_cast<size_t>(f)];
+      for (const ForcePlate& p : plates) {
+        const double s = t * plate_rate_hz;
+        const int s0 = std::clamp(static_cast<int>(std::floor(s)), 0, p.sample_count() - 1);
+        const int s1 = std::min(s0 + 1, p.sample_count() - 1);
+        const double w = std::clamp(s - s0, 0.0, 1.0);
+        // The reaction on the subject is opposite to the force the subject applies to the plate.
+        const Eigen::Vector3d force_on_plate =
+            (1 - w) * p.force_N.row(s0).transpose() + w * p.force_N.row(s1).transpose();
+        const Eigen::Vector3d grf = -force_on_plate;
+        if (std::abs(grf.z()) < kMinPlateLoad_N) continue;
+        const Eigen::Vector3d cop = (1 - w) * p.cop_m.row(s0).transpose() + w * p.cop_m.row(s1).transpose();
+        const Eigen::Vector3d free_moment = -((1 - w) * p.free_moment_Nm.row(s0).transpose() +
+                                              w * p.free_moment_Nm.row(s1).transpose());
+        if (!cop.allFinite()) continue;
+        // Apply to the foot nearest the centre of pressure.
+        int body = foot_bodies[0];
+        double best = 1e9;
+        for (int b : foot_bodies) {
+          if (b < 0) continue;
+          const double dist = (Eigen::Vector3d(d->xpos + 3 * b) - cop).head<2>().norm();
+          if (dist < best) {
+            best = dist;
+            body = b;
+          }
+        }
+        if (body < 0) continue;
+        mjtNum force[3] = {grf.x(), grf.y(), grf.z()};
+        mjtNum torque[3] = {free_moment.x(), free_moment.y(), free_moment.z()};
+        mjtNum point[3] = {cop.x(), cop.y(), cop.z()};
+        mj_applyFT(m.get(), d, force, torque, point, body, qfrc_ground.data());
+        r.ground_force_N.row(i) += grf.transpose();
+      }
+    }
+    for (int v = 0; v < nv; ++v) {
+      r.generalized_force(i, v) = d->qfrc_inverse[v] - qfrc_ground[static_cast<size_t>(v)];
+    }
+    if (root_joint >= 0) {
+      const int v0 = m->jnt_dofadr[root_joint];
+      const int body = m->jnt_bodyid[root_joint];
+      const Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>> r_WB(d->xmat + 9 * body);
+      r.residual_force_N.row(i) = r.generalized_force.row(i).segment<3>(v0);
+      // Free-joint rotational DOFs are in the body frame (MuJoCo): rotate to the world.
+      r.residual_moment_Nm.row(i) =
+          (r_WB * r.generalized_force.row(i).segment<3>(v0 + 3).transpose()).transpose();
+    } else {
+      r.residual_force_N.row(i).setZero();
+      r.residual_moment_Nm.row(i).setZero();
+    }
+    r.times_s.push_back(motion.times_s[static_cast<size_t>(f)]);
+  }
+  return r;
+}
+
+}  // namespace biodyn::mocap_io
