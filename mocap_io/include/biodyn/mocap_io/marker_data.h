@@ -62,6 +62,11 @@ struct AnalogData {
 };
 
 /// One force plate's ground reaction, per analog sample, in the lab frame (SI units).
+///
+/// Sign: force_N is the GROUND REACTION, the force the plate exerts on the subject (upward while
+/// standing on a level plate), not the force the subject applies to the plate (its opposite).
+/// This is what OpenSim (ExternalLoads), ezc3d, BTK and Visual3D report and what a simulation
+/// applies to the body; the moments are those of this same force.
 struct ForcePlate {
   int type = 0;  ///< C3D FORCE_PLATFORM:TYPE (1-4)
   /// m, lab frame; the four surface corners (columns) in the file's order.
@@ -69,11 +74,17 @@ struct ForcePlate {
   /// m, the C3D FORCE_PLATFORM:ORIGIN vector (plate frame), as stored, converted to metres.
   Eigen::Vector3d origin_m = Eigen::Vector3d::Zero();
   std::vector<int> channels;  ///< 0-based analog channel indices the plate reads
-  /// samples x 3, in the lab frame:
-  Eigen::MatrixXd force_N;           ///< N, force the subject applies to the plate
-  Eigen::MatrixXd moment_origin_Nm;  ///< N m, moment about the plate's centre (surface)
-  Eigen::MatrixXd cop_m;             ///< m, centre of pressure on the surface (NaN when unloaded)
-  Eigen::MatrixXd free_moment_Nm;    ///< N m, moment about the COP (only the normal part != 0)
+  /// samples x 3 (one row per analog sample), in the lab frame:
+  Eigen::MatrixXd force_N;  ///< N, ground reaction: the force the plate exerts on the subject
+  /// N m, moment of the ground reaction about the plate's surface centre, center_m() (not the
+  /// sensor origin despite the name)
+  Eigen::MatrixXd moment_origin_Nm;
+  /// m, centre of pressure on the surface; NaN while the plate is unloaded (normal ground
+  /// reaction below 20 N, kUnloadedForce_N in mocap_io/src/c3d_force_plates.h)
+  Eigen::MatrixXd cop_m;
+  /// N m, moment of the ground reaction about the COP (only the part normal to the plate is
+  /// nonzero); NaN while unloaded
+  Eigen::MatrixXd free_moment_Nm;
 
   int sample_count() const { return static_cast<int>(force_N.rows()); }
   /// m, lab frame: the centre of the plate's surface (mean of the corners).

@@ -1,0 +1,186 @@
+// `biodyn mocap` as a user runs it on the real captures in ../shared/data: info, convert, IK
+// after scaling from the capture's own frames (OpenSim's thresholds), inverse dynamics, and bad
+// input refused in one line with nothing written.
+#include <sys/wait.h>
+
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "test_support.h"
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+namespace {
+
+constexpr double kIkRmsLimit_m = 0.02;  // OpenSim best practice: RMS < 2 cm per frame
+constexpr double kIkMaxLimit_m = 0.04;  // and max < 4 cm
+
+struct Run {
+  int exit_code = -1;
+  std::string out, err;
+};
+
+std::string slurp(const fs::path& p) {
+  std::ifstream in(p);
+  std::ostringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+Run run_biodyn(const std::string& args, const fs::path& dir) {
+  const std::string exe = biodyn::testing::binary_dir() + "/apps/biodyn";
+  const std::string cmd =
+      "cd '" + dir.string() + "' && '" + exe + "' " + args + " > stdout.txt 2> stderr.txt";
+  const int status = std::system(cmd.c_str());
+  Run r;
+  r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  r.out = slurp(dir / "stdout.txt");
+  r.err = slurp(dir / "stderr.txt");
+  return r;
+}
+
+fs::path fresh_dir(const std::string& name) {
+  const fs::path dir = fs::path(biodyn::testing::binary_dir()) / "mocap_cli_test" / name;
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  return dir;
+}
+
+std::string data(const std::string& file) {
+  return biodyn::testing::source_dir() + "/../shared/data/mocap/" + file;
+}
+
+}  // namespace
+
+TEST_CASE("mocap info reports each real file's contents as JSON", "[apps][mocap]") {
+  const fs::path dir = fresh_dir("info");
+  {
+    const Run r = run_biodyn("mocap info --json '" + data("c3d/opensim_walking5.c3d") + "'", dir);
+    INFO(r.err);
+    REQUIRE(r.exit_code == 0);
+    const json j = json::parse(r.out);
+    CHECK(j["format"] == "c3d");
+    CHECK(j["frames"] == 1103);
+    CHECK(j["rate"].get<double>() == Approx(250.0));
+    CHECK(j["markers"].size() == 40);
+    CHECK(j["gaps"].size() == 40);
+    CHECK(j["force_plates"].size() == 2);
+    CHECK(j["analog_channels"].size() > 0);
+    CHECK(j.contains("first_frame"));
+  }
+  {
+    const Run r = run_biodyn("mocap info --json '" + data("c3d/opensim_walking5_markers.trc") + "'", dir);
+    REQUIRE(r.exit_code == 0);
+    const json j = json::parse(r.out);
+    CHECK(j["format"] == "trc");
+    CHECK(j["frames"] == 112);
+    // The header says 250 Hz, the rows step 0.04 s: reported, not mis-read.
+    CHECK(j["inconsistencies"].size() == 1);
+  }
+  {
+    const Run r = run_biodyn("mocap info --json '" + data("bvh/cmu_131_01_start_walk_stop.bvh") + "'", dir);
+    REQUIRE(r.exit_code == 0);
+    const json j = json::parse(r.out);
+    CHECK(j["format"] == "bvh");
+    CHECK(j["frames"] == 994);
+    CHECK(j["rate"].get<double>() == Approx(120.0).epsilon(1e-4));
+    CHECK(j["joints"].size() == 38);  // 31 joints and 7 end sites
+  }
+}
+
+TEST_CASE("mocap convert: C3D to TRC agrees with OpenSim's TRC; BVH rescaled", "[apps][mocap]") {
+  const fs::path dir = fresh_dir("convert");
+  Run r = run_biodyn("mocap convert '" + data("c3d/opensim_walking5.c3d") + "' walk.trc", dir);
+  INFO(r.err);
+  REQUIRE(r.exit_code == 0);
+  r = run_biodyn("mocap info --json walk.trc", dir);
+  REQUIRE(r.exit_code == 0);
+  CHECK(json::parse(r.out)["frames"] == 1103);
+  r = run_biodyn("mocap convert walk.trc walk_dec.c3d --processor dec --storage integer", dir);
+  REQUIRE(r.exit_code == 0);
+  r = run_biodyn("mocap info --json walk_dec.c3d", dir);
+  REQUIRE(r.exit_code == 0);
+  CHECK(json::parse(r.out)["processor"] == "dec");
+  r = run_biodyn("mocap convert '" + data("bvh/cmu_131_01_start_walk_stop.bvh") +
+                     "' metres.bvh --scale 0.056444",
+                 dir);
+  REQUIRE(r.exit_code == 0);
+  CHECK(fs::exists(dir / "metres.bvh"));
+  // Refused: an unknown target, a BVH into a marker format; nothing written.
+  r = run_biodyn("mocap convert walk.trc out.xyz", dir);
+  CHECK(r.exit_code == 2);
+  CHECK(r.err.find("out.xyz") != std::string::npos);
+  r = run_biodyn("mocap convert '" + data("bvh/cmu_131_01_start_walk_stop.bvh") + "' out.trc", dir);
+  CHECK(r.exit_code == 2);
+  CHECK_FALSE(fs::exists(dir / "out.trc"));
+}
+
+TEST_CASE("mocap ik on walking5 after scaling from its own frames meets OpenSim's thresholds",
+          "[apps][mocap][regression]") {
+  const fs::path dir = fresh_dir("ik");
+  const std::string c3d = data("c3d/opensim_walking5.c3d");
+  const Run r = run_biodyn("mocap ik --c3d '" + c3d + "' --static '" + c3d +
+                               "' -o motion.csv --json stats.json",
+                           dir);
+  INFO(r.out << r.err);
+  REQUIRE(r.exit_code == 0);
+  const json s = json::parse(slurp(dir / "stats.json"));
+  CHECK(s["marker_set"] == "opensim_walking5");
+  CHECK(s["frames"] == 1103);
+  const int solved = s["frames_solved"];
+  CHECK(solved > 500);
+  // Every solved frame (a frame with enough markers) within OpenSim's thresholds.
+  for (const json& f : s["per_frame"]) {
+    if (!f["solved"].get<bool>()) continue;
+    CHECK(f["rms"].get<double>() < kIkRmsLimit_m);
+    CHECK(f["max"].get<double>() < kIkMaxLimit_m);
+  }
+  WARN("walking5 IK: " << solved << " frames, RMS mean " << s["rms_mean"] << " m, worst frame RMS "
+                       << s["rms_max"] << " m, max " << s["max_error"] << " m ("
+                       << s["max_error_marker"] << "), " << s["frames_per_second"]
+                       << " frames/s; scaled height " << s["scaling"]["height_m"] << " m");
+  CHECK(s["scaling"]["factors"].size() == 7);
+
+  // Inverse dynamics of the result with the measured force plates.
+  const Run id = run_biodyn("mocap id --motion motion.csv --height " +
+                                std::to_string(s["scaling"]["height_m"].get<double>()) +
+                                " --mass 72 --grf from-c3d --c3d '" + c3d + "' -o id",
+                            dir);
+  INFO(id.out << id.err);
+  REQUIRE(id.exit_code == 0);
+  CHECK(fs::exists(dir / "id" / "torques.csv"));
+  CHECK(fs::exists(dir / "id" / "residuals.csv"));
+  CHECK(fs::exists(dir / "id" / "torques.png"));
+  const json summary = json::parse(slurp(dir / "id" / "summary.json"));
+  WARN("walking5 ID (force plates): residual force peak " << summary["residual_force_peak_N"]
+                                                         << " N, rms " << summary["residual_force_rms_N"]
+                                                         << " N; moment peak "
+                                                         << summary["residual_moment_peak_Nm"] << " N m");
+  CHECK(summary["frames_used"].get<int>() > 100);
+}
+
+TEST_CASE("mocap refuses bad input in one line naming the file", "[apps][mocap]") {
+  const fs::path dir = fresh_dir("bad");
+  {
+    std::ofstream(dir / "broken.c3d") << "not a c3d file";
+    const Run r = run_biodyn("mocap info broken.c3d", dir);
+    CHECK(r.exit_code == 2);
+    CHECK(r.err.find("broken.c3d") != std::string::npos);
+    CHECK(r.err.find("expected") != std::string::npos);
+  }
+  {
+    std::ofstream(dir / "short.bvh") << "HIERARCHY\nROOT Hips\n{\n OFFSET 0 0 0\n";
+    const Run r = run_biodyn("mocap info short.bvh", dir);
+    CHECK(r.exit_code == 2);
+    CHECK(r.err.find("short.bvh") != std::string::npos);
+  }
+  {
+    const Run r = run_biodyn("mocap ik --trc missing.trc -o m.csv", dir);
+    CHECK(r.exit_code == 2);
+    CHECK(r.err.find("missing.trc") != std::string::npos);
+    CHECK_FALSE(fs::exists(dir / "m.csv"));
+  }
+}
