@@ -113,6 +113,23 @@ void write_file_atomically(const std::string& path, const std::string& text) {
   }
 }
 
+void plot_with_gnuplot(const std::string& command, const std::string& script_path,
+                       const std::string& png_tmp, const std::string& png) {
+  const std::string cmd = "gnuplot " + script_path + " 2>&1";
+  std::string output;
+  FILE* pipe = popen(cmd.c_str(), "r");
+  if (pipe == nullptr) throw sim::Error(command + ": cannot start gnuplot (install gnuplot-nox)");
+  char buffer[256];
+  while (fgets(buffer, sizeof buffer, pipe) != nullptr) output += buffer;
+  const int status = pclose(pipe);
+  if (status != 0 || !std::filesystem::exists(png_tmp)) {
+    std::filesystem::remove(png_tmp);
+    throw sim::Error(command + ": gnuplot failed on " + script_path + " (exit " +
+                     std::to_string(status) + "): " + output);
+  }
+  std::filesystem::rename(png_tmp, png);
+}
+
 void install_console_log(bool verbose) {
   sim::set_log_sink([verbose](sim::LogLevel level, std::string_view msg) {
     if (!verbose && (level == sim::LogLevel::kDebug || level == sim::LogLevel::kInfo)) return;

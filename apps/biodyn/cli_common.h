@@ -42,6 +42,12 @@ std::string read_text_file(const std::string& path);
 /// the path.
 void write_file_atomically(const std::string& path, const std::string& text);
 
+/// Runs gnuplot on `script_path` (a script that writes `png_tmp`), then renames `png_tmp` to
+/// `png`: the plot is written whole or not at all. Throws sim::Error starting with `command`
+/// if gnuplot cannot start or fails (with its output).
+void plot_with_gnuplot(const std::string& command, const std::string& script_path,
+                       const std::string& png_tmp, const std::string& png);
+
 /// Installs a log sink printing warnings and errors to stderr (debug/info only if verbose).
 void install_console_log(bool verbose);
 

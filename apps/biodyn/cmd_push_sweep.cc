@@ -40,23 +40,6 @@ std::vector<double> durations_from(const std::string& text) {
   return v;
 }
 
-// Runs gnuplot on `script` (which writes `png_tmp`), then renames it to `png`: whole or not at all.
-void plot_with_gnuplot(const std::string& script_path, const std::string& png_tmp, const std::string& png) {
-  const std::string cmd = "gnuplot " + script_path + " 2>&1";
-  std::string output;
-  FILE* pipe = popen(cmd.c_str(), "r");
-  if (pipe == nullptr) throw sim::Error("push-sweep: cannot start gnuplot (install gnuplot-nox)");
-  char buffer[256];
-  while (fgets(buffer, sizeof buffer, pipe) != nullptr) output += buffer;
-  const int status = pclose(pipe);
-  if (status != 0 || !std::filesystem::exists(png_tmp)) {
-    std::filesystem::remove(png_tmp);
-    throw sim::Error("push-sweep: gnuplot failed on " + script_path + " (exit " + std::to_string(status) +
-                     "): " + output);
-  }
-  std::filesystem::rename(png_tmp, png);
-}
-
 }  // namespace
 
 Command add_push_sweep_command(CLI::App* app) {
@@ -300,7 +283,7 @@ Command add_push_sweep_command(CLI::App* app) {
             }
             gp << "\n";
             write_file_atomically(dir + "/polar.gp", gp.str());
-            plot_with_gnuplot(dir + "/polar.gp", dir + "/polar.png.tmp", dir + "/polar.png");
+            plot_with_gnuplot("push-sweep", dir + "/polar.gp", dir + "/polar.png.tmp", dir + "/polar.png");
 
             std::cout << std::fixed << std::setprecision(0);
             for (const auto& c : cells) {

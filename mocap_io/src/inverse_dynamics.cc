@@ -132,10 +132,13 @@ InverseDynamicsResult inverse_dynamics(const mjModel& model, const Motion& motio
                                "no force plates");
   }
 
-  // The model ID runs on: no constraints (contacts, limits, welds: the ground reaction is either
-  // measured or left in the residual) and, unless asked, no armature or joint damping.
+  // The model ID runs on: no joint limits or welds, no contacts unless the ground comes from
+  // them (otherwise it is measured or left in the residual) and, unless asked, no armature or
+  // joint damping.
   std::unique_ptr<mjModel, sim::ModelDeleter> m(mj_copyModel(nullptr, &model));
-  m->opt.disableflags |= mjDSBL_CONSTRAINT;
+  m->opt.disableflags |= options.ground == GroundForces::kContact
+                             ? (mjDSBL_LIMIT | mjDSBL_EQUALITY)
+                             : mjDSBL_CONSTRAINT;
   if (!options.include_armature_damping) {
     for (int v = 0; v < m->nv; ++v) {
       m->dof_armature[v] = 0.0;
@@ -208,15 +211,14 @@ InverseDynamicsResult inverse_dynamics(const mjModel& model, const Motion& motio
         const int s0 = std::clamp(static_cast<int>(std::floor(s)), 0, p.sample_count() - 1);
         const int s1 = std::min(s0 + 1, p.sample_count() - 1);
         const double w = std::clamp(s - s0, 0.0, 1.0);
-        // The reaction on the subject is opposite to the force the subject applies to the plate.
-        const Eigen::Vector3d force_on_plate =
+        // ForcePlate holds the ground reaction: the force on the subject.
+        const Eigen::Vector3d grf =
             (1 - w) * p.force_N.row(s0).transpose() + w * p.force_N.row(s1).transpose();
-        const Eigen::Vector3d grf = -force_on_plate;
         if (std::abs(grf.z()) < kMinPlateLoad_N) continue;
         const Eigen::Vector3d cop = (1 - w) * p.cop_m.row(s0).transpose() + w * p.cop_m.row(s1).transpose();
-        const Eigen::Vector3d free_moment = -((1 - w) * p.free_moment_Nm.row(s0).transpose() +
-                                              w * p.free_moment_Nm.row(s1).transpose());
-        if (!cop.allFinite()) continue;
+        const Eigen::Vector3d free_moment = (1 - w) * p.free_moment_Nm.row(s0).transpose() +
+                                            w * p.free_moment_Nm.row(s1).transpose();
+        if (!cop.allFinite() || !free_moment.allFinite()) continue;
         // Apply to the foot nearest the centre of pressure.
         int body = foot_bodies[0];
         double best = 1e9;
@@ -234,6 +236,18 @@ InverseDynamicsResult inverse_dynamics(const mjModel& model, const Motion& motio
         mjtNum point[3] = {cop.x(), cop.y(), cop.z()};
         mj_applyFT(m.get(), d, force, torque, point, body, qfrc_ground.data());
         r.ground_force_N.row(i) += grf.transpose();
+      }
+    }
+    if (options.ground == GroundForces::kContact) {
+      // mj_inverse left the contact forces out of qfrc_inverse; sum them for the report.
+      for (int c = 0; c < d->ncon; ++c) {
+        mjtNum local[6];
+        mj_contactForce(m.get(), d, c, local);
+        const Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>> frame(d->contact[c].frame);
+        // frame rows are the contact axes (normal first) in the world; the force is on geom2.
+        Eigen::Vector3d f_W = frame.transpose() * Eigen::Vector3d(local[0], local[1], local[2]);
+        const int floor_first = m->geom_bodyid[d->contact[c].geom1] == 0;
+        r.ground_force_N.row(i) += (floor_first ? f_W : Eigen::Vector3d(-f_W)).transpose();
       }
     }
     for (int v = 0; v < nv; ++v) {

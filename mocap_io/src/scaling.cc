@@ -95,22 +95,39 @@ ScaleResult scale_from_static(const models::CharacterSpec& base, bool height_giv
   models::Character plain = models::generate_character(spec);
   std::vector<ScaleFactor> factors = measure(plain, set, static_trial);
   if (!height_given && options.estimate_height && !factors.empty()) {
+    // Stature follows the segment lengths (widths are not statures).
     double mean = 0.0;
-    for (const ScaleFactor& f : factors) mean += f.factor;
-    mean /= static_cast<double>(factors.size());
+    int lengths = 0;
+    for (size_t k = 0; k < factors.size(); ++k) {
+      if (set.scaling[k].dimension == "width") continue;
+      mean += factors[k].factor;
+      ++lengths;
+    }
+    mean = lengths > 0 ? mean / lengths : 1.0;
     spec.height_m = std::clamp(spec.height_m * mean, models::CharacterSpec::kMinHeight,
                                models::CharacterSpec::kMaxHeight);
     plain = models::generate_character(spec);
     factors = measure(plain, set, static_trial);
   }
-  for (const ScaleFactor& f : factors) {
+  for (size_t k = 0; k < factors.size(); ++k) {
+    const ScaleFactor& f = factors[k];
     for (const std::string& seg : f.segments) {
       const models::Segment* s = plain.find(seg);
       if (s == nullptr) {
         throw sim::InvalidArgument("scaling: segment '" + seg + "' is not in the " +
                                    std::string(models::to_string(spec.detail)) + " character");
       }
-      spec.overrides[seg].length_m = f.factor * s->length_m;
+      if (set.scaling[k].dimension == "width") {
+        if (seg != "pelvis") {
+          throw sim::InvalidArgument("scaling[" + std::to_string(k) + "]: only the pelvis has a "
+                                     "width (hip joint separation), got '" + seg + "'");
+        }
+        const double hip_separation =
+            (plain.find("thigh_l")->origin_W - plain.find("thigh_r")->origin_W).norm();
+        spec.overrides[seg].width_m = f.factor * hip_separation;
+      } else {
+        spec.overrides[seg].length_m = f.factor * s->length_m;
+      }
     }
   }
   result.factors = factors;

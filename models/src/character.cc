@@ -201,6 +201,14 @@ void CharacterSpec::validate() const {
       throw InvalidArgument("overrides." + name + ".length_m: must be within (0, 1.5) m, got " +
                             std::to_string(*o.length_m));
     }
+    if (o.width_m && name != "pelvis") {
+      throw InvalidArgument("overrides." + name + ".width_m: only the pelvis has a width (the "
+                            "distance between the hip joint centres)");
+    }
+    if (o.width_m && !(std::isfinite(*o.width_m) && *o.width_m > 0 && *o.width_m < 0.6)) {
+      throw InvalidArgument("overrides." + name + ".width_m: must be within (0, 0.6) m, got " +
+                            std::to_string(*o.width_m));
+    }
   }
   std::set<std::string> names;
   for (const MarkerPlacement& m : markers) {
@@ -421,7 +429,10 @@ void lay_out_limb(Build& b, const std::string& name, const Vector3d& top, const 
 /// Legs from the hip joint centres down; the hips sit as high as the longer leg needs, so that
 /// leg's sole is on the floor. Returns the hip height (m).
 double lay_out_legs(Build& b) {
-  const double hjc_half = 0.5 * b.T.proportion("hip_joint_separation") * b.H;
+  const auto pelvis = b.spec.overrides.find("pelvis");
+  const double hjc_half = pelvis != b.spec.overrides.end() && pelvis->second.width_m
+                              ? 0.5 * *pelvis->second.width_m
+                              : 0.5 * b.T.proportion("hip_joint_separation") * b.H;
   double z_hip = 0;
   for (const char* s : kSides) {
     const std::string sd = std::string("_") + s;

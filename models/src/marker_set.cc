@@ -164,8 +164,16 @@ MarkerSet parse_marker_set(const std::string& json_text, const std::string& sour
       const std::string where = source + ": scaling[" + std::to_string(i) + "]";
       const json& s = scaling[i];
       if (!s.is_object()) throw InvalidArgument(where + ": expected an object");
-      check_keys(s, {"segments", "pairs"}, where);
+      check_keys(s, {"segments", "pairs", "dimension"}, where);
       ScaleMeasurement meas;
+      if (s.contains("dimension")) {
+        if (!s["dimension"].is_string() ||
+            (s["dimension"] != "length" && s["dimension"] != "width")) {
+          throw InvalidArgument(where + ".dimension: expected \"length\" or \"width\", found " +
+                                s["dimension"].dump());
+        }
+        meas.dimension = s["dimension"].get<std::string>();
+      }
       if (!s.contains("segments") || !s["segments"].is_array() || s["segments"].empty()) {
         throw InvalidArgument(where + ".segments: expected a non-empty array of segment names");
       }

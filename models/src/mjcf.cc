@@ -257,6 +257,7 @@ std::string summary_json(const Character& c) {
     json entry = json::object();
     if (o.mass_kg) entry["mass_kg"] = *o.mass_kg;
     if (o.length_m) entry["length_m"] = *o.length_m;
+    if (o.width_m) entry["width_m"] = *o.width_m;
     overrides[name] = entry;
   }
   j["inputs"]["overrides"] = overrides;

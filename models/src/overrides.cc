@@ -31,14 +31,14 @@ std::map<std::string, SegmentOverride> parse_overrides(const std::string& json_t
   for (const auto& [name, fields] : doc["segments"].items()) {
     const std::string where = source + ": segments." + name;
     if (!fields.is_object()) {
-      throw InvalidArgument(where + ": expected an object with mass_kg and/or length_m, found " +
+      throw InvalidArgument(where + ": expected an object with mass_kg, length_m and/or width_m, found " +
                             std::string(fields.type_name()));
     }
     SegmentOverride o;
     for (const auto& [field, value] : fields.items()) {
-      if (field != "mass_kg" && field != "length_m") {
+      if (field != "mass_kg" && field != "length_m" && field != "width_m") {
         throw InvalidArgument(where + ": unknown field '" + field +
-                              "' (expected mass_kg, length_m)");
+                              "' (expected mass_kg, length_m, width_m)");
       }
       if (!value.is_number()) {
         throw InvalidArgument(where + "." + field + ": expected a number, found " + value.dump());
@@ -47,10 +47,10 @@ std::map<std::string, SegmentOverride> parse_overrides(const std::string& json_t
       if (!(v > 0)) {
         throw InvalidArgument(where + "." + field + ": must be > 0, got " + value.dump());
       }
-      (field == "mass_kg" ? o.mass_kg : o.length_m) = v;
+      (field == "mass_kg" ? o.mass_kg : field == "length_m" ? o.length_m : o.width_m) = v;
     }
-    if (!o.mass_kg && !o.length_m) {
-      throw InvalidArgument(where + ": gives neither mass_kg nor length_m");
+    if (!o.mass_kg && !o.length_m && !o.width_m) {
+      throw InvalidArgument(where + ": gives none of mass_kg, length_m, width_m");
     }
     out[name] = o;
   }

@@ -24,6 +24,9 @@ enum class Detail { kGait, kFull };
 struct SegmentOverride {
   std::optional<double> mass_kg;   ///< kg, > 0; the other segments share the remaining mass
   std::optional<double> length_m;  ///< m, > 0; scales the segment's geometry and inertia
+  /// m, pelvis only: distance between the hip joint centres (default: hip_joint_separation of
+  /// body_proportions.csv times height), in (0, 0.6)
+  std::optional<double> width_m;
 };
 
 /// Where a marker sits on the skin, relative to its part's geometry, so it scales with the body

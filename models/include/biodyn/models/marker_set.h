@@ -11,7 +11,8 @@
 ///    "markers": [{"name": "LASI", "part": "pelvis", "along": 0.55, "ant": 1, "lat": 0.6,
 ///                 "sup": 0, "weight": 1, "fixed": false, "description": "..."},
 ///                {"name": "X", "part": "thigh_l", "offset_m": [0.0, 0.08, -0.2]}],
-///    "scaling": [{"segments": ["thigh_l"], "pairs": [["LHJC", "LKJC"]]}]}
+///    "scaling": [{"segments": ["thigh_l"], "pairs": [["LHJC", "LKJC"]]},
+///                {"segments": ["pelvis"], "dimension": "width", "pairs": [["LHJC", "RHJC"]]}]}
 
 #include <map>
 #include <set>
@@ -26,6 +27,9 @@ namespace biodyn::models {
 /// mean(measured distance) / mean(model distance) over the pairs (OpenSim's ScaleTool
 /// measurement).
 struct ScaleMeasurement {
+  /// What the factor scales: "length" (SegmentOverride::length_m, the default) or "width"
+  /// (SegmentOverride::width_m: the pelvis's hip joint separation).
+  std::string dimension = "length";
   std::vector<std::string> segments;  ///< override keys, e.g. "thigh_l", "lumbar"
   std::vector<std::pair<std::string, std::string>> pairs;  ///< marker names
 };
