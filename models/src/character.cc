@@ -658,21 +658,8 @@ Segment assemble_segment(const Build& b, const SegmentPlan& plan,
 }
 
 /// The marker placements of the spec (the thesis's 26 of markers_26.csv when it gives none).
-std::vector<MarkerPlacement> marker_placements(const Build& b) {
-  if (!b.spec.markers.empty()) return b.spec.markers;
-  std::vector<MarkerPlacement> out;
-  for (const MarkerRow& mr : b.T.markers) {
-    MarkerPlacement p;
-    p.name = mr.marker;
-    p.part = mr.segment;
-    p.along = mr.along;
-    p.ant = mr.ant;
-    p.lat = mr.lat;
-    p.sup = mr.sup;
-    p.description = mr.description;
-    out.push_back(p);
-  }
-  return out;
+const std::vector<MarkerPlacement>& marker_placements(const Build& b) {
+  return b.spec.markers.empty() ? b.T.markers : b.spec.markers;
 }
 
 /// Marker sites on the skin of their part (MarkerPlacement explains the terms), attached to

@@ -101,17 +101,7 @@ MarkerSet thesis26() {
   set.description =
       "the thesis's 26-marker skeleton-marker model (pelvis 3; back 1 per segment; neck 1; head "
       "2; per side shoulder, upper arm, forearm, hand 2; thigh, shank, foot 2)";
-  for (const MarkerRow& mr : default_tables().markers) {
-    MarkerPlacement p;
-    p.name = mr.marker;
-    p.part = mr.segment;
-    p.along = mr.along;
-    p.ant = mr.ant;
-    p.lat = mr.lat;
-    p.sup = mr.sup;
-    p.description = mr.description;
-    set.markers.push_back(p);
-  }
+  set.markers = default_tables().markers;
   return set;
 }
 

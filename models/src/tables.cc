@@ -181,9 +181,9 @@ Tables parse_tables(std::string_view de_leva_csv, std::string_view proportions_c
     const CsvReader csv("markers_26.csv", markers_csv,
                         {"marker", "segment", "along", "ant", "lat", "sup", "description"});
     for (size_t r = 0; r < csv.size(); ++r) {
-      MarkerRow row;
-      row.marker = csv.text(r, 0);
-      row.segment = csv.text(r, 1);
+      MarkerPlacement row;
+      row.name = csv.text(r, 0);
+      row.part = csv.text(r, 1);
       row.along = csv.number(r, 2);
       row.ant = csv.number(r, 3);
       row.lat = csv.number(r, 4);

@@ -1,49 +1,22 @@
 // The `biodyn` executable as a user runs it: outputs, exit codes, one-line errors, and nothing
 // written on bad input.
-#include <sys/wait.h>
-
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <sstream>
 
+#include "cli_runner.h"
 #include "test_support.h"
 
 namespace fs = std::filesystem;
 
 namespace {
 
-struct Run {
-  int exit_code = -1;
-  std::string out, err;
-};
+using Run = biodyn::testing::CliRun;
+using biodyn::testing::run_biodyn;
+using biodyn::testing::slurp;
 
-std::string slurp(const fs::path& p) {
-  std::ifstream in(p);
-  std::ostringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
-
-/// Runs `biodyn <args>` in `dir`, capturing stdout and stderr.
-Run run_biodyn(const std::string& args, const fs::path& dir) {
-  const std::string exe = biodyn::testing::binary_dir() + "/apps/biodyn";
-  const std::string cmd =
-      "cd '" + dir.string() + "' && '" + exe + "' " + args + " > stdout.txt 2> stderr.txt";
-  const int status = std::system(cmd.c_str());
-  Run r;
-  r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  r.out = slurp(dir / "stdout.txt");
-  r.err = slurp(dir / "stderr.txt");
-  return r;
-}
-
-fs::path fresh_dir(const std::string& name) {
-  const fs::path dir = fs::path(biodyn::testing::binary_dir()) / "cli_test" / name;
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  return dir;
-}
+fs::path fresh_dir(const std::string& name) { return biodyn::testing::fresh_dir("cli_test", name); }
 
 }  // namespace
 

@@ -33,19 +33,12 @@ struct JointRow {
   double armature = 0, damping = 0;
 };
 
-/// One marker of markers_26.csv.
-struct MarkerRow {
-  std::string marker, segment;
-  double along = 0, ant = 0, lat = 0, sup = 0;
-  std::string description;
-};
-
 /// All tables, validated.
 struct Tables {
   std::vector<DeLevaRow> de_leva;
   std::map<std::string, double> proportions;  ///< body_proportions.csv: name -> value
   std::vector<JointRow> joints;
-  std::vector<MarkerRow> markers;
+  std::vector<MarkerPlacement> markers;  ///< markers_26.csv: the thesis's 26
 
   /// The row for `segment` and `sex`; throws sim::Error if absent.
   const DeLevaRow& de_leva_row(const std::string& segment, Sex sex) const;

@@ -1,0 +1,50 @@
+#pragma once
+// Runs the `biodyn` executable as a user does, for the CLI tests.
+#include <sys/wait.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+
+#include "test_support.h"
+
+namespace biodyn::testing {
+
+/// What one run of `biodyn` did.
+struct CliRun {
+  int exit_code = -1;
+  std::string out, err;
+};
+
+/// The whole text of file `p` (empty if it does not exist).
+inline std::string slurp(const std::filesystem::path& p) {
+  std::ifstream in(p);
+  std::ostringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+/// Runs `biodyn <args>` in `dir`, capturing stdout and stderr.
+inline CliRun run_biodyn(const std::string& args, const std::filesystem::path& dir) {
+  const std::string exe = binary_dir() + "/apps/biodyn";
+  const std::string cmd =
+      "cd '" + dir.string() + "' && '" + exe + "' " + args + " > stdout.txt 2> stderr.txt";
+  const int status = std::system(cmd.c_str());
+  CliRun r;
+  r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  r.out = slurp(dir / "stdout.txt");
+  r.err = slurp(dir / "stderr.txt");
+  return r;
+}
+
+/// An empty directory <build>/<group>/<name> for one test's files.
+inline std::filesystem::path fresh_dir(const std::string& group, const std::string& name) {
+  const std::filesystem::path dir = std::filesystem::path(binary_dir()) / group / name;
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  return dir;
+}
+
+}  // namespace biodyn::testing
