@@ -74,6 +74,18 @@ void to_z_up(mocap_io::MarkerData* m, const std::string& lab_up) {
   }
 }
 
+/// Rotates force plates into biodyn's world (z up) when the lab's vertical is y.
+void to_z_up(std::vector<mocap_io::ForcePlate>* plates, const std::string& lab_up) {
+  if (lab_up == "z") return;
+  const Eigen::Matrix3d r = mocap_io::file_to_world(mocap_io::UpAxis::kY);
+  for (mocap_io::ForcePlate& p : *plates) {
+    p.corners_m = r * p.corners_m;
+    for (Eigen::MatrixXd* m : {&p.force_N, &p.moment_origin_Nm, &p.cop_m, &p.free_moment_Nm}) {
+      *m = *m * r.transpose();  // rows are vectors: v' R'
+    }
+  }
+}
+
 json marker_info(const mocap_io::MarkerData& m) {
   json gaps = json::object();
   for (int i = 0; i < m.marker_count(); ++i) gaps[m.labels[static_cast<size_t>(i)]] = m.gap_count(i);
@@ -338,7 +350,7 @@ Command add_mocap_command(CLI::App* app) {
 
   // --- id ---
   struct IdOptions {
-    std::string motion, grf = "none", c3d, output;
+    std::string motion, grf = "none", c3d, output, lab_up = "z";
     CharacterOptions character;
     double cutoff_hz = 6.0;
   };
@@ -352,6 +364,9 @@ Command add_mocap_command(CLI::App* app) {
                      "capture's force plates; needs --c3d), contact (MuJoCo's floor contact)")
       ->capture_default_str();
   id_cmd->add_option("--c3d", idopt->c3d, "the C3D the motion came from (force plates)");
+  id_cmd->add_option("--lab-up", idopt->lab_up,
+                     "vertical axis of the capture lab (as given to mocap ik): z or y")
+      ->capture_default_str();
   id_cmd->add_option("--cutoff", idopt->cutoff_hz, "low-pass cut-off, Hz (0: no filter)")
       ->capture_default_str();
   id_cmd->add_option("-o,--output", idopt->output, "output directory")->required();
@@ -464,7 +479,11 @@ Command add_mocap_command(CLI::App* app) {
                 if (c3d.force_plates.empty()) {
                   throw sim::InvalidArgument("--c3d " + idopt->c3d + ": has no force plates");
                 }
+                if (idopt->lab_up != "z" && idopt->lab_up != "y") {
+                  throw sim::InvalidArgument("--lab-up: expected z or y, got '" + idopt->lab_up + "'");
+                }
                 plates = c3d.force_plates;
+                to_z_up(&plates, idopt->lab_up);
                 plate_rate = c3d.analog.rate_hz;
               } else {
                 throw sim::InvalidArgument("--grf: expected none, from-c3d or contact, got '" +
