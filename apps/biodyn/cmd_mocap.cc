@@ -1,4 +1,5 @@
-// biodyn mocap: capture files in (C3D, TRC, BVH): info, convert, marker IK (issue 5).
+// biodyn mocap: capture files in (C3D, TRC, BVH): info, convert, marker IK, inverse dynamics
+// (issue 5); retarget lives in cmd_mocap_retarget.cc.
 #include <algorithm>
 #include <cmath>
 #include <iostream>
@@ -19,6 +20,7 @@
 #include "biodyn/sim/errors.h"
 #include "biodyn/sim/model.h"
 #include "cli_common.h"
+#include "cmd_mocap_retarget.h"
 #include "commands.h"
 
 namespace biodyn::apps {
@@ -288,7 +290,7 @@ void plot_torques(const std::string& dir, const mocap_io::InverseDynamicsResult&
 }  // namespace
 
 Command add_mocap_command(CLI::App* app) {
-  CLI::App* mocap = app->add_subcommand("mocap", "Motion capture in: C3D, TRC and BVH files, marker IK");
+  CLI::App* mocap = app->add_subcommand("mocap", "Motion capture in: C3D, TRC and BVH files, marker IK, retargeting, inverse dynamics");
   mocap->require_subcommand(1);
 
   // --- info ---
@@ -371,7 +373,15 @@ Command add_mocap_command(CLI::App* app) {
       ->capture_default_str();
   id_cmd->add_option("-o,--output", idopt->output, "output directory")->required();
 
+  // --- retarget ---
+  auto rt = std::make_shared<RetargetCliOptions>();
+  CLI::App* rt_cmd = mocap->add_subcommand(
+      "retarget", "A BVH motion on a generated character: qpos CSV, the character's BVH, "
+                  "foot-slide and penetration stats");
+  rt->add_to(rt_cmd);
+
   return {mocap, [=]() {
+            if (rt_cmd->parsed()) return run_retarget(*rt);
             if (info_cmd->parsed()) {
               const json j = info_json(info->file);
               if (info->json_out) {

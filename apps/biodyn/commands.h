@@ -29,7 +29,8 @@ Command add_push_command(CLI::App* app);
 Command add_push_sweep_command(CLI::App* app);
 /// `biodyn bench`: controller cost against the bare physics step.
 Command add_bench_command(CLI::App* app);
-/// `biodyn mocap info|convert|ik`: capture files in, marker IK.
+/// `biodyn mocap info|convert|ik|retarget|id`: capture files in, marker IK, retargeting,
+/// inverse dynamics.
 Command add_mocap_command(CLI::App* app);
 
 /// Exit codes shared by every subcommand.

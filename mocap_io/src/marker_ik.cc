@@ -2,6 +2,7 @@
 
 #include <Eigen/Geometry>
 #include <Eigen/SVD>
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <limits>
@@ -284,6 +285,21 @@ MarkerIkFrame MarkerIk::solve(const double* targets_m, bool have_previous, mjtNu
   out.rms_error_m = n > 0 ? std::sqrt(sum_sq / n) : 0.0;
   out.solved = true;
   return out;
+}
+
+void MarkerIk::set_weights(const std::vector<double>& weights) {
+  if (weights.size() != weight_.size()) {
+    throw sim::InvalidArgument("IK weights: expected one per label (" +
+                               std::to_string(weight_.size()) + "), got " +
+                               std::to_string(weights.size()));
+  }
+  for (size_t i = 0; i < weights.size(); ++i) {
+    if (!(weights[i] >= 0)) {
+      throw sim::InvalidArgument("IK weight " + std::to_string(i) + ": must be >= 0, got " +
+                                 std::to_string(weights[i]));
+    }
+  }
+  std::copy(weights.begin(), weights.end(), weight_.begin());
 }
 
 Eigen::Matrix3Xd MarkerIk::marker_positions(const mjtNum* qpos) {

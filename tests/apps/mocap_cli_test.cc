@@ -1,5 +1,6 @@
 // `biodyn mocap` as a user runs it on the real captures in ../shared/data: info, convert, IK
-// after scaling from the capture's own frames (OpenSim's thresholds), inverse dynamics, and bad
+// after scaling from the capture's own frames (OpenSim's thresholds), retargeting the CMU walk,
+// inverse dynamics, and bad
 // input refused in one line with nothing written.
 #include <filesystem>
 #include <fstream>
@@ -143,6 +144,48 @@ TEST_CASE("mocap ik on walking5 after scaling from its own frames meets OpenSim'
   CHECK(summary["frames_used"].get<int>() > 100);
 }
 
+TEST_CASE("mocap retarget puts the CMU walk on a 2 m body; its motion feeds mocap id",
+          "[apps][mocap]") {
+  const fs::path dir = fresh_dir("retarget");
+  const std::string bvh = data("bvh/cmu_131_01_start_walk_stop.bvh");
+  const Run r = run_biodyn("mocap retarget --bvh '" + bvh + "' --height 2.0 --mass 90 -o out", dir);
+  INFO(r.out << r.err);
+  REQUIRE(r.exit_code == 0);
+  for (const char* f : {"motion.csv", "character.bvh", "stats.json", "feet.png"}) {
+    CHECK(fs::exists(dir / "out" / f));
+  }
+  CHECK(r.out.find("assumption") != std::string::npos);
+  const json s = json::parse(slurp(dir / "out" / "stats.json"));
+  CHECK(s["joint_map"] == "cmu");  // chosen by the BVH's joint names
+  CHECK(s["frames"] == 994);
+  CHECK(s["unsolved_frames"] == 0);
+  CHECK(s["max_penetration_m"].get<double>() < 0.005);
+  REQUIRE(s["steps"].size() >= 14);
+  for (const json& step : s["steps"]) {
+    CHECK(step.contains("slide_m"));
+    // A step over 1 cm names the joints whose limits made it slide.
+    if (step["slide_m"].get<double>() >= 0.01) CHECK_FALSE(step["joints_at_limit"].empty());
+  }
+  CHECK(s["assumptions"].size() == 3);
+  WARN("retarget to 2.0 m: " << s["steps_under_1cm"] << " of " << s["steps"].size()
+                             << " steps slide < 1 cm, max " << s["max_slide_m"]
+                             << " m, penetration " << s["max_penetration_m"] << " m");
+
+  // The character's BVH reads back as the character's own hierarchy.
+  const Run info = run_biodyn("mocap info --json out/character.bvh", dir);
+  REQUIRE(info.exit_code == 0);
+  const json ij = json::parse(info.out);
+  CHECK(ij["frames"] == 994);
+  CHECK(ij["joints"].size() >= 19);
+
+  // Inverse dynamics of the retargeted motion on the same body with floor contact.
+  const Run id = run_biodyn("mocap id --motion out/motion.csv --height 2.0 --mass 90 --grf contact -o id",
+                            dir);
+  INFO(id.out << id.err);
+  REQUIRE(id.exit_code == 0);
+  CHECK(fs::exists(dir / "id" / "torques.csv"));
+}
+
 TEST_CASE("mocap refuses bad input in one line naming the file", "[apps][mocap]") {
   const fs::path dir = fresh_dir("bad");
   {
@@ -157,6 +200,23 @@ TEST_CASE("mocap refuses bad input in one line naming the file", "[apps][mocap]"
     const Run r = run_biodyn("mocap info short.bvh", dir);
     CHECK(r.exit_code == 2);
     CHECK(r.err.find("short.bvh") != std::string::npos);
+  }
+  {
+    // A BVH whose joints fit no built-in map; then a map file that does not exist.
+    std::ofstream(dir / "tiny.bvh") << "HIERARCHY\nROOT Hips\n{\n OFFSET 0 0 0\n CHANNELS 3 "
+                                       "Xposition Yposition Zposition\n End Site\n {\n  OFFSET 0 1 0\n"
+                                       " }\n}\nMOTION\nFrames: 1\nFrame Time: 0.01\n0 0 0\n";
+    Run r = run_biodyn("mocap retarget --bvh tiny.bvh -o rt", dir);
+    CHECK(r.exit_code == 2);
+    CHECK(r.err.find("tiny.bvh") != std::string::npos);
+    CHECK(r.err.find("--map") != std::string::npos);
+    CHECK_FALSE(fs::exists(dir / "rt"));
+    r = run_biodyn("mocap retarget --bvh '" + data("bvh/cmu_131_01_start_walk_stop.bvh") +
+                       "' --map nomap.json -o rt",
+                   dir);
+    CHECK(r.exit_code == 2);
+    CHECK(r.err.find("nomap.json") != std::string::npos);
+    CHECK_FALSE(fs::exists(dir / "rt"));
   }
   {
     const Run r = run_biodyn("mocap ik --trc missing.trc -o m.csv", dir);

@@ -64,6 +64,11 @@ class MarkerIk {
   /// root first with a rigid fit of the root-body markers.
   MarkerIkFrame solve(const double* targets_m, bool have_previous, mjtNum* qpos);
 
+  /// Replaces the weights (one per label, >= 0) for the following solves, e.g. to fade a
+  /// constraint in and out over frames. Allocates nothing. Throws sim::InvalidArgument for a
+  /// wrong count or a negative weight.
+  void set_weights(const std::vector<double>& weights);
+
   /// Marker sites of every label at `qpos` (3 x labels, NaN for unmapped labels), m, world.
   Eigen::Matrix3Xd marker_positions(const mjtNum* qpos);
 

@@ -1,0 +1,27 @@
+#pragma once
+/// `biodyn mocap retarget`: a BVH motion on a generated character (retarget.h), its options and
+/// its run, kept apart from cmd_mocap.cc's other mocap subcommands.
+
+#include <CLI/CLI.hpp>
+#include <string>
+
+#include "cli_common.h"
+#include "commands.h"
+
+namespace biodyn::apps {
+
+struct RetargetCliOptions {
+  std::string bvh, map, up, output;
+  double metres_per_unit = 0.0;  ///< 0: the map's units
+  bool align_start = false;
+  CharacterOptions character;
+
+  /// Adds --bvh, the character options, --map, --metres-per-unit, --up, --align-start, -o.
+  void add_to(CLI::App* cmd);
+};
+
+/// Retargets and writes DIR/{motion.csv, character.bvh, stats.json, feet.png}; returns the
+/// exit code. Throws sim::InvalidArgument for bad options or files.
+int run_retarget(const RetargetCliOptions& options);
+
+}  // namespace biodyn::apps
