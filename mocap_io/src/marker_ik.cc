@@ -24,6 +24,22 @@ bool finite3(const double* p) {
   return std::isfinite(p[0]) && std::isfinite(p[1]) && std::isfinite(p[2]);
 }
 
+/// Throws sim::InvalidArgument unless there are `count` weights, each >= 0 (`name(i)` names the
+/// i-th in the message).
+template <typename Name>
+void check_weights(const std::vector<double>& weights, size_t count, const Name& name) {
+  if (weights.size() != count) {
+    throw sim::InvalidArgument("IK weights: expected one per label (" + std::to_string(count) +
+                               "), got " + std::to_string(weights.size()));
+  }
+  for (size_t i = 0; i < weights.size(); ++i) {
+    if (!(weights[i] >= 0)) {
+      throw sim::InvalidArgument("IK weight of " + name(i) + ": must be >= 0, got " +
+                                 std::to_string(weights[i]));
+    }
+  }
+}
+
 }  // namespace
 
 void MarkerIkOptions::validate() const {
@@ -52,16 +68,8 @@ MarkerIk::MarkerIk(const mjModel& model, const std::vector<std::string>& labels,
                    const std::vector<double>& weights, const MarkerIkOptions& options)
     : m_(model), data_(model), options_(options) {
   options_.validate();
-  if (weights.size() != labels.size()) {
-    throw sim::InvalidArgument("IK weights: expected one per label (" +
-                               std::to_string(labels.size()) + "), got " +
-                               std::to_string(weights.size()));
-  }
+  check_weights(weights, labels.size(), [&](size_t i) { return labels[i]; });
   for (size_t i = 0; i < labels.size(); ++i) {
-    if (!(weights[i] >= 0)) {
-      throw sim::InvalidArgument("IK weight of " + labels[i] + ": must be >= 0, got " +
-                                 std::to_string(weights[i]));
-    }
     const int site = mj_name2id(&m_, mjOBJ_SITE, ("marker_" + labels[i]).c_str());
     site_of_.push_back(site);
     weight_.push_back(weights[i]);
@@ -288,17 +296,7 @@ MarkerIkFrame MarkerIk::solve(const double* targets_m, bool have_previous, mjtNu
 }
 
 void MarkerIk::set_weights(const std::vector<double>& weights) {
-  if (weights.size() != weight_.size()) {
-    throw sim::InvalidArgument("IK weights: expected one per label (" +
-                               std::to_string(weight_.size()) + "), got " +
-                               std::to_string(weights.size()));
-  }
-  for (size_t i = 0; i < weights.size(); ++i) {
-    if (!(weights[i] >= 0)) {
-      throw sim::InvalidArgument("IK weight " + std::to_string(i) + ": must be >= 0, got " +
-                                 std::to_string(weights[i]));
-    }
-  }
+  check_weights(weights, weight_.size(), [](size_t i) { return "#" + std::to_string(i); });
   std::copy(weights.begin(), weights.end(), weight_.begin());
 }
 
