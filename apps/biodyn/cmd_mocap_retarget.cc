@@ -149,14 +149,14 @@ int run_retarget(const RetargetCliOptions& o) {
   mocap_io::RetargetOptions options;
   options.source = o.bvh;
   options.align_start = o.align_start;
-  if (o.metres_per_unit > 0 || !o.up.empty()) {
+  if (o.metres_per_unit || !o.up.empty()) {
     mocap_io::BvhUnits units = map.units.value_or(mocap_io::BvhUnits{});
-    if (o.metres_per_unit != 0) {
-      if (!(o.metres_per_unit > 0 && std::isfinite(o.metres_per_unit))) {
-        throw sim::InvalidArgument("--metres-per-unit: must be > 0, got " +
-                                   std::to_string(o.metres_per_unit));
+    if (o.metres_per_unit) {
+      if (!(*o.metres_per_unit > 0 && std::isfinite(*o.metres_per_unit))) {
+        throw sim::InvalidArgument("--metres-per-unit: must be a finite number > 0, got " +
+                                   std::to_string(*o.metres_per_unit));
       }
-      units.metres_per_unit = o.metres_per_unit;
+      units.metres_per_unit = *o.metres_per_unit;
     }
     if (!o.up.empty()) {
       if (o.up != "y" && o.up != "z") {
@@ -165,9 +165,6 @@ int run_retarget(const RetargetCliOptions& o) {
       units.up = o.up == "y" ? mocap_io::UpAxis::kY : mocap_io::UpAxis::kZ;
     }
     options.units = units;
-  } else if (o.metres_per_unit < 0) {
-    throw sim::InvalidArgument("--metres-per-unit: must be > 0, got " +
-                               std::to_string(o.metres_per_unit));
   }
   const models::CharacterSpec spec = o.character.to_spec();
   ProgressBar bar("mocap retarget: " + std::to_string(bvh.frame_count()) + " frames");

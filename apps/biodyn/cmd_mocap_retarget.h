@@ -3,6 +3,7 @@
 /// its run, kept apart from cmd_mocap.cc's other mocap subcommands.
 
 #include <CLI/CLI.hpp>
+#include <optional>
 #include <string>
 
 #include "cli_common.h"
@@ -12,7 +13,7 @@ namespace biodyn::apps {
 
 struct RetargetCliOptions {
   std::string bvh, map, up, output;
-  double metres_per_unit = 0.0;  ///< 0: the map's units
+  std::optional<double> metres_per_unit;  ///< unset: the map's units
   bool align_start = false;
   CharacterOptions character;
 

@@ -142,10 +142,34 @@ std::vector<std::string> keypoint_names() {
 
 JointMap parse_joint_map(const std::string& json_text, const std::string& source) {
   json doc;
+  // JSON allows a key twice in one object and keeps the last: in a map that silently drops a
+  // mapping, so a repeated key is an error naming it.
+  std::vector<std::set<std::string>> seen;
+  std::vector<std::string> path;
+  std::string last_key, duplicate;
+  const json::parser_callback_t track = [&](int, json::parse_event_t event, json& parsed) {
+    if (event == json::parse_event_t::object_start) {
+      seen.emplace_back();
+      path.push_back(last_key);
+    } else if (event == json::parse_event_t::object_end) {
+      seen.pop_back();
+      path.pop_back();
+    } else if (event == json::parse_event_t::key) {
+      last_key = parsed.get<std::string>();
+      if (!seen.back().insert(last_key).second && duplicate.empty()) {
+        for (size_t i = 1; i < path.size(); ++i) duplicate += "." + path[i];
+        duplicate += "." + last_key;
+      }
+    }
+    return true;
+  };
   try {
-    doc = json::parse(json_text);
+    doc = json::parse(json_text, track);
   } catch (const json::parse_error& e) {
     throw InvalidArgument(source + ": not valid JSON: " + e.what());
+  }
+  if (!duplicate.empty()) {
+    throw InvalidArgument(source + duplicate + ": given twice (a key may appear once per object)");
   }
   if (!doc.is_object()) throw InvalidArgument(source + ": expected a JSON object at the top");
   check_keys(doc, {"name", "description", "units", "keypoints"}, source);

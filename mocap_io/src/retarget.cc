@@ -43,6 +43,13 @@ constexpr double kMinYawSpread_m2 = 0.02 * 0.02;
 /// A roll-weight below this counts as zero when the swing roll is rescaled frame to frame.
 constexpr double kMinRollWeight = 1e-3;
 constexpr int kSoles = 5;  ///< sole points per foot
+/// s: frame times accepted (10 kHz to one frame per 10 s); windows counted in frames stay in
+/// int range.
+constexpr double kMinFrameTime_s = 1e-4;
+constexpr double kMaxFrameTime_s = 10.0;
+/// m: a capture reaching further from the origin has the wrong units (no lab is 10 km wide);
+/// squared lengths of such values would overflow.
+constexpr double kMaxCaptureExtent_m = 1e4;
 /// IK solves per frame at most: the first, then one per released contact or new floor guard.
 constexpr int kMaxSolvesPerFrame = 40;
 /// An active floor guard weighs this many times a planted point. Heavier guards fight the pins
@@ -677,6 +684,13 @@ RetargetResult retarget_bvh(const BvhMotion& motion, const JointMap& map,
                           std::to_string(motion.frame_time_s));
   }
   const double dt = motion.frame_time_s;
+  // Contact windows and fades are counted in frames: a frame time outside what capture systems
+  // record (10 kHz to one frame per 10 s) would overflow or empty them.
+  if (dt < kMinFrameTime_s || dt > kMaxFrameTime_s) {
+    throw InvalidArgument(options.source + ": frame time must be within [" +
+                          std::to_string(kMinFrameTime_s) + ", " +
+                          std::to_string(kMaxFrameTime_s) + "] s, got " + std::to_string(dt));
+  }
 
   // The character's geometry (its markers are replaced below; they move nothing).
   models::CharacterSpec plain_spec = spec;
@@ -692,6 +706,16 @@ RetargetResult retarget_bvh(const BvhMotion& motion, const JointMap& map,
     return kps[at(i)];
   };
   const Capture cap = sample(motion, units);
+  for (int f = 0; f < frames; ++f) {
+    const auto& p = cap.poses[at(f)].positions_W;
+    if (!p.allFinite() || p.cwiseAbs().maxCoeff() > kMaxCaptureExtent_m) {
+      throw InvalidArgument(options.source + ": frame " + std::to_string(f) +
+                            " has joint positions not finite or beyond " +
+                            std::to_string(kMaxCaptureExtent_m) +
+                            " m of the origin (metres per unit " +
+                            std::to_string(units.metres_per_unit) + ")");
+    }
+  }
 
   // Scale by leg length; the vertical scales about the ankles' stance level. The BVH's ankle
   // and MTP joints' contacts (heel and ball on the floor) tell where that level is and which
@@ -702,6 +726,19 @@ RetargetResult retarget_bvh(const BvhMotion& motion, const JointMap& map,
     const std::string sd = kSides[s];
     const Keypoint &hip = kp("thigh_" + sd), &knee = kp("shank_" + sd), &ankle = kp("foot_" + sd),
                    &mtp = kp("toes_" + sd);
+    // Every leg bone needs a length: a direction is taken from each (a map that puts two
+    // keypoints on one joint would give a foot frame that is not a rotation).
+    const std::array<std::pair<const Keypoint*, const Keypoint*>, 3> bones = {
+        {{&hip, &knee}, {&knee, &ankle}, {&ankle, &mtp}}};
+    for (const auto& [from, to] : bones) {
+      const double length = (cap.rest_position(*from) - cap.rest_position(*to)).norm();
+      if (!(length > kMinBoneLength_m)) {
+        throw InvalidArgument(options.source + ": joint map '" + map.name + "': keypoints " +
+                              from->name + " and " + to->name +
+                              " are at the same place in the BVH's rest pose (bone length " +
+                              std::to_string(length) + " m); map them to different joints");
+      }
+    }
     bvh_leg += 0.5 * ((cap.position(hip, 0) - cap.position(knee, 0)).norm() +
                       (cap.position(knee, 0) - cap.position(ankle, 0)).norm());
     char_leg += 0.5 * (plain.find("thigh_" + sd)->length_m + plain.find("shank_" + sd)->length_m);
@@ -1188,10 +1225,13 @@ RetargetResult retarget_bvh(const BvhMotion& motion, const JointMap& map,
       StanceStep& step = steps.back();
       step.last_frame = std::max(step.last_frame, i.second);
       const int col = s * kSoles + p;
-      const Vector3d start = sole_actual[at(i.first)].col(col);
+      bool started = false;
+      Vector3d start = Vector3d::Zero();  // where the point stood at its first solved frame
       for (int f = i.first; f <= i.second; ++f) {
         if (!qpos.row(f).allFinite()) continue;
         const Vector3d x = sole_actual[at(f)].col(col);
+        if (!started) start = x;
+        started = true;
         const double slide = std::hypot(x.x() - start.x(), x.y() - start.y());
         if (slide > step.slide_m) {
           step.slide_m = slide;

@@ -217,6 +217,15 @@ TEST_CASE("mocap refuses bad input in one line naming the file", "[apps][mocap]"
     CHECK(r.exit_code == 2);
     CHECK(r.err.find("nomap.json") != std::string::npos);
     CHECK_FALSE(fs::exists(dir / "rt"));
+    for (const char* units : {"0", "nan", "-1"}) {
+      r = run_biodyn("mocap retarget --bvh '" + data("bvh/cmu_131_01_start_walk_stop.bvh") +
+                         "' --metres-per-unit " + units + " -o rt",
+                     dir);
+      INFO(units << ": " << r.err);
+      CHECK(r.exit_code == 2);
+      CHECK(r.err.find("--metres-per-unit") != std::string::npos);
+      CHECK_FALSE(fs::exists(dir / "rt"));
+    }
   }
   {
     const Run r = run_biodyn("mocap ik --trc missing.trc -o m.csv", dir);

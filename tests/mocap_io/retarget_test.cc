@@ -85,6 +85,7 @@ TEST_CASE("Joint maps: bad fields are errors naming the file, the field, the rul
   check_map_error(R"({"name": "t", "units": {"metres_per_unit": 1, "up": "x"}, "keypoints": {)" +
                       kLegs + "}}",
                   "units.up", "\"x\"");
+  check_map_error(map_with(kLegs + R"(, "toes_l": "LA")"), "keypoints.toes_l", "given twice");
   CHECK_THROWS_WITH(mocap_io::builtin_joint_map("vicon"), Contains("cmu"));
 }
 
@@ -114,6 +115,37 @@ TEST_CASE("Joint maps: the built-in maps parse; CMU resolves on the CMU clip, a 
   BvhMotion prefixed = walk;
   for (auto& j : prefixed.joints) j.name = "rig:" + j.name;
   CHECK(mocap_io::find_bvh_joint(prefixed, "LeftKnee") >= 0);
+}
+
+TEST_CASE("Retargeting refuses a map with a zero-length leg bone and absurd frame times",
+          "[retarget]") {
+  BvhMotion walk = cmu_walk();
+  walk.values.conservativeResize(40, Eigen::NoChange);
+  const models::CharacterSpec spec;
+  // Toes on the ankle joint: the foot would have no direction.
+  JointMap bad = mocap_io::builtin_joint_map("cmu");
+  for (auto& k : bad.keypoints) {
+    if (k.keypoint == "toes_l") k.joints = {"LeftAnkle"};
+  }
+  mocap_io::RetargetOptions options;
+  options.source = "walk.bvh";
+  try {
+    mocap_io::retarget_bvh(walk, bad, spec, options);
+    FAIL("no error");
+  } catch (const sim::InvalidArgument& e) {
+    CHECK_THAT(e.what(), Contains("walk.bvh"));
+    CHECK_THAT(e.what(), Contains("foot_l and toes_l"));
+  }
+  for (const double frame_time : {1e-12, 1e308}) {
+    BvhMotion odd = walk;
+    odd.frame_time_s = frame_time;
+    CHECK_THROWS_WITH(mocap_io::retarget_bvh(odd, mocap_io::builtin_joint_map("cmu"), spec, options),
+                      Contains("frame time must be within"));
+  }
+  // Lengths that overflow in metres.
+  options.units = mocap_io::BvhUnits{1e300, mocap_io::UpAxis::kY};
+  CHECK_THROWS_WITH(mocap_io::retarget_bvh(walk, mocap_io::builtin_joint_map("cmu"), spec, options),
+                    Contains("not finite or beyond"));
 }
 
 TEST_CASE("Character BVH: its forward kinematics is MuJoCo's body positions for random poses",
