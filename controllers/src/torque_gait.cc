@@ -225,6 +225,13 @@ void TorqueGaitParams::validate() const {
         speed_lean_limit_rad);
 }
 
+void TorqueGait::set_params(const TorqueGaitParams& params) {
+  params.validate();
+  params_ = params;
+  const int last = static_cast<int>(params_.states.size()) - 1;
+  state_ = std::min(state_, last);
+}
+
 TorqueGait::TorqueGait(const mjModel& m, const std::vector<JointGroup>& groups, TorqueGaitParams params)
     : params_(params), groups_(groups) {
   params_.validate();

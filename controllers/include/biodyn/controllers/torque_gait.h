@@ -195,6 +195,10 @@ class TorqueGait : public TargetDriver {
   void drive(CharacterController& controller, const mjModel& m, const mjData& d) override;
 
   const TorqueGaitParams& params() const { return params_; }
+  /// Replaces the parameters from the next drive() on (the viewer's live edits); the current
+  /// state index is kept, clamped to the new list. Throws sim::InvalidArgument naming the field
+  /// (the parameters are then unchanged). Allocates: not for the step loop.
+  void set_params(const TorqueGaitParams& params);
   int stance_side() const { return stance_; }
   /// The current state's index in params().states.
   int state() const { return state_; }

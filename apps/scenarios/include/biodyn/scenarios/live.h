@@ -1,0 +1,135 @@
+#pragma once
+/// A scenario stepped from outside, one physics step at a time, with its parameters edited while
+/// it runs: what the viewer (`biodyn view`) and `biodyn render` drive (issue 6). The same
+/// controllers as `biodyn pose` and `biodyn walk`: the joint controllers with their muscle
+/// limits, the foot welds in the chosen mode, the standing balance or the torque walker.
+///
+/// Rewind is exact: every edit (parameters, speed, heading, a push) is logged with the step it
+/// took effect at, and rewinding to step k rebuilds the scenario and replays the log up to k.
+/// The simulation is deterministic (sim/determinism.h), so resuming from k gives the same future
+/// the first run had, until a new edit is made (which drops the logged edits after k).
+
+#include <Eigen/Core>
+#include <functional>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "biodyn/controllers/character_controller.h"
+#include "biodyn/controllers/controller_params.h"
+#include "biodyn/controllers/torque_gait.h"
+#include "biodyn/models/character.h"
+#include "biodyn/sim/simulation.h"
+
+namespace biodyn::scenarios {
+
+/// What to build.
+struct LiveConfig {
+  /// "stand", "squat", "reach", "one-leg" (the pose scenarios, looping their last pose) or "walk".
+  std::string scenario = "walk";
+  models::CharacterSpec character;
+  controllers::WeldMode weld = controllers::WeldMode::kHonest;
+  double speed_m_s = 1.0;           ///< walk: commanded speed
+  double heading_rate_deg_s = 0.0;  ///< walk: commanded turning rate
+  /// Controller parameters (controller_params.h JSON; `biodyn pose --params`), optional.
+  std::string controller_json, controller_source;
+  /// Torque-walker parameters (torque_gait.h JSON; `biodyn walk --params`), optional.
+  std::string gait_json, gait_source;
+
+  void validate() const;  ///< throws sim::InvalidArgument naming the field
+};
+
+/// Names LiveConfig::scenario accepts.
+std::vector<std::string> live_scenario_names();
+
+/// A push being applied or drawn.
+struct LivePush {
+  std::string body;
+  Eigen::Vector3d force_W = Eigen::Vector3d::Zero();  ///< N
+  double start_s = 0, duration_s = 0;
+};
+
+class LiveScenario {
+ public:
+  /// Builds the character, controllers and scenario at t = 0. Throws sim::InvalidArgument for a
+  /// bad config (naming the field or file).
+  explicit LiveScenario(LiveConfig config);
+  ~LiveScenario();
+
+  /// One physics step: pending edits first, then the controllers and mj_step. No allocation
+  /// unless an edit is pending.
+  void step();
+  /// Steps until simulation time reaches t_s (no-op if already there).
+  void run_until(double t_s);
+
+  long step_index() const { return steps_; }
+  double time_s() const;
+  bool fallen() const;
+
+  // --- Edits: logged, applied before the next step. ---
+  void set_controller_params(const controllers::ControllerParams& params);
+  void set_gait_params(const controllers::TorqueGaitParams& params);  ///< walk only
+  void set_speed(double m_s);                                         ///< walk only
+  void set_heading_rate(double deg_s);                                ///< walk only
+  void set_weld_mode(controllers::WeldMode mode);
+  /// A horizontal (or any) force through the CoM of `body` for `duration_s`, from the next step.
+  void push(const std::string& body, const Eigen::Vector3d& force_W, double duration_s);
+
+  /// Back to t = 0 with the config's parameters; the edit log is cleared.
+  void reset();
+  /// Back to step `step` (0 <= step <= step_index()) by replaying the log from t = 0: the state
+  /// equals the one the run had at that step.
+  void rewind_to(long step);
+
+  // --- Read-outs (for panels, overlays and plots). ---
+  const LiveConfig& config() const { return config_; }
+  sim::Simulation& simulation() { return *sim_; }
+  const sim::Simulation& simulation() const { return *sim_; }
+  const controllers::CharacterController& controller() const { return *ctrl_; }
+  const controllers::ControllerParams& controller_params() const { return controller_params_; }
+  /// The walker, or nullptr in the pose scenarios.
+  const controllers::TorqueGait* gait() const { return gait_.get(); }
+  const controllers::StepReport& last_report() const { return ctrl_->last_report(); }
+  const std::vector<LivePush>& pushes() const { return pushes_; }
+  /// Whether the scenario walks.
+  bool walking() const { return gait_ != nullptr; }
+
+  /// The parameters in the files the CLI reads: controller params JSON (`biodyn pose --params`)
+  /// and walker params JSON (`biodyn walk --params`; empty for the pose scenarios).
+  std::string controller_params_json() const;
+  std::string gait_params_json() const;
+
+ private:
+  struct Edit {
+    long step;
+    std::function<void(LiveScenario&)> apply;
+  };
+  void build();
+  void restart();  // t = 0 with the initial parameters; the log is cleared, future_ kept
+  void record(std::function<void(LiveScenario&)> apply);
+
+  LiveConfig config_;
+  std::unique_ptr<sim::Simulation> sim_;
+  std::vector<controllers::JointGroup> groups_;
+  controllers::ControllerParams controller_params_;
+  controllers::TorqueGaitParams gait_params_;
+  std::unique_ptr<controllers::CharacterController> ctrl_;
+  std::unique_ptr<controllers::TorqueGait> gait_;
+  std::vector<controllers::Pose> poses_;
+  std::size_t pose_index_ = 0;
+  double pose_start_s_ = 0;
+  int fall_floor_geom_ = -1, pelvis_ = -1;
+  double pelvis_start_z_ = 0;
+  long steps_ = 0;
+  LiveConfig initial_config_;
+  controllers::ControllerParams initial_controller_params_;
+  controllers::TorqueGaitParams initial_gait_params_;
+  std::vector<Edit> log_;      // every edit applied since t = 0, by step
+  std::vector<Edit> pending_;  // edits for the next step
+  std::vector<Edit> future_;   // after a rewind: the edits to replay at their steps
+  std::size_t future_next_ = 0;
+  std::vector<LivePush> pushes_;
+};
+
+}  // namespace biodyn::scenarios

@@ -1,0 +1,251 @@
+// A scenario stepped from outside with live edits and exact rewind (live.h).
+#include "biodyn/scenarios/live.h"
+
+#include <algorithm>
+#include <cmath>
+#include <nlohmann/json.hpp>
+
+#include "biodyn/controllers/joint_groups.h"
+#include "biodyn/controllers/poses.h"
+#include "biodyn/models/mjcf.h"
+#include "biodyn/sim/errors.h"
+#include "biodyn/sim/model.h"
+
+namespace biodyn::scenarios {
+namespace {
+
+constexpr double kRadPerDeg = 3.14159265358979323846 / 180.0;
+/// references.md: upright = pelvis >= 0.7 x its standing height.
+constexpr double kFallenPelvisFraction = 0.7;
+
+}  // namespace
+
+std::vector<std::string> live_scenario_names() {
+  std::vector<std::string> names = controllers::pose_scenario_names();
+  names.push_back("walk");
+  return names;
+}
+
+void LiveConfig::validate() const {
+  const std::vector<std::string> names = live_scenario_names();
+  if (std::find(names.begin(), names.end(), scenario) == names.end()) {
+    std::string list;
+    for (const std::string& n : names) list += (list.empty() ? "" : ", ") + n;
+    throw sim::InvalidArgument("scenario: expected one of " + list + ", got '" + scenario + "'");
+  }
+  if (!std::isfinite(speed_m_s) || speed_m_s < 0 || speed_m_s > 3) {
+    throw sim::InvalidArgument("speed: must be within [0, 3] m/s, got " + std::to_string(speed_m_s));
+  }
+  if (!std::isfinite(heading_rate_deg_s) || std::abs(heading_rate_deg_s) > 90) {
+    throw sim::InvalidArgument("heading rate: must be within [-90, 90] deg/s, got " +
+                               std::to_string(heading_rate_deg_s));
+  }
+}
+
+LiveScenario::LiveScenario(LiveConfig config) : config_(std::move(config)) {
+  config_.validate();
+  const models::Character character = models::generate_character(config_.character);
+  sim_ = std::make_unique<sim::Simulation>(
+      sim::Model::from_string(models::to_mjcf(character), "generated character"));
+  const mjModel& m = sim_->model();
+  groups_ = controllers::find_joint_groups(m);
+  controller_params_ = controllers::default_params(m, groups_);
+  if (!config_.controller_json.empty()) {
+    controllers::apply_params_json(config_.controller_json, config_.controller_source, groups_,
+                                   &controller_params_);
+    try {
+      controller_params_.validate(m.opt.timestep);
+    } catch (const sim::InvalidArgument& e) {
+      throw sim::InvalidArgument(config_.controller_source + ": " + e.what());
+    }
+  }
+  if (!config_.gait_json.empty()) {
+    controllers::apply_torque_gait_json(config_.gait_json, config_.gait_source, &gait_params_);
+  }
+  initial_config_ = config_;
+  initial_controller_params_ = controller_params_;
+  initial_gait_params_ = gait_params_;
+  pelvis_ = mj_name2id(&m, mjOBJ_BODY, "pelvis");
+  fall_floor_geom_ = mj_name2id(&m, mjOBJ_GEOM, "floor");
+  build();
+}
+
+LiveScenario::~LiveScenario() = default;
+
+void LiveScenario::build() {
+  // The same set-up as run_walk and run_pose: standing in the first pose at t = 0.
+  gait_.reset();
+  ctrl_.reset();
+  sim_->reset();
+  const mjModel& m = sim_->model();
+  controllers::CharacterControllerConfig cc;
+  cc.weld.mode = config_.weld;
+  ctrl_ = std::make_unique<controllers::CharacterController>(sim_.get(), controller_params_, cc);
+  if (config_.scenario == "walk") {
+    poses_ = controllers::pose_scenario("stand", groups_, 0);
+    ctrl_->reset_in_pose(poses_.front());
+    gait_ = std::make_unique<controllers::TorqueGait>(m, groups_, gait_params_);
+    gait_->reset(sim_->data());
+    gait_->set_speed(config_.speed_m_s);
+    gait_->set_heading_rate(config_.heading_rate_deg_s * kRadPerDeg);
+    ctrl_->set_driver(gait_.get());
+  } else {
+    poses_ = controllers::pose_scenario(config_.scenario, groups_, 0);
+    ctrl_->reset_in_pose(poses_.front());
+  }
+  pose_index_ = 0;
+  pose_start_s_ = 0;
+  steps_ = 0;
+  pushes_.clear();
+  pelvis_start_z_ = sim_->data().xpos[3 * pelvis_ + 2];
+}
+
+double LiveScenario::time_s() const { return sim_->data().time; }
+
+bool LiveScenario::fallen() const {
+  return sim_->data().xpos[3 * pelvis_ + 2] < kFallenPelvisFraction * pelvis_start_z_;
+}
+
+void LiveScenario::step() {
+  // After a rewind, the edits the run had made from here on come back at their steps.
+  while (future_next_ < future_.size() && future_[future_next_].step == steps_) {
+    pending_.push_back(future_[future_next_++]);
+  }
+  if (!pending_.empty()) {
+    for (Edit& e : pending_) {
+      e.step = steps_;
+      e.apply(*this);
+      log_.push_back(std::move(e));
+    }
+    pending_.clear();
+  }
+  // Pose scenarios: the next pose when this one's time is up; the last one holds.
+  const double dt = sim_->model().opt.timestep;
+  if (!gait_) {
+    while (pose_index_ + 1 < poses_.size() &&
+           time_s() >= pose_start_s_ + poses_[pose_index_].duration_s - 0.5 * dt) {
+      pose_start_s_ += poses_[pose_index_].duration_s;
+      ++pose_index_;
+      ctrl_->set_pose(poses_[pose_index_]);
+    }
+  }
+  ctrl_->step();
+  ++steps_;
+}
+
+void LiveScenario::run_until(double t_s) {
+  const double dt = sim_->model().opt.timestep;
+  while (time_s() < t_s - 0.5 * dt) step();
+}
+
+void LiveScenario::record(std::function<void(LiveScenario&)> apply) {
+  // A new edit starts a new future: the edits a rewound run would have replayed are dropped.
+  future_.clear();
+  future_next_ = 0;
+  pending_.push_back({steps_, std::move(apply)});
+}
+
+void LiveScenario::set_controller_params(const controllers::ControllerParams& params) {
+  params.validate(sim_->model().opt.timestep);
+  record([params](LiveScenario& s) {
+    s.controller_params_ = params;
+    s.ctrl_->set_params(params);
+  });
+}
+
+void LiveScenario::set_gait_params(const controllers::TorqueGaitParams& params) {
+  if (!gait_) throw sim::InvalidArgument("walker parameters: the scenario does not walk");
+  params.validate();
+  record([params](LiveScenario& s) {
+    s.gait_params_ = params;
+    s.gait_->set_params(params);
+  });
+}
+
+void LiveScenario::set_speed(double m_s) {
+  if (!gait_) throw sim::InvalidArgument("speed: the scenario does not walk");
+  if (!std::isfinite(m_s) || m_s < 0 || m_s > 3) {
+    throw sim::InvalidArgument("speed: must be within [0, 3] m/s, got " + std::to_string(m_s));
+  }
+  record([m_s](LiveScenario& s) {
+    s.config_.speed_m_s = m_s;
+    s.gait_->set_speed(m_s);
+  });
+}
+
+void LiveScenario::set_heading_rate(double deg_s) {
+  if (!gait_) throw sim::InvalidArgument("heading rate: the scenario does not walk");
+  if (!std::isfinite(deg_s) || std::abs(deg_s) > 90) {
+    throw sim::InvalidArgument("heading rate: must be within [-90, 90] deg/s, got " +
+                               std::to_string(deg_s));
+  }
+  record([deg_s](LiveScenario& s) {
+    s.config_.heading_rate_deg_s = deg_s;
+    s.gait_->set_heading_rate(deg_s * kRadPerDeg);
+  });
+}
+
+void LiveScenario::set_weld_mode(controllers::WeldMode mode) {
+  record([mode](LiveScenario& s) {
+    s.config_.weld = mode;
+    s.ctrl_->set_weld_mode(mode);
+  });
+}
+
+void LiveScenario::push(const std::string& body, const Eigen::Vector3d& force_W, double duration_s) {
+  const int id = mj_name2id(&sim_->model(), mjOBJ_BODY, body.c_str());
+  if (id < 0) throw sim::InvalidArgument("push body: no body named '" + body + "'");
+  if (!(duration_s > 0) || !std::isfinite(duration_s) || !force_W.allFinite()) {
+    throw sim::InvalidArgument("push: needs a finite force and a duration > 0 s");
+  }
+  record([id, body, force_W, duration_s](LiveScenario& s) {
+    const double dt = s.sim_->model().opt.timestep;
+    sim::Push p;
+    p.body = id;
+    p.force_W = force_W;
+    // Whole steps from the step it was asked at (simulation.h).
+    p.start_s = std::ceil(s.time_s() / dt - 1e-9) * dt;
+    p.duration_s = duration_s;
+    s.sim_->schedule_push(p);
+    s.pushes_.push_back({body, force_W, p.start_s, duration_s});
+  });
+}
+
+void LiveScenario::restart() {
+  log_.clear();
+  pending_.clear();
+  controller_params_ = initial_controller_params_;
+  gait_params_ = initial_gait_params_;
+  config_ = initial_config_;
+  build();
+}
+
+void LiveScenario::reset() {
+  future_.clear();
+  future_next_ = 0;
+  restart();
+}
+
+void LiveScenario::rewind_to(long step) {
+  if (step < 0 || step > steps_) {
+    throw sim::InvalidArgument("rewind: step must be within [0, " + std::to_string(steps_) +
+                               "], got " + std::to_string(step));
+  }
+  // Every edit made so far (applied, and any still to be replayed), replayed from t = 0.
+  std::vector<Edit> all = log_;
+  all.insert(all.end(), future_.begin() + static_cast<long>(future_next_), future_.end());
+  restart();
+  future_ = std::move(all);
+  future_next_ = 0;
+  while (steps_ < step) this->step();
+}
+
+std::string LiveScenario::controller_params_json() const {
+  return controllers::params_to_json(controller_params_, groups_).dump(2) + "\n";
+}
+
+std::string LiveScenario::gait_params_json() const {
+  return gait_ ? controllers::torque_gait_json(gait_params_) : std::string();
+}
+
+}  // namespace biodyn::scenarios

@@ -1,0 +1,78 @@
+#pragma once
+/// MuJoCo's renderer for biodyn (system.md: sim/ holds offscreen rendering): a scene, its
+/// visual options, a camera and the GPU context, with what the viewer and `biodyn render`
+/// share: a camera that follows a body, extra geoms drawn into the scene (arrows, polygons),
+/// offscreen rendering read back as top-down RGB.
+///
+/// An OpenGL context must be current on the calling thread for the lifetime of a
+/// SceneRenderer (mjr_makeContext and every render need it); the app creates it (GLFW window,
+/// or EGL without a display). update_scene() reads mjData and is the only part that must run
+/// under the physics lock; render() then works on the copied scene alone.
+#include <mujoco/mujoco.h>
+
+#include <Eigen/Core>
+#include <cstdint>
+#include <vector>
+
+namespace biodyn::sim {
+
+/// An extra geom drawn with the scene (mjvGeom kinds biodyn uses).
+struct OverlayGeom {
+  enum class Kind { kArrow, kLine, kSphere };
+  Kind kind = Kind::kLine;
+  Eigen::Vector3d from_W = Eigen::Vector3d::Zero();  ///< m; the sphere's centre
+  Eigen::Vector3d to_W = Eigen::Vector3d::Zero();    ///< m; unused for spheres
+  double width_m = 0.01;                             ///< arrow shaft / line width / radius
+  float rgba[4] = {1, 1, 1, 1};
+};
+
+/// How the camera frames the scene.
+struct CameraView {
+  double azimuth_deg = 135;   ///< MuJoCo's free camera angles
+  double elevation_deg = -15;
+  double distance_m = 3.5;
+  Eigen::Vector3d lookat_W = Eigen::Vector3d(0, 0, 1);
+};
+
+class SceneRenderer {
+ public:
+  /// Makes the scene (room for `max_geoms`) and the GPU context for `model` with an offscreen
+  /// buffer of at least width x height (the model's offwidth/offheight are raised to it: MuJoCo
+  /// sizes the buffer from them). Needs a current GL context; throws sim::Error otherwise.
+  SceneRenderer(mjModel& model, int offscreen_width, int offscreen_height, int max_geoms = 2000);
+  ~SceneRenderer();
+  SceneRenderer(const SceneRenderer&) = delete;
+  SceneRenderer& operator=(const SceneRenderer&) = delete;
+
+  CameraView& view() { return view_; }
+  /// The camera's look-at point follows body `body` (its CoM subtree position) when >= 0.
+  void follow(int body) { follow_body_ = body; }
+  int followed() const { return follow_body_; }
+  mjvOption& options() { return options_; }
+
+  /// Copies the drawable state of `data` into the scene (mjv_updateScene) and adds the
+  /// overlays. Reads `data` only; call it under the physics lock, then render without it.
+  void update_scene(const mjModel& model, mjData& data, const std::vector<OverlayGeom>& overlays);
+
+  /// Renders the scene into the window's back buffer (viewport width x height).
+  void render_to_window(int width, int height);
+  /// Renders offscreen and reads back width x height RGB, rows top to bottom (MuJoCo reads
+  /// bottom-up; flipped here). `rgb` is resized to 3 w h.
+  void render_offscreen(int width, int height, std::vector<std::uint8_t>* rgb);
+
+  const mjvScene& scene() const { return scene_; }
+  mjvCamera& camera() { return camera_; }
+
+ private:
+  void add_overlays(const std::vector<OverlayGeom>& overlays);
+
+  mjvScene scene_;
+  mjvOption options_;
+  mjvCamera camera_;
+  mjrContext context_;
+  CameraView view_;
+  int follow_body_ = -1;
+  std::vector<std::uint8_t> flip_;  // one row, reused
+};
+
+}  // namespace biodyn::sim
