@@ -33,6 +33,9 @@ Command add_bench_command(CLI::App* app);
 /// inverse dynamics.
 Command add_mocap_command(CLI::App* app);
 
+/// `biodyn render`: a scenario filmed headless (MP4, PNG).
+Command add_render_command(CLI::App* app);
+
 /// Exit codes shared by every subcommand.
 inline constexpr int kExitOk = 0;
 inline constexpr int kExitFailure = 1;   ///< the job ran and failed (e.g. MuJoCo warnings)

@@ -26,17 +26,21 @@ inline std::string slurp(const std::filesystem::path& p) {
   return s.str();
 }
 
-/// Runs `biodyn <args>` in `dir`, capturing stdout and stderr.
-inline CliRun run_biodyn(const std::string& args, const std::filesystem::path& dir) {
-  const std::string exe = binary_dir() + "/apps/biodyn";
+/// Runs the shell command `command` in `dir`, capturing stdout and stderr.
+inline CliRun run_shell(const std::string& command, const std::filesystem::path& dir) {
   const std::string cmd =
-      "cd '" + dir.string() + "' && '" + exe + "' " + args + " > stdout.txt 2> stderr.txt";
+      "cd '" + dir.string() + "' && " + command + " > stdout.txt 2> stderr.txt";
   const int status = std::system(cmd.c_str());
   CliRun r;
   r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
   r.out = slurp(dir / "stdout.txt");
   r.err = slurp(dir / "stderr.txt");
   return r;
+}
+
+/// Runs `biodyn <args>` in `dir`, capturing stdout and stderr.
+inline CliRun run_biodyn(const std::string& args, const std::filesystem::path& dir) {
+  return run_shell("'" + binary_dir() + "/apps/biodyn' " + args, dir);
 }
 
 /// An empty directory <build>/<group>/<name> for one test's files.

@@ -1,0 +1,123 @@
+// biodyn render: a scenario filmed headless (issue 6): MP4 through ffmpeg, a PNG frame, and the
+// run summary.
+#include <iostream>
+#include <memory>
+#include <nlohmann/json.hpp>
+
+#include "biodyn/sim/errors.h"
+#include "biodyn/viewer/render_job.h"
+#include "cli_common.h"
+#include "commands.h"
+#include "view_options.h"
+#include "walk_options.h"
+
+namespace biodyn::apps {
+
+void ViewOptions::add_to(CLI::App* cmd) {
+  std::string names;
+  for (const std::string& n : scenarios::live_scenario_names()) names += (names.empty() ? "" : " | ") + n;
+  cmd->add_option("--scenario", scenario, "Scenario: " + names)->capture_default_str();
+  character.add_to(cmd);
+  cmd->add_option("--speed", speed_m_s, "walk: commanded speed, m/s")->capture_default_str();
+  cmd->add_option("--heading-rate", heading_rate_deg_s, "walk: turning rate, deg/s (+ left)")
+      ->capture_default_str();
+  cmd->add_option("--weld", weld, "Foot-contact mode: off | honest | glue")->capture_default_str();
+  cmd->add_option("--params", params_path, "Walker parameters (JSON, as biodyn walk --params)");
+  cmd->add_option("--controller-params", controller_params_path,
+                  "Joint controller parameters (JSON, as biodyn pose --params)");
+}
+
+scenarios::LiveConfig ViewOptions::to_config() const {
+  scenarios::LiveConfig c;
+  c.scenario = scenario;
+  c.character = character.to_spec();
+  c.speed_m_s = speed_m_s;
+  c.heading_rate_deg_s = heading_rate_deg_s;
+  c.weld = controllers::parse_weld_mode(weld, "--weld");
+  if (!params_path.empty()) {
+    c.gait_json = read_text_file(params_path);
+    c.gait_source = params_path;
+  }
+  if (!controller_params_path.empty()) {
+    c.controller_json = read_text_file(controller_params_path);
+    c.controller_source = controller_params_path;
+  }
+  return c;
+}
+
+Command add_render_command(CLI::App* app) {
+  struct Options {
+    ViewOptions view;
+    viewer::RenderOptions render;
+    std::string size = "1280x720";
+    std::string summary_path;
+  };
+  auto o = std::make_shared<Options>();
+  CLI::App* cmd = app->add_subcommand(
+      "render", "Film a scenario headless (no display needed): MP4 video and/or a PNG frame");
+  o->view.add_to(cmd);
+  cmd->add_option("--duration", o->render.duration_s, "Simulated seconds to film")->capture_default_str();
+  cmd->add_option("--fps", o->render.fps, "Video frames per simulated second")->capture_default_str();
+  cmd->add_option("--size", o->size, "Frame size WIDTHxHEIGHT (even)")->capture_default_str();
+  cmd->add_option("-o,--output", o->render.video_path, "MP4 video to write");
+  cmd->add_option("--png", o->render.png_path, "PNG frame to write");
+  cmd->add_option("--png-time", o->render.png_time_s,
+                  "Simulated time of the PNG frame, s (default: the last frame)");
+  cmd->add_option("--azimuth", o->render.azimuth_deg, "Camera azimuth, deg")->capture_default_str();
+  cmd->add_option("--elevation", o->render.elevation_deg, "Camera elevation, deg")->capture_default_str();
+  cmd->add_option("--distance", o->render.distance_m, "Camera distance, m")->capture_default_str();
+  cmd->add_option("--summary", o->summary_path, "Run summary JSON to write");
+  return {cmd, [o]() {
+            const std::size_t x = o->size.find('x');
+            try {
+              if (x == std::string::npos) throw std::invalid_argument("no x");
+              std::size_t used = 0;
+              o->render.width = std::stoi(o->size.substr(0, x), &used);
+              if (used != x) throw std::invalid_argument("width");
+              o->render.height = std::stoi(o->size.substr(x + 1), &used);
+              if (used != o->size.size() - x - 1) throw std::invalid_argument("height");
+            } catch (const std::logic_error&) {
+              throw sim::InvalidArgument("--size: expected WIDTHxHEIGHT, e.g. 1280x720, got '" +
+                                         o->size + "'");
+            }
+            o->render.validate();
+            scenarios::LiveScenario scenario(o->view.to_config());
+            ProgressBar bar("render " + o->view.scenario + ": " +
+                            std::to_string(o->render.duration_s) + " s");
+            const viewer::RenderStats st =
+                viewer::render_scenario(&scenario, o->render, [&](double f) { bar.update(f); });
+            bar.finish();
+            const nlohmann::json summary = {
+                {"scenario", o->view.scenario},
+                {"character", {{"height_m", scenario.config().character.height_m},
+                               {"mass_kg", scenario.config().character.mass_kg}}},
+                {"weld", o->view.weld},
+                {"assumption", weld_assumption(o->view.weld)},
+                {"simulated_s", st.simulated_s},
+                {"fallen", st.fallen},
+                {"frames", st.frames},
+                {"size", o->size},
+                {"wall_s", st.wall_s},
+                {"physics_s", st.physics_s},
+                {"render_s", st.render_s},
+                {"encode_s", st.encode_s},
+                {"render_frames_per_s", st.frames / std::max(st.render_s, 1e-9)},
+                {"physics_realtime_factor", st.simulated_s / std::max(st.physics_s, 1e-9)},
+                {"video", o->render.video_path},
+                {"png", o->render.png_path}};
+            if (!o->summary_path.empty()) {
+              write_file_atomically(o->summary_path, summary.dump(1) + "\n");
+            }
+            std::cout << "render " << o->view.scenario << ": " << st.simulated_s << " s simulated"
+                      << (st.fallen ? " (fell)" : " without falling") << ", " << st.frames
+                      << " frames " << o->size << "; physics " << summary["physics_realtime_factor"].get<double>()
+                      << "x real time, rendering " << summary["render_frames_per_s"].get<double>()
+                      << " frames/s\n  " << weld_assumption(o->view.weld) << "\n";
+            if (!o->render.video_path.empty()) std::cout << "  video: " << o->render.video_path << "\n";
+            if (!o->render.png_path.empty()) std::cout << "  frame: " << o->render.png_path << "\n";
+            if (!o->summary_path.empty()) std::cout << "  summary: " << o->summary_path << "\n";
+            return kExitOk;
+          }};
+}
+
+}  // namespace biodyn::apps

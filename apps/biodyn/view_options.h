@@ -1,0 +1,28 @@
+#pragma once
+/// Options shared by `biodyn view` and `biodyn render`: the scenario and its character and
+/// parameters (the same files `biodyn walk --params` and `biodyn pose --params` read).
+#include <CLI/CLI.hpp>
+#include <string>
+
+#include "biodyn/scenarios/live.h"
+#include "cli_common.h"
+
+namespace biodyn::apps {
+
+struct ViewOptions {
+  std::string scenario = "walk";
+  CharacterOptions character;
+  double speed_m_s = 1.0;
+  double heading_rate_deg_s = 0;
+  std::string weld = "honest";
+  std::string params_path;             ///< walker parameters (biodyn walk --params)
+  std::string controller_params_path;  ///< controller parameters (biodyn pose --params)
+
+  /// Adds --scenario, the character options, --speed, --heading-rate, --weld, --params,
+  /// --controller-params.
+  void add_to(CLI::App* cmd);
+  /// Reads the files; throws sim::InvalidArgument naming the option or file.
+  scenarios::LiveConfig to_config() const;
+};
+
+}  // namespace biodyn::apps

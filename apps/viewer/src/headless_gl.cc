@@ -1,0 +1,71 @@
+// EGL context on Mesa's surfaceless platform (headless_gl.h).
+#include "biodyn/viewer/headless_gl.h"
+
+#include <EGL/egl.h>
+#include <EGL/eglext.h>
+
+#include <cstdio>
+#include <string>
+
+#include "biodyn/sim/errors.h"
+
+namespace biodyn::viewer {
+namespace {
+
+[[noreturn]] void fail(const char* call) {
+  char code[16];
+  std::snprintf(code, sizeof code, "0x%04x", static_cast<unsigned>(eglGetError()));
+  throw sim::Error(std::string("headless OpenGL: ") + call + " failed (EGL error " + code +
+                   "); Mesa's EGL (libegl-mesa0) is needed");
+}
+
+}  // namespace
+
+HeadlessGl::HeadlessGl() {
+  // Surfaceless first (no display at all); the default display as a fallback.
+  const auto get_platform_display = reinterpret_cast<PFNEGLGETPLATFORMDISPLAYEXTPROC>(
+      eglGetProcAddress("eglGetPlatformDisplayEXT"));
+  EGLDisplay display = EGL_NO_DISPLAY;
+  if (get_platform_display != nullptr) {
+    display = get_platform_display(EGL_PLATFORM_SURFACELESS_MESA, EGL_DEFAULT_DISPLAY, nullptr);
+  }
+  if (display == EGL_NO_DISPLAY) display = eglGetDisplay(EGL_DEFAULT_DISPLAY);
+  if (display == EGL_NO_DISPLAY) fail("eglGetDisplay");
+  EGLint major = 0, minor = 0;
+  if (!eglInitialize(display, &major, &minor)) fail("eglInitialize");
+  const EGLint attributes[] = {EGL_RED_SIZE,        8, EGL_GREEN_SIZE, 8, EGL_BLUE_SIZE, 8,
+                               EGL_DEPTH_SIZE,      24, EGL_STENCIL_SIZE, 8,
+                               // No window: MuJoCo draws into its own framebuffer object.
+                               EGL_SURFACE_TYPE,    EGL_PBUFFER_BIT,
+                               EGL_RENDERABLE_TYPE, EGL_OPENGL_BIT, EGL_NONE};
+  EGLConfig config = nullptr;
+  EGLint count = 0;
+  if (!eglChooseConfig(display, attributes, &config, 1, &count) || count < 1) {
+    eglTerminate(display);
+    fail("eglChooseConfig (no RGB8, depth 24, stencil 8 OpenGL config)");
+  }
+  if (!eglBindAPI(EGL_OPENGL_API)) {
+    eglTerminate(display);
+    fail("eglBindAPI");
+  }
+  EGLContext context = eglCreateContext(display, config, EGL_NO_CONTEXT, nullptr);
+  if (context == EGL_NO_CONTEXT) {
+    eglTerminate(display);
+    fail("eglCreateContext");
+  }
+  if (!eglMakeCurrent(display, EGL_NO_SURFACE, EGL_NO_SURFACE, context)) {
+    eglDestroyContext(display, context);
+    eglTerminate(display);
+    fail("eglMakeCurrent");
+  }
+  display_ = display;
+  context_ = context;
+}
+
+HeadlessGl::~HeadlessGl() {
+  eglMakeCurrent(display_, EGL_NO_SURFACE, EGL_NO_SURFACE, EGL_NO_CONTEXT);
+  eglDestroyContext(display_, context_);
+  eglTerminate(display_);
+}
+
+}  // namespace biodyn::viewer

@@ -1,0 +1,106 @@
+// Overlays of the live scenario (overlays.h).
+#include "biodyn/viewer/overlays.h"
+
+#include "biodyn/controllers/support_polygon.h"
+#include "biodyn/sim/queries.h"
+
+namespace biodyn::viewer {
+namespace {
+
+/// m above the floor: polygons drawn just over it so the floor does not hide them.
+constexpr double kLift_m = 0.004;
+
+void polygon(const std::vector<Eigen::Vector2d>& p, const float rgba[4], double width,
+             std::vector<sim::OverlayGeom>* out) {
+  if (p.size() < 2) return;
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    const Eigen::Vector2d& a = p[i];
+    const Eigen::Vector2d& b = p[(i + 1) % p.size()];
+    sim::OverlayGeom g;
+    g.kind = sim::OverlayGeom::Kind::kLine;
+    g.from_W = Eigen::Vector3d(a.x(), a.y(), kLift_m);
+    g.to_W = Eigen::Vector3d(b.x(), b.y(), kLift_m);
+    g.width_m = width;
+    std::copy(rgba, rgba + 4, g.rgba);
+    out->push_back(g);
+  }
+}
+
+}  // namespace
+
+void build_overlays(const scenarios::LiveScenario& s, const OverlayOptions& o, OverlayBuffers* b,
+                    std::vector<sim::OverlayGeom>* out) {
+  out->clear();
+  const mjModel& m = s.simulation().model();
+  const mjData& d = s.simulation().data();
+  const int floor = mj_name2id(&m, mjOBJ_GEOM, "floor");
+  sim::floor_contacts(m, d, floor, &b->contacts);
+  static constexpr float kSupport[4] = {0.2f, 0.8f, 0.3f, 1.0f};
+  static constexpr float kTolerance[4] = {0.95f, 0.75f, 0.1f, 1.0f};
+  static constexpr float kCom[4] = {0.9f, 0.1f, 0.9f, 1.0f};
+  static constexpr float kForce[4] = {0.2f, 0.6f, 1.0f, 0.8f};
+  static constexpr float kPush[4] = {1.0f, 0.15f, 0.1f, 1.0f};
+  if (o.support_polygon || o.tolerance_polygon) {
+    const int feet[4] = {mj_name2id(&m, mjOBJ_BODY, "foot_l"), mj_name2id(&m, mjOBJ_BODY, "foot_r"),
+                         mj_name2id(&m, mjOBJ_BODY, "toes_l"), mj_name2id(&m, mjOBJ_BODY, "toes_r")};
+    controllers::contact_support_polygon(b->contacts, feet, 4, &b->points, &b->hull);
+    if (o.support_polygon) polygon(b->hull, kSupport, 0.006, out);
+    if (o.tolerance_polygon && s.gait() != nullptr) {
+      polygon(s.gait()->tolerance_polygon(), kTolerance, 0.004, out);
+    }
+  }
+  if (o.com_projection) {
+    const sim::CenterOfMass com = sim::center_of_mass(m, d);
+    sim::OverlayGeom g;
+    g.kind = sim::OverlayGeom::Kind::kSphere;
+    g.from_W = Eigen::Vector3d(com.position_W.x(), com.position_W.y(), kLift_m);
+    g.width_m = 0.025;
+    std::copy(kCom, kCom + 4, g.rgba);
+    out->push_back(g);
+  }
+  if (o.contact_forces) {
+    for (const sim::FloorContact& c : b->contacts) {
+      const Eigen::Vector3d f = c.normal_force * c.normal_W + c.tangential_force_W;
+      if (f.norm() < 1.0) continue;
+      sim::OverlayGeom g;
+      g.kind = sim::OverlayGeom::Kind::kArrow;
+      g.from_W = c.position_W;
+      g.to_W = c.position_W + o.force_scale_m_per_N * f;
+      g.width_m = 0.006;
+      std::copy(kForce, kForce + 4, g.rgba);
+      out->push_back(g);
+    }
+  }
+  if (o.pushes) {
+    for (const scenarios::LivePush& p : s.pushes()) {
+      if (d.time < p.start_s || d.time >= p.start_s + p.duration_s) continue;
+      const int body = mj_name2id(&m, mjOBJ_BODY, p.body.c_str());
+      const Eigen::Vector3d at(d.xipos + 3 * body);
+      // The arrow ends at the body: it shows where the push comes from.
+      sim::OverlayGeom g;
+      g.kind = sim::OverlayGeom::Kind::kArrow;
+      g.from_W = at - o.force_scale_m_per_N * p.force_W - 0.1 * p.force_W.normalized();
+      g.to_W = at;
+      g.width_m = 0.02;
+      std::copy(kPush, kPush + 4, g.rgba);
+      out->push_back(g);
+    }
+  }
+  if (o.welds) {
+    const controllers::StepReport& r = s.last_report();
+    const char* feet[2] = {"foot_l", "foot_r"};
+    for (int side = 0; side < 2; ++side) {
+      if (!r.weld_active[static_cast<std::size_t>(side)]) continue;
+      const int body = mj_name2id(&m, mjOBJ_BODY, feet[side]);
+      sim::OverlayGeom g;
+      g.kind = sim::OverlayGeom::Kind::kSphere;
+      g.from_W = Eigen::Vector3d(d.xpos[3 * body], d.xpos[3 * body + 1], d.xpos[3 * body + 2] + 0.06);
+      g.width_m = 0.018;
+      const float on[4] = {0.1f, 0.9f, 0.1f, 1.0f}, tension[4] = {1.0f, 0.0f, 0.0f, 1.0f};
+      std::copy(r.weld_tension ? tension : on, (r.weld_tension ? tension : on) + 4, g.rgba);
+      out->push_back(g);
+    }
+  }
+}
+
+}  // namespace biodyn::viewer

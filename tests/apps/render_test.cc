@@ -1,0 +1,80 @@
+// `biodyn render` headless (issue 6): the video has the frames asked for and the PNG shows the
+// character where the camera looks (non-background pixels in the middle, floor and sky at the
+// edges); bad options are refused in one line with nothing written.
+#include <stb/stb_image.h>
+
+#include <filesystem>
+#include <nlohmann/json.hpp>
+
+#include "cli_runner.h"
+#include "test_support.h"
+
+namespace fs = std::filesystem;
+using biodyn::testing::run_biodyn;
+using biodyn::testing::slurp;
+
+namespace {
+
+/// The character's colour (MuJoCo's default geom material: a warm tan) against the blue-grey
+/// floor and the black sky.
+bool character_pixel(const unsigned char* p) { return p[0] > 120 && p[0] > p[2] + 40 && p[1] > p[2]; }
+
+}  // namespace
+
+TEST_CASE("biodyn render films the walk headless: MP4 frames and a PNG showing the character",
+          "[apps][render]") {
+  const fs::path dir = biodyn::testing::fresh_dir("render_test", "walk");
+  const auto r = run_biodyn(
+      "render --scenario walk --duration 2 --fps 10 --size 320x240 -o walk.mp4 --png walk.png "
+      "--summary summary.json",
+      dir);
+  INFO(r.out << r.err);
+  REQUIRE(r.exit_code == 0);
+  REQUIRE(fs::exists(dir / "walk.mp4"));
+  CHECK_FALSE(fs::exists(dir / "walk.mp4.partial.mp4"));
+  const nlohmann::json s = nlohmann::json::parse(slurp(dir / "summary.json"));
+  CHECK(s["frames"] == 21);  // 0, 0.1, ..., 2.0 s
+  CHECK(s["fallen"] == false);
+  CHECK(s["simulated_s"].get<double>() == Approx(2.0).margin(0.002));
+  CHECK(s["assumption"].get<std::string>().find("honest") != std::string::npos);
+
+  // ffprobe counts the frames ffmpeg wrote.
+  const auto probe = biodyn::testing::run_shell(
+      "ffprobe -v error -count_frames -select_streams v:0 "
+      "-show_entries stream=width,height,nb_read_frames -of csv=p=0 walk.mp4",
+      dir);
+  CHECK(probe.out.find("320,240,21") != std::string::npos);
+
+  int w = 0, h = 0, channels = 0;
+  unsigned char* img = stbi_load((dir / "walk.png").c_str(), &w, &h, &channels, 3);
+  REQUIRE(img != nullptr);
+  CHECK(w == 320);
+  CHECK(h == 240);
+  // The camera follows the pelvis: the character fills the middle of the frame.
+  int middle = 0, edges = 0;
+  for (int y = 0; y < h; ++y) {
+    for (int x = 0; x < w; ++x) {
+      if (!character_pixel(img + 3 * (y * w + x))) continue;
+      if (x > w / 3 && x < 2 * w / 3) ++middle;
+      if (x < w / 8 || x > 7 * w / 8) ++edges;
+    }
+  }
+  stbi_image_free(img);
+  WARN("character pixels: " << middle << " in the middle third, " << edges << " at the edges");
+  // Measured 1378 pixels (the figure ~45% of the frame height, ~25 px wide); half of it at least.
+  CHECK(middle > 700);
+  CHECK(edges == 0);
+}
+
+TEST_CASE("biodyn render refuses bad options and writes nothing", "[apps][render]") {
+  const fs::path dir = biodyn::testing::fresh_dir("render_test", "bad");
+  for (const char* args : {"render --scenario dance -o v.mp4", "render --size 321x240 -o v.mp4",
+                           "render --size big -o v.mp4", "render --duration 0 -o v.mp4",
+                           "render --scenario walk"}) {
+    const auto r = run_biodyn(args, dir);
+    INFO(args << ": " << r.err);
+    CHECK(r.exit_code == 2);
+    CHECK(r.err.find("error") != std::string::npos);
+    CHECK_FALSE(fs::exists(dir / "v.mp4"));
+  }
+}
