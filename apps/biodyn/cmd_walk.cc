@@ -27,6 +27,8 @@ void WalkOptions::add_to(CLI::App* cmd) {
   cmd->add_option("--reaction-time", reaction_time_s,
                   "Muscle reaction time t_r for every joint, s (default: the controller params, 0.02)");
   cmd->add_option("--params", params_path, "Walker parameters (JSON; see --print-params)");
+  cmd->add_option("--controller-params", controller_params_path,
+                  "Joint controller parameters (JSON as biodyn pose --params; the viewer saves both)");
   cmd->add_option("--timestep", timestep_s, "Physics timestep, s, in [0.0005, 0.004]")->capture_default_str();
 }
 
@@ -48,6 +50,10 @@ scenarios::WalkRunParams WalkOptions::to_params() const {
   if (!params_path.empty()) {
     p.gait_json = read_text_file(params_path);
     p.gait_source = params_path;
+  }
+  if (!controller_params_path.empty()) {
+    p.controller_json = read_text_file(controller_params_path);
+    p.controller_source = controller_params_path;
   }
   return p;
 }

@@ -35,6 +35,8 @@ Command add_mocap_command(CLI::App* app);
 
 /// `biodyn render`: a scenario filmed headless (MP4, PNG).
 Command add_render_command(CLI::App* app);
+/// `biodyn view`: the interactive viewer.
+Command add_view_command(CLI::App* app);
 
 /// Exit codes shared by every subcommand.
 inline constexpr int kExitOk = 0;

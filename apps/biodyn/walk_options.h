@@ -19,12 +19,13 @@ struct WalkOptions {
   std::string weld = "honest";
   double reaction_time_s = 0;
   std::string params_path;
+  std::string controller_params_path;
   /// s, physics timestep. 2 ms is the default of every biodyn model; 3 ms walks the same
   /// (controllers/README.md, "Timestep and speed") at 1.5x the speed.
   double timestep_s = 0.002;
 
   /// Adds the character options and --speed --heading-rate --weld --reaction-time --params
-  /// --timestep.
+  /// --controller-params --timestep.
   void add_to(CLI::App* cmd);
   /// The model's physics options for --timestep.
   /// Throws sim::InvalidArgument.

@@ -99,6 +99,16 @@ void SceneRenderer::render_offscreen(int width, int height, std::vector<std::uin
   mjr_setBuffer(mjFB_OFFSCREEN, &context_);
   const mjrRect viewport = {0, 0, width, height};
   mjr_render(viewport, &scene_, &context_);
+  read_pixels(width, height, rgb);
+}
+
+void SceneRenderer::read_window(int width, int height, std::vector<std::uint8_t>* rgb) {
+  mjr_setBuffer(mjFB_WINDOW, &context_);
+  read_pixels(width, height, rgb);
+}
+
+void SceneRenderer::read_pixels(int width, int height, std::vector<std::uint8_t>* rgb) {
+  const mjrRect viewport = {0, 0, width, height};
   const std::size_t row = 3 * static_cast<std::size_t>(width);
   rgb->resize(row * static_cast<std::size_t>(height));
   mjr_readPixels(rgb->data(), nullptr, viewport, &context_);

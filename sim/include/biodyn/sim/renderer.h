@@ -60,11 +60,16 @@ class SceneRenderer {
   /// bottom-up; flipped here). `rgb` is resized to 3 w h.
   void render_offscreen(int width, int height, std::vector<std::uint8_t>* rgb);
 
+  /// Reads back what render_to_window drew (width x height RGB, top-down): screenshots and
+  /// recordings of the viewer, without its panels.
+  void read_window(int width, int height, std::vector<std::uint8_t>* rgb);
+
   const mjvScene& scene() const { return scene_; }
   mjvCamera& camera() { return camera_; }
 
  private:
   void add_overlays(const std::vector<OverlayGeom>& overlays);
+  void read_pixels(int width, int height, std::vector<std::uint8_t>* rgb);
 
   mjvScene scene_;
   mjvOption options_;

@@ -37,6 +37,9 @@ struct WalkRunParams {
   double heading_rate_deg_s = 0;   ///< deg/s, commanded turning rate (+ to the left)
   controllers::WeldMode weld = controllers::WeldMode::kHonest;
   double reaction_time_s = 0;      ///< s; > 0 replaces every joint's t_r
+  /// Joint controller parameter overrides (controller_params.h JSON, as `biodyn pose --params`
+  /// and the viewer's saved files), optional; reaction_time_s > 0 still overrides t_r.
+  std::string controller_json, controller_source;
   std::string gait_json;           ///< torque walker parameter overrides (JSON text), optional
   std::string gait_source;         ///< the file it came from, for errors
   std::optional<WalkPush> push;

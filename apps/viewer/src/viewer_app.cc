@@ -1,0 +1,804 @@
+// The interactive viewer (viewer_app.h): GLFW window, MuJoCo renderer, Dear ImGui panels,
+// physics on its own thread.
+#include "biodyn/viewer/viewer_app.h"
+
+#define GLFW_INCLUDE_NONE
+#include <GLFW/glfw3.h>
+#include <imgui.h>
+#include <imgui/backends/imgui_impl_glfw.h>
+#include <imgui/backends/imgui_impl_opengl3.h>
+
+#include <algorithm>
+#include <array>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <condition_variable>
+#include <fstream>
+#include <iostream>
+#include <mutex>
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <sstream>
+#include <thread>
+
+#include "biodyn/controllers/support_polygon.h"
+#include "biodyn/sim/errors.h"
+#include "biodyn/sim/queries.h"
+#include "biodyn/sim/renderer.h"
+#include "biodyn/viewer/image_output.h"
+#include "biodyn/viewer/overlays.h"
+
+namespace biodyn::viewer {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+constexpr double kPi = 3.14159265358979323846;
+
+// ---------------------------------------------------------------------------------------------
+// Script
+// ---------------------------------------------------------------------------------------------
+
+struct ScriptCommand {
+  double t = 0;
+  int line = 0;
+  std::vector<std::string> words;  // the command and its arguments
+};
+
+std::vector<ScriptCommand> parse_script(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw sim::InvalidArgument(path + ": cannot open the script");
+  std::vector<ScriptCommand> out;
+  std::string text;
+  for (int line = 1; std::getline(in, text); ++line) {
+    text = text.substr(0, text.find('#'));
+    std::istringstream words(text);
+    std::vector<std::string> w;
+    for (std::string s; words >> s;) w.push_back(s);
+    if (w.empty()) continue;
+    const auto fail = [&](const std::string& rule) {
+      throw sim::InvalidArgument(path + ":" + std::to_string(line) + ": " + rule + ", got '" +
+                                 text + "'");
+    };
+    if (w.size() < 3 || w[0] != "at") fail("expected 'at <time> <command> ...'");
+    ScriptCommand c;
+    c.line = line;
+    try {
+      std::size_t used = 0;
+      c.t = std::stod(w[1], &used);
+      if (used != w[1].size() || !(c.t >= 0)) throw std::invalid_argument("t");
+    } catch (const std::logic_error&) {
+      fail("the time must be a number >= 0 s");
+    }
+    c.words.assign(w.begin() + 2, w.end());
+    const std::string& cmd = c.words[0];
+    const std::size_t n = c.words.size();
+    const bool ok = (cmd == "set" && (n == 3 || (n == 4 && c.words[1] == "tau_scale"))) ||
+                    (cmd == "push" && n == 5) || (cmd == "save-params" && n == 3) ||
+                    (cmd == "screenshot" && n == 2) || (cmd == "rewind" && n == 2) ||
+                    (cmd == "quit" && n == 1);
+    if (!ok) {
+      fail("expected set <field> <value>, set tau_scale <group> <factor>, push <body> <N> <deg> "
+           "<s>, save-params <walker.json> <controller.json>, screenshot <file.png>, rewind <s> "
+           "or quit");
+    }
+    out.push_back(c);
+  }
+  std::stable_sort(out.begin(), out.end(),
+                   [](const ScriptCommand& a, const ScriptCommand& b) { return a.t < b.t; });
+  return out;
+}
+
+double number(const std::string& s, const std::string& what) {
+  try {
+    std::size_t used = 0;
+    const double v = std::stod(s, &used);
+    if (used == s.size() && std::isfinite(v)) return v;
+  } catch (const std::logic_error&) {
+  }
+  throw sim::InvalidArgument(what + ": expected a number, got '" + s + "'");
+}
+
+// ---------------------------------------------------------------------------------------------
+// Shared state between the threads
+// ---------------------------------------------------------------------------------------------
+
+/// The last ~12 s of states, for scrubbing back (display) and the step to rewind to.
+struct History {
+  static constexpr int kEvery = 5;  // steps between entries (10 ms at 2 ms)
+  std::vector<long> step;
+  std::vector<double> time;
+  std::vector<std::vector<double>> qpos;
+  int head = 0, count = 0;
+  void init(int capacity, int nq) {
+    step.assign(static_cast<std::size_t>(capacity), 0);
+    time.assign(static_cast<std::size_t>(capacity), 0);
+    qpos.assign(static_cast<std::size_t>(capacity), std::vector<double>(static_cast<std::size_t>(nq)));
+  }
+  int capacity() const { return static_cast<int>(step.size()); }
+  void add(long s, double t, const double* q) {
+    const std::size_t i = static_cast<std::size_t>(head);
+    step[i] = s;
+    time[i] = t;
+    std::copy(q, q + qpos[i].size(), qpos[i].begin());
+    head = (head + 1) % capacity();
+    count = std::min(count + 1, capacity());
+  }
+  /// Index of the entry `back` entries before the newest (0 = newest).
+  int at(int back) const { return ((head - 1 - back) % capacity() + capacity()) % capacity(); }
+  /// Drops entries newer than step s.
+  void truncate_after(long s) {
+    while (count > 0 && step[static_cast<std::size_t>(at(0))] > s) {
+      head = (head - 1 + capacity()) % capacity();
+      --count;
+    }
+  }
+  double span_s() const {
+    return count < 2 ? 0.0 : time[static_cast<std::size_t>(at(0))] - time[static_cast<std::size_t>(at(count - 1))];
+  }
+};
+
+/// Scrolling plot samples (10 s at 50 Hz).
+struct Plots {
+  static constexpr int kSamples = 500;
+  static constexpr int kEvery = 10;  // steps between samples (20 ms)
+  std::vector<std::string> groups;   // plotted joint groups
+  std::vector<int> group_index;
+  std::array<float, kSamples> com_outside{}, tolerance_outside{}, speed{}, contact_l{}, contact_r{};
+  std::vector<std::array<float, kSamples>> torque_ratio;
+  int head = 0;
+  void push(float com, float tol, float v, float cl, float cr, const std::vector<float>& ratios) {
+    com_outside[static_cast<std::size_t>(head)] = com;
+    tolerance_outside[static_cast<std::size_t>(head)] = tol;
+    speed[static_cast<std::size_t>(head)] = v;
+    contact_l[static_cast<std::size_t>(head)] = cl;
+    contact_r[static_cast<std::size_t>(head)] = cr;
+    for (std::size_t g = 0; g < torque_ratio.size(); ++g) torque_ratio[g][static_cast<std::size_t>(head)] = ratios[g];
+    head = (head + 1) % kSamples;
+  }
+};
+
+struct Shared {
+  std::mutex mutex;
+  scenarios::LiveScenario* scenario = nullptr;
+  bool paused = false;
+  int single_steps = 0;
+  double speed_factor = 1.0;  // simulated seconds per wall second
+  double scrub_s = 0.0;       // <= 0: how far back the display is (paused)
+  bool quit = false;
+  bool rewinding = false;
+  std::string message;        // one line shown in the status bar
+  History history;
+  Plots plots;
+  OverlayBuffers overlay_buffers;
+  std::vector<float> ratio_scratch;
+  // The script runs on the physics thread, at its exact steps (a scripted session is as
+  // deterministic as a headless run); screenshots are taken by the render thread while the
+  // physics waits.
+  const std::vector<ScriptCommand>* script = nullptr;
+  std::string script_path;
+  std::size_t next_command = 0;
+  std::string screenshot_path;  // asked for, not yet taken
+  bool screenshot_requested = false;
+  // Measured by the physics thread.
+  long steps_run = 0;
+  double running_wall_s = 0, running_sim_s = 0;
+};
+
+void sample_plots(Shared& sh) {
+  scenarios::LiveScenario& s = *sh.scenario;
+  const mjModel& m = s.simulation().model();
+  const mjData& d = s.simulation().data();
+  OverlayBuffers& b = sh.overlay_buffers;
+  const int floor = mj_name2id(&m, mjOBJ_GEOM, "floor");
+  sim::floor_contacts(m, d, floor, &b.contacts);
+  const int feet[4] = {mj_name2id(&m, mjOBJ_BODY, "foot_l"), mj_name2id(&m, mjOBJ_BODY, "foot_r"),
+                       mj_name2id(&m, mjOBJ_BODY, "toes_l"), mj_name2id(&m, mjOBJ_BODY, "toes_r")};
+  controllers::contact_support_polygon(b.contacts, feet, 4, &b.points, &b.hull);
+  const sim::CenterOfMass com = sim::center_of_mass(m, d);
+  const Eigen::Vector2d c = com.position_W.head<2>();
+  const float outside = static_cast<float>(controllers::distance_outside(b.hull, c));
+  const float tol = s.gait() ? static_cast<float>(controllers::distance_outside(s.gait()->tolerance_polygon(), c)) : 0.0f;
+  bool on[2] = {false, false};
+  for (const sim::FloorContact& k : b.contacts) {
+    if (k.body == feet[0] || k.body == feet[2]) on[0] = true;
+    if (k.body == feet[1] || k.body == feet[3]) on[1] = true;
+  }
+  const auto& joints = s.controller().joints();
+  const auto& tau = joints.previous_torque();
+  const auto& tau_max = joints.tau_max();
+  sh.ratio_scratch.assign(sh.plots.group_index.size(), 0.0f);
+  for (std::size_t g = 0; g < sh.plots.group_index.size(); ++g) {
+    const controllers::JointGroup& jg = s.controller().groups()[static_cast<std::size_t>(sh.plots.group_index[g])];
+    for (int k = 0; k < jg.dof_count; ++k) {
+      const std::size_t dof = static_cast<std::size_t>(jg.dof_begin + k);
+      if (tau_max[dof] > 0) sh.ratio_scratch[g] = std::max(sh.ratio_scratch[g], static_cast<float>(std::abs(tau[dof]) / tau_max[dof]));
+    }
+  }
+  sh.plots.push(outside, tol, static_cast<float>(com.velocity_W.head<2>().norm()), on[0] ? 1.0f : 0.0f,
+                on[1] ? 1.0f : 0.0f, sh.ratio_scratch);
+}
+
+void run_command(Shared& sh, const ScriptCommand& c, const std::string& script);
+
+/// The physics thread: keeps simulated time at speed_factor x wall time (dropping behind rather
+/// than spiralling when the machine cannot keep up), records history and plot samples.
+void physics_loop(Shared& sh) {
+  auto last = Clock::now();
+  double target = -1;
+  while (true) {
+    {
+      std::unique_lock<std::mutex> lock(sh.mutex);
+      if (sh.quit) return;
+      scenarios::LiveScenario& s = *sh.scenario;
+      const auto now = Clock::now();
+      const double wall_dt = std::chrono::duration<double>(now - last).count();
+      last = now;
+      // Script commands due at this step; false while a screenshot is waiting to be taken.
+      const auto run_script = [&] {
+        while (sh.script != nullptr && sh.next_command < sh.script->size() &&
+               s.time_s() >= (*sh.script)[sh.next_command].t - 1e-9 && !sh.quit) {
+          run_command(sh, (*sh.script)[sh.next_command++], sh.script_path);
+          if (sh.screenshot_requested) return false;
+        }
+        return !sh.quit && !sh.screenshot_requested;
+      };
+      if (!run_script()) {
+        last = now;
+        target = -1;
+        goto idle;
+      }
+      {
+      const auto step_once = [&] {
+        s.step();
+        ++sh.steps_run;
+        if (s.step_index() % History::kEvery == 0) {
+          sh.history.add(s.step_index(), s.time_s(), s.simulation().data().qpos);
+        }
+        if (s.step_index() % Plots::kEvery == 0) sample_plots(sh);
+      };
+      const bool scrubbed = sh.scrub_s < 0;
+      if ((!sh.paused || sh.single_steps > 0) && scrubbed) {
+        // Resuming from a point in the past: the scenario replays to it (exact, live.h).
+        sh.rewinding = true;
+        const int back = std::clamp(static_cast<int>(std::lround(-sh.scrub_s * 100.0)), 0, sh.history.count - 1);
+        const long to = sh.history.step[static_cast<std::size_t>(sh.history.at(back))];
+        s.rewind_to(to);
+        sh.history.truncate_after(to);
+        sh.scrub_s = 0;
+        sh.rewinding = false;
+        target = -1;
+      }
+      if (sh.single_steps > 0) {
+        step_once();
+        --sh.single_steps;
+        target = -1;
+      } else if (!sh.paused) {
+        if (target < 0) target = s.time_s();
+        target += wall_dt * sh.speed_factor;
+        const auto budget_end = now + std::chrono::milliseconds(30);
+        const double t_start = s.time_s();
+        while (s.time_s() < target && Clock::now() < budget_end) {
+          step_once();
+          if (!run_script()) break;
+        }
+        if (s.time_s() < target - 0.1) target = s.time_s();  // behind: slow down, never spiral
+        sh.running_wall_s += wall_dt;
+        sh.running_sim_s += s.time_s() - t_start;
+      } else {
+        target = -1;
+      }
+      }
+    }
+  idle:
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Edits (panels and script share them)
+// ---------------------------------------------------------------------------------------------
+
+void set_walker_field(scenarios::LiveScenario& s, const std::string& field, double value) {
+  if (s.gait() == nullptr) throw sim::InvalidArgument("walker." + field + ": the scenario does not walk");
+  controllers::TorqueGaitParams p = s.gait()->params();
+  controllers::apply_torque_gait_json(nlohmann::json{{field, value}}.dump(), "walker", &p);
+  s.set_gait_params(p);
+}
+
+void push_relative(scenarios::LiveScenario& s, const std::string& body, double force_N,
+                   double direction_deg, double duration_s) {
+  const double heading = s.gait() ? s.gait()->heading_rad() : 0.0;
+  const double a = heading + direction_deg * kPi / 180.0;
+  s.push(body, force_N * Eigen::Vector3d(std::cos(a), std::sin(a), 0), duration_s);
+}
+
+void save_params(const scenarios::LiveScenario& s, const std::string& walker_path,
+                 const std::string& controller_path) {
+  if (!walker_path.empty() && s.gait() != nullptr) {
+    std::ofstream(walker_path + ".partial") << s.gait_params_json();
+    std::rename((walker_path + ".partial").c_str(), walker_path.c_str());
+  }
+  if (!controller_path.empty()) {
+    std::ofstream(controller_path + ".partial") << s.controller_params_json();
+    std::rename((controller_path + ".partial").c_str(), controller_path.c_str());
+  }
+}
+
+/// Runs one script command (physics lock held).
+void run_command(Shared& sh, const ScriptCommand& c, const std::string& script) {
+  scenarios::LiveScenario& s = *sh.scenario;
+  const std::vector<std::string>& w = c.words;
+  const std::string where = script + ":" + std::to_string(c.line);
+  try {
+    if (w[0] == "set") {
+      if (w[1] == "speed") {
+        s.set_speed(number(w[2], "speed"));
+      } else if (w[1] == "heading_rate") {
+        s.set_heading_rate(number(w[2], "heading_rate"));
+      } else if (w[1] == "weld") {
+        s.set_weld_mode(controllers::parse_weld_mode(w[2], "weld"));
+      } else if (w[1].rfind("walker.", 0) == 0) {
+        set_walker_field(s, w[1].substr(7), number(w[2], w[1]));
+      } else if (w[1] == "reaction_time") {
+        controllers::ControllerParams p = s.controller_params();
+        for (controllers::JointParams& j : p.joints) j.reaction_time_s = number(w[2], w[1]);
+        s.set_controller_params(p);
+      } else if (w[1] == "tau_scale") {
+        controllers::ControllerParams p = s.controller_params();
+        p.at(w[2]).tau_max_Nm *= number(w[3], "tau_scale");
+        s.set_controller_params(p);
+      } else {
+        throw sim::InvalidArgument("unknown field '" + w[1] + "'");
+      }
+    } else if (w[0] == "push") {
+      push_relative(s, w[1], number(w[2], "force"), number(w[3], "direction"), number(w[4], "duration"));
+    } else if (w[0] == "save-params") {
+      save_params(s, w[1], w[2]);
+    } else if (w[0] == "screenshot") {
+      sh.screenshot_requested = true;
+      sh.screenshot_path = w[1];
+    } else if (w[0] == "rewind") {
+      sh.scrub_s = -number(w[1], "rewind");
+    } else if (w[0] == "quit") {
+      sh.quit = true;
+    }
+  } catch (const sim::InvalidArgument& e) {
+    throw sim::InvalidArgument(where + ": " + e.what());
+  }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Panels
+// ---------------------------------------------------------------------------------------------
+
+struct UiState {
+  float push_force_N = 200, push_direction_deg = 90, push_duration_s = 0.2f;
+  int push_body = 0;
+  char walker_path[256] = "walker_params.json";
+  char controller_path[256] = "controller_params.json";
+  bool follow = true;
+  OverlayOptions overlays;
+};
+
+void simulation_panel(Shared& sh, UiState& ui, double fps, double sim_rate) {
+  scenarios::LiveScenario& s = *sh.scenario;
+  // First layout: simulation top left, controllers below it, plots on the right.
+  ImGui::SetNextWindowPos(ImVec2(10, 10), ImGuiCond_FirstUseEver);
+  ImGui::SetNextWindowSize(ImVec2(400, 290), ImGuiCond_FirstUseEver);
+  ImGui::Begin("Simulation");
+  ImGui::Text("t = %.2f s   %s", s.time_s(), s.fallen() ? "FALLEN" : "");
+  ImGui::Text("%.0f frames/s, physics %.2fx real time", fps, sim_rate);
+  if (ImGui::Button(sh.paused ? "Run (space)" : "Pause (space)")) sh.paused = !sh.paused;
+  ImGui::SameLine();
+  if (ImGui::Button("Step (.)")) sh.single_steps += 1;
+  ImGui::SameLine();
+  if (ImGui::Button("Reset (backspace)")) {
+    s.reset();
+    sh.history.count = 0;
+    sh.scrub_s = 0;
+  }
+  float log2_speed = static_cast<float>(std::log2(sh.speed_factor));
+  if (ImGui::SliderFloat("speed (log2)", &log2_speed, -4.0f, 2.0f, "%.1f")) {
+    sh.speed_factor = std::pow(2.0, std::round(log2_speed));
+  }
+  ImGui::SameLine();
+  ImGui::Text("%gx", sh.speed_factor);
+  float scrub = static_cast<float>(sh.scrub_s);
+  const float span = static_cast<float>(sh.history.span_s());
+  if (ImGui::SliderFloat("rewind (s)", &scrub, -span, 0.0f, "%.2f")) {
+    sh.paused = true;
+    sh.scrub_s = scrub;
+  }
+  ImGui::Checkbox("camera follows", &ui.follow);
+  ImGui::Separator();
+  ImGui::Text("Overlays");
+  ImGui::Checkbox("support polygon", &ui.overlays.support_polygon);
+  ImGui::SameLine();
+  ImGui::Checkbox("tolerance polygon", &ui.overlays.tolerance_polygon);
+  ImGui::Checkbox("CoM projection", &ui.overlays.com_projection);
+  ImGui::SameLine();
+  ImGui::Checkbox("contact forces", &ui.overlays.contact_forces);
+  ImGui::Checkbox("pushes", &ui.overlays.pushes);
+  ImGui::SameLine();
+  ImGui::Checkbox("welds", &ui.overlays.welds);
+  ImGui::End();
+}
+
+void control_panel(Shared& sh, UiState& ui) {
+  scenarios::LiveScenario& s = *sh.scenario;
+  ImGui::SetNextWindowPos(ImVec2(10, 310), ImGuiCond_FirstUseEver);
+  ImGui::SetNextWindowSize(ImVec2(400, 520), ImGuiCond_FirstUseEver);
+  ImGui::Begin("Controllers");
+  try {
+    // Foot contact.
+    int weld = static_cast<int>(s.controller().config().weld.mode);
+    const char* modes[] = {"off", "honest", "glue"};
+    if (ImGui::Combo("foot contact", &weld, modes, 3)) s.set_weld_mode(static_cast<controllers::WeldMode>(weld));
+    if (s.walking()) {
+      float v = static_cast<float>(s.config().speed_m_s);
+      if (ImGui::SliderFloat("speed (m/s)", &v, 0.0f, 2.0f)) s.set_speed(v);
+      float h = static_cast<float>(s.config().heading_rate_deg_s);
+      if (ImGui::SliderFloat("heading rate (deg/s)", &h, -45.0f, 45.0f)) s.set_heading_rate(h);
+      if (ImGui::CollapsingHeader("Gait state machine", ImGuiTreeNodeFlags_DefaultOpen)) {
+        controllers::TorqueGaitParams p = s.gait()->params();
+        bool changed = false;
+        for (std::size_t i = 0; i < p.states.size(); ++i) {
+          controllers::TorqueGaitState& st = p.states[i];
+          ImGui::PushID(static_cast<int>(i));
+          ImGui::Text("%s%s", st.name.c_str(), st.ends_at_strike ? " (ends at strike)" : "");
+          float dur = static_cast<float>(st.duration_s);
+          if (!st.ends_at_strike && ImGui::SliderFloat("duration (s)", &dur, 0.05f, 1.0f)) {
+            st.duration_s = dur;
+            changed = true;
+          }
+          const auto angle = [&](const char* label, double* rad) {
+            float deg = static_cast<float>(*rad * 180.0 / kPi);
+            if (ImGui::SliderFloat(label, &deg, -90.0f, 120.0f, "%.1f deg")) {
+              *rad = deg * kPi / 180.0;
+              changed = true;
+            }
+          };
+          angle("swing hip", &st.swing_hip_rad);
+          angle("swing knee", &st.swing_knee_rad);
+          angle("swing ankle", &st.swing_ankle_rad);
+          angle("stance knee", &st.stance_knee_rad);
+          angle("stance ankle", &st.stance_ankle_rad);
+          ImGui::PopID();
+        }
+        float lean = static_cast<float>(p.pelvis_pitch_rad * 180.0 / kPi);
+        if (ImGui::SliderFloat("pelvis lean", &lean, -10.0f, 30.0f, "%.1f deg")) {
+          p.pelvis_pitch_rad = lean * kPi / 180.0;
+          changed = true;
+        }
+        float tol = static_cast<float>(p.tolerance_fraction);
+        if (ImGui::SliderFloat("balance tolerance", &tol, 0.0f, 0.5f)) {
+          p.tolerance_fraction = tol;
+          changed = true;
+        }
+        if (changed) s.set_gait_params(p);
+      }
+    }
+    if (ImGui::CollapsingHeader("Joint groups")) {
+      controllers::ControllerParams p = s.controller_params();
+      bool changed = false;
+      if (ImGui::BeginTable("groups", 4, ImGuiTableFlags_RowBg | ImGuiTableFlags_SizingStretchProp)) {
+        ImGui::TableSetupColumn("group");
+        ImGui::TableSetupColumn("tau_max (N m)");
+        ImGui::TableSetupColumn("reaction (ms)");
+        ImGui::TableSetupColumn("reach (s)");
+        ImGui::TableHeadersRow();
+        for (std::size_t g = 0; g < p.joints.size(); ++g) {
+          controllers::JointParams& j = p.joints[g];
+          ImGui::PushID(static_cast<int>(g));
+          ImGui::TableNextRow();
+          ImGui::TableNextColumn();
+          ImGui::TextUnformatted(p.names[g].c_str());
+          ImGui::TableNextColumn();
+          float tau = static_cast<float>(j.tau_max_Nm.x());
+          if (ImGui::DragFloat("##tau", &tau, 1.0f, 1.0f, 1000.0f, "%.0f")) {
+            j.tau_max_Nm *= tau / std::max(j.tau_max_Nm.x(), 1e-9);
+            changed = true;
+          }
+          ImGui::TableNextColumn();
+          float tr = static_cast<float>(j.reaction_time_s * 1000);
+          if (ImGui::DragFloat("##tr", &tr, 0.5f, 2.0f, 500.0f, "%.0f")) {
+            j.reaction_time_s = tr / 1000.0;
+            changed = true;
+          }
+          ImGui::TableNextColumn();
+          float reach = static_cast<float>(j.reach_time_s);
+          if (ImGui::DragFloat("##reach", &reach, 0.01f, 0.02f, 3.0f, "%.2f")) {
+            j.reach_time_s = reach;
+            changed = true;
+          }
+          ImGui::PopID();
+        }
+        ImGui::EndTable();
+      }
+      if (changed) s.set_controller_params(p);
+    }
+    if (ImGui::CollapsingHeader("Push", ImGuiTreeNodeFlags_DefaultOpen)) {
+      const char* bodies[] = {"pelvis", "thorax", "head"};
+      ImGui::Combo("body", &ui.push_body, bodies, 3);
+      ImGui::SliderFloat("force (N)", &ui.push_force_N, 0.0f, 1000.0f, "%.0f");
+      ImGui::SliderFloat("direction (deg)", &ui.push_direction_deg, -180.0f, 180.0f, "%.0f");
+      ImGui::SliderFloat("duration (s)", &ui.push_duration_s, 0.05f, 1.0f, "%.2f");
+      if (ImGui::Button("Push (P)")) {
+        push_relative(s, bodies[ui.push_body], ui.push_force_N, ui.push_direction_deg, ui.push_duration_s);
+      }
+      ImGui::TextDisabled("direction: 0 = forward along the heading, 90 = to the left");
+    }
+    if (ImGui::CollapsingHeader("Parameter files")) {
+      ImGui::InputText("walker", ui.walker_path, sizeof ui.walker_path);
+      ImGui::InputText("controller", ui.controller_path, sizeof ui.controller_path);
+      if (ImGui::Button("Save")) {
+        save_params(s, ui.walker_path, ui.controller_path);
+        sh.message = std::string("saved ") + ui.walker_path + " and " + ui.controller_path +
+                     " (biodyn walk --params / --controller-params read them)";
+      }
+      ImGui::SameLine();
+      if (ImGui::Button("Load")) {
+        if (s.walking()) {
+          std::ifstream in(ui.walker_path);
+          std::stringstream text;
+          text << in.rdbuf();
+          controllers::TorqueGaitParams p;
+          controllers::apply_torque_gait_json(text.str(), ui.walker_path, &p);
+          s.set_gait_params(p);
+        }
+        std::ifstream in(ui.controller_path);
+        std::stringstream text;
+        text << in.rdbuf();
+        controllers::ControllerParams p = s.controller_params();
+        controllers::apply_params_json(text.str(), ui.controller_path, s.controller().groups(), &p);
+        s.set_controller_params(p);
+        sh.message = "loaded the parameter files";
+      }
+    }
+  } catch (const sim::InvalidArgument& e) {
+    sh.message = e.what();  // a bad value or file: said, nothing changed
+  }
+  ImGui::End();
+}
+
+void plot_panel(Shared& sh, int window_width) {
+  ImGui::SetNextWindowPos(ImVec2(static_cast<float>(window_width) - 430, 10), ImGuiCond_FirstUseEver);
+  ImGui::SetNextWindowSize(ImVec2(420, 640), ImGuiCond_FirstUseEver);
+  ImGui::Begin("Plots (last 10 s)");
+  const Plots& p = sh.plots;
+  const ImVec2 size(0, 50);
+  ImGui::PlotLines("CoM outside support (m)", p.com_outside.data(), Plots::kSamples, p.head, nullptr, 0.0f, 0.3f, size);
+  if (sh.scenario->walking()) {
+    ImGui::PlotLines("CoM outside tolerance (m)", p.tolerance_outside.data(), Plots::kSamples, p.head, nullptr, 0.0f, 0.3f, size);
+  }
+  ImGui::PlotLines("CoM speed (m/s)", p.speed.data(), Plots::kSamples, p.head, nullptr, 0.0f, 2.0f, size);
+  ImGui::PlotHistogram("left foot contact", p.contact_l.data(), Plots::kSamples, p.head, nullptr, 0.0f, 1.0f, ImVec2(0, 14));
+  ImGui::PlotHistogram("right foot contact", p.contact_r.data(), Plots::kSamples, p.head, nullptr, 0.0f, 1.0f, ImVec2(0, 14));
+  for (std::size_t g = 0; g < p.groups.size(); ++g) {
+    const std::string label = "|tau| / tau_max " + p.groups[g];
+    ImGui::PlotLines(label.c_str(), p.torque_ratio[g].data(), Plots::kSamples, p.head, "limit = 1", 0.0f, 1.05f, ImVec2(0, 36));
+  }
+  ImGui::End();
+}
+
+}  // namespace
+
+ViewerStats run_viewer(scenarios::LiveConfig config, const ViewerOptions& options) {
+  const std::vector<ScriptCommand> script =
+      options.script_path.empty() ? std::vector<ScriptCommand>{} : parse_script(options.script_path);
+  scenarios::LiveScenario scenario(std::move(config));
+
+  if (!glfwInit()) {
+    throw sim::Error("view: cannot open a window (no display?): use biodyn render for headless "
+                     "output, or run under xvfb-run");
+  }
+  struct GlfwGuard {
+    ~GlfwGuard() { glfwTerminate(); }
+  } glfw_guard;
+  glfwWindowHint(GLFW_SAMPLES, options.msaa_samples);
+  GLFWwindow* window = glfwCreateWindow(options.width, options.height, "biodyn view", nullptr, nullptr);
+  if (window == nullptr) throw sim::Error("view: cannot create a GLFW window with OpenGL");
+  glfwMakeContextCurrent(window);
+  glfwSwapInterval(1);
+
+  Shared sh;
+  sh.scenario = &scenario;
+  sh.script = &script;
+  sh.script_path = options.script_path;
+  sh.paused = options.start_paused;
+  sim::Simulation& simulation = scenario.simulation();
+  sh.history.init(1200, simulation.model().nq);  // 12 s at 10 ms
+  for (const char* g : {"hip_l", "knee_l", "ankle_l", "hip_r", "knee_r", "ankle_r", "lumbar"}) {
+    const auto& groups = scenario.controller().groups();
+    for (std::size_t i = 0; i < groups.size(); ++i) {
+      if (groups[i].name == g) {
+        sh.plots.groups.push_back(g);
+        sh.plots.group_index.push_back(static_cast<int>(i));
+      }
+    }
+  }
+  sh.plots.torque_ratio.resize(sh.plots.groups.size());
+
+  sim::SceneRenderer renderer(simulation.mutable_model(), 1920, 1080);
+  renderer.view().azimuth_deg = 110;
+  renderer.view().elevation_deg = -10;
+  renderer.view().distance_m = 4.0;
+  renderer.view().lookat_W.z() = 0.9;
+  const int pelvis = mj_name2id(&simulation.model(), mjOBJ_BODY, "pelvis");
+  sim::Data display(simulation.model());  // a past state shown while scrubbing
+
+  IMGUI_CHECKVERSION();
+  ImGui::CreateContext();
+  ImGui::GetIO().IniFilename = nullptr;  // no imgui.ini written into the user's directory
+  ImGui_ImplGlfw_InitForOpenGL(window, true);
+  ImGui_ImplOpenGL3_Init("#version 130");
+
+  std::thread physics([&sh] { physics_loop(sh); });
+  struct Joiner {
+    Shared& sh;
+    std::thread& t;
+    ~Joiner() {
+      {
+        std::lock_guard<std::mutex> lock(sh.mutex);
+        sh.quit = true;
+      }
+      if (t.joinable()) t.join();
+    }
+  } joiner{sh, physics};
+
+  UiState ui;
+  ViewerStats stats;
+  std::vector<sim::OverlayGeom> overlays;
+  std::vector<std::uint8_t> rgb;
+  std::optional<VideoWriter> video;
+  int shot_counter = 0;
+  double last_mouse_x = 0, last_mouse_y = 0;
+  const auto start = Clock::now();
+  auto fps_clock = start;
+  int fps_frames = 0;
+  double fps = 0, sim_rate = 0;
+  double sim_at_fps = 0;
+  auto last_record = start;
+
+  while (!glfwWindowShouldClose(window)) {
+    glfwPollEvents();
+    bool take_screenshot = false;
+    std::string screenshot_path;
+    ImGui_ImplOpenGL3_NewFrame();
+    ImGui_ImplGlfw_NewFrame();
+    ImGui::NewFrame();
+    int width = 0, height = 0;
+    glfwGetFramebufferSize(window, &width, &height);
+    {
+      std::lock_guard<std::mutex> lock(sh.mutex);
+      if (sh.quit) break;
+      if (sh.screenshot_requested) {
+        take_screenshot = true;
+        screenshot_path = sh.screenshot_path;
+      }
+      // Keys (not while typing into a panel; GLFW key codes: imgui 1.86's backend).
+      if (!ImGui::GetIO().WantCaptureKeyboard) {
+        if (ImGui::IsKeyPressed(GLFW_KEY_SPACE, false)) sh.paused = !sh.paused;
+        if (ImGui::IsKeyPressed(GLFW_KEY_PERIOD, false)) sh.single_steps += 1;
+        if (ImGui::IsKeyPressed(GLFW_KEY_BACKSPACE, false)) {
+          scenario.reset();
+          sh.history.count = 0;
+          sh.scrub_s = 0;
+        }
+        if (ImGui::IsKeyPressed(GLFW_KEY_P, false)) {
+          push_relative(scenario, "pelvis", ui.push_force_N, ui.push_direction_deg, ui.push_duration_s);
+        }
+        if (ImGui::IsKeyPressed(GLFW_KEY_F2, false)) take_screenshot = true;
+        if (ImGui::IsKeyPressed(GLFW_KEY_F3, false)) {
+          if (video) {
+            video->finish();
+            sh.message = "video written";
+            video.reset();
+          } else {
+            const std::string path = options.output_dir + "/biodyn_" + std::to_string(shot_counter++) + ".mp4";
+            video.emplace(path, width & ~1, height & ~1, 30.0);
+            sh.message = "recording " + path + " (F3 stops)";
+          }
+        }
+      }
+      // Mouse: orbit (left), pan (right), zoom (wheel), outside the panels.
+      double mx = 0, my = 0;
+      glfwGetCursorPos(window, &mx, &my);
+      if (!ImGui::GetIO().WantCaptureMouse) {
+        const double dx = mx - last_mouse_x, dy = my - last_mouse_y;
+        sim::CameraView& v = renderer.view();
+        if (glfwGetMouseButton(window, GLFW_MOUSE_BUTTON_LEFT) == GLFW_PRESS) {
+          v.azimuth_deg -= 0.3 * dx;
+          v.elevation_deg = std::clamp(v.elevation_deg - 0.3 * dy, -89.0, 89.0);
+        }
+        if (glfwGetMouseButton(window, GLFW_MOUSE_BUTTON_RIGHT) == GLFW_PRESS) {
+          ui.follow = false;
+          const double a = v.azimuth_deg * kPi / 180.0, k = 0.002 * v.distance_m;
+          v.lookat_W += k * (dx * Eigen::Vector3d(std::sin(a), -std::cos(a), 0) + dy * Eigen::Vector3d(0, 0, 1));
+        }
+        const float wheel = ImGui::GetIO().MouseWheel;
+        if (wheel != 0) v.distance_m = std::clamp(v.distance_m * std::pow(0.9, wheel), 0.5, 30.0);
+      }
+      last_mouse_x = mx;
+      last_mouse_y = my;
+      renderer.follow(ui.follow ? pelvis : -1);
+
+      // Panels read and edit the scenario under the lock (edits are only logged here).
+      simulation_panel(sh, ui, fps, sim_rate);
+      control_panel(sh, ui);
+      plot_panel(sh, width);
+      if (sh.scrub_s < 0 && sh.history.count > 0) {
+        const int back = std::clamp(static_cast<int>(std::lround(-sh.scrub_s * 100.0)), 0, sh.history.count - 1);
+        const std::vector<double>& q = sh.history.qpos[static_cast<std::size_t>(sh.history.at(back))];
+        std::copy(q.begin(), q.end(), display->qpos);
+        mj_forward(&simulation.model(), display.get());
+        overlays.clear();
+        renderer.update_scene(simulation.model(), *display, overlays);
+      } else {
+        build_overlays(scenario, ui.overlays, &sh.overlay_buffers, &overlays);
+        renderer.update_scene(simulation.model(), simulation.data(), overlays);
+      }
+      // Rates, once a second.
+      const double since = std::chrono::duration<double>(Clock::now() - fps_clock).count();
+      ++fps_frames;
+      if (since >= 1.0) {
+        fps = fps_frames / since;
+        sim_rate = (sh.running_sim_s - sim_at_fps) / since;
+        sim_at_fps = sh.running_sim_s;
+        fps_frames = 0;
+        fps_clock = Clock::now();
+      }
+      ImGui::SetNextWindowPos(ImVec2(10, static_cast<float>(height) - 30), ImGuiCond_Always);
+      ImGui::Begin("status", nullptr, ImGuiWindowFlags_NoDecoration | ImGuiWindowFlags_AlwaysAutoResize | ImGuiWindowFlags_NoBackground);
+      ImGui::Text("%s  [space] pause  [.] step  [P] push  [F2] screenshot  [F3] record  %s",
+                  controllers::to_string(scenario.controller().config().weld.mode), sh.message.c_str());
+      ImGui::End();
+    }
+    // Render without the lock.
+    renderer.render_to_window(width, height);
+    if (take_screenshot) {
+      renderer.read_window(width, height, &rgb);
+      const std::string path = screenshot_path.empty()
+                                   ? options.output_dir + "/biodyn_" + std::to_string(shot_counter++) + ".png"
+                                   : screenshot_path;
+      write_png(path, width, height, rgb);
+      ++stats.screenshots;
+      std::lock_guard<std::mutex> lock(sh.mutex);
+      sh.message = "screenshot " + path;
+      sh.screenshot_requested = false;  // the physics goes on
+    }
+    if (video && std::chrono::duration<double>(Clock::now() - last_record).count() >= 1.0 / 30.0) {
+      last_record = Clock::now();
+      renderer.read_window(width & ~1, height & ~1, &rgb);
+      video->add_frame(rgb);
+    }
+    ImGui::Render();
+    ImGui_ImplOpenGL3_RenderDrawData(ImGui::GetDrawData());
+    glfwSwapBuffers(window);
+    ++stats.frames;
+  }
+  if (video) video->finish();
+  {
+    std::lock_guard<std::mutex> lock(sh.mutex);
+    sh.quit = true;
+    stats.simulated_s = scenario.time_s();
+    const sim::CenterOfMass com = sim::center_of_mass(simulation.model(), simulation.data());
+    stats.com_x_m = com.position_W.x();
+    stats.com_y_m = com.position_W.y();
+    stats.fallen = scenario.fallen();
+    stats.pushes = static_cast<int>(scenario.pushes().size());
+    stats.physics_steps_per_s = sh.running_wall_s > 0 ? static_cast<double>(sh.steps_run) / sh.running_wall_s : 0;
+    stats.realtime_factor = sh.running_wall_s > 0 ? sh.running_sim_s / sh.running_wall_s : 0;
+  }
+  physics.join();
+  stats.wall_s = std::chrono::duration<double>(Clock::now() - start).count();
+  stats.frames_per_s = stats.frames / std::max(stats.wall_s, 1e-9);
+  ImGui_ImplOpenGL3_Shutdown();
+  ImGui_ImplGlfw_Shutdown();
+  ImGui::DestroyContext();
+  glfwDestroyWindow(window);
+  return stats;
+}
+
+}  // namespace biodyn::viewer
