@@ -14,6 +14,7 @@ packages=(
   catch2                             # tests (Catch2 v2)
   gnuplot-nox                        # plots (push-sweep polar.png), driven as a process
   libegl-dev libegl-mesa0 libgl-dev  # OpenGL for MuJoCo's renderer; EGL renders without a display
+  libgl1-mesa-dri                    # Mesa's software rasteriser (llvmpipe) where there is no GPU
   libstb-dev                         # PNG screenshots (stb_image_write)
   ffmpeg                             # MP4 videos (biodyn render), fed frames through a pipe
   libglfw3-dev libimgui-dev          # the interactive viewer's window and panels

@@ -102,7 +102,12 @@ TEST_CASE("biodyn view: a scripted session under Xvfb edits, pushes, shoots and 
 
 TEST_CASE("biodyn view refuses a bad script in one line naming the file and line", "[apps][view]") {
   const fs::path dir = biodyn::testing::fresh_dir("view_test", "bad");
-  const auto r = run_view("at 1.0 set speed 1.2\nat soon quit\n", dir);
+  auto r = run_view("at 1.0 set speed 1.2\nat soon quit\n", dir);
   CHECK(r.exit_code == 2);
   CHECK(r.err.find("script.txt:2") != std::string::npos);
+  // A command the scenario refuses at its time ends the session with the line named.
+  r = run_view("at 0.1 set walker.no_such_field 1\nat 1 quit\n", dir);
+  CHECK(r.exit_code == 2);
+  CHECK(r.err.find("script.txt:1") != std::string::npos);
+  CHECK(r.err.find("no_such_field") != std::string::npos);
 }

@@ -110,7 +110,9 @@ struct History {
   std::vector<double> time;
   std::vector<std::vector<double>> qpos;
   int head = 0, count = 0;
-  void init(int capacity, int nq) {
+  double entry_s = 0.01;  // simulated seconds between entries
+  void init(int capacity, int nq, double timestep_s) {
+    entry_s = kEvery * timestep_s;
     step.assign(static_cast<std::size_t>(capacity), 0);
     time.assign(static_cast<std::size_t>(capacity), 0);
     qpos.assign(static_cast<std::size_t>(capacity), std::vector<double>(static_cast<std::size_t>(nq)));
@@ -180,6 +182,7 @@ struct Shared {
   std::size_t next_command = 0;
   std::string screenshot_path;  // asked for, not yet taken
   bool screenshot_requested = false;
+  std::string script_error;  // set by the physics thread; thrown by run_viewer
   // Measured by the physics thread.
   long steps_run = 0;
   double running_wall_s = 0, running_sim_s = 0;
@@ -238,7 +241,14 @@ void physics_loop(Shared& sh) {
       const auto run_script = [&] {
         while (sh.script != nullptr && sh.next_command < sh.script->size() &&
                s.time_s() >= (*sh.script)[sh.next_command].t - 1e-9 && !sh.quit) {
-          run_command(sh, (*sh.script)[sh.next_command++], sh.script_path);
+          try {
+            run_command(sh, (*sh.script)[sh.next_command++], sh.script_path);
+          } catch (const std::exception& e) {
+            // A command the scenario refuses (an unknown walker field, a bad value): the session
+            // ends and run_viewer reports it, rather than going on without it.
+            sh.script_error = e.what();
+            sh.quit = true;
+          }
           if (sh.screenshot_requested) return false;
         }
         return !sh.quit && !sh.screenshot_requested;
@@ -261,7 +271,7 @@ void physics_loop(Shared& sh) {
       if ((!sh.paused || sh.single_steps > 0) && scrubbed) {
         // Resuming from a point in the past: the scenario replays to it (exact, live.h).
         sh.rewinding = true;
-        const int back = std::clamp(static_cast<int>(std::lround(-sh.scrub_s * 100.0)), 0, sh.history.count - 1);
+        const int back = std::clamp(static_cast<int>(std::lround(-sh.scrub_s / sh.history.entry_s)), 0, sh.history.count - 1);
         const long to = sh.history.step[static_cast<std::size_t>(sh.history.at(back))];
         s.rewind_to(to);
         sh.history.truncate_after(to);
@@ -313,16 +323,27 @@ void push_relative(scenarios::LiveScenario& s, const std::string& body, double f
   s.push(body, force_N * Eigen::Vector3d(std::cos(a), std::sin(a), 0), duration_s);
 }
 
+/// Writes `text` whole or not at all (a partial file renamed into place).
+void write_whole(const std::string& path, const std::string& text) {
+  const std::string partial = path + ".partial";
+  {
+    std::ofstream out(partial);
+    out << text;
+    if (!out.flush()) {
+      std::remove(partial.c_str());
+      throw sim::InvalidArgument(path + ": cannot write the file");
+    }
+  }
+  if (std::rename(partial.c_str(), path.c_str()) != 0) {
+    std::remove(partial.c_str());
+    throw sim::InvalidArgument(path + ": cannot write the file");
+  }
+}
+
 void save_params(const scenarios::LiveScenario& s, const std::string& walker_path,
                  const std::string& controller_path) {
-  if (!walker_path.empty() && s.gait() != nullptr) {
-    std::ofstream(walker_path + ".partial") << s.gait_params_json();
-    std::rename((walker_path + ".partial").c_str(), walker_path.c_str());
-  }
-  if (!controller_path.empty()) {
-    std::ofstream(controller_path + ".partial") << s.controller_params_json();
-    std::rename((controller_path + ".partial").c_str(), controller_path.c_str());
-  }
+  if (!walker_path.empty() && s.gait() != nullptr) write_whole(walker_path, s.gait_params_json());
+  if (!controller_path.empty()) write_whole(controller_path, s.controller_params_json());
 }
 
 /// Runs one script command (physics lock held).
@@ -608,7 +629,9 @@ ViewerStats run_viewer(scenarios::LiveConfig config, const ViewerOptions& option
   sh.script_path = options.script_path;
   sh.paused = options.start_paused;
   sim::Simulation& simulation = scenario.simulation();
-  sh.history.init(1200, simulation.model().nq);  // 12 s at 10 ms
+  // 12 s of history (at 2 ms steps: an entry every 10 ms).
+  const double timestep = simulation.model().opt.timestep;
+  sh.history.init(static_cast<int>(std::ceil(12.0 / (History::kEvery * timestep))), simulation.model().nq, timestep);
   for (const char* g : {"hip_l", "knee_l", "ankle_l", "hip_r", "knee_r", "ankle_r", "lumbar"}) {
     const auto& groups = scenario.controller().groups();
     for (std::size_t i = 0; i < groups.size(); ++i) {
@@ -729,7 +752,7 @@ ViewerStats run_viewer(scenarios::LiveConfig config, const ViewerOptions& option
       control_panel(sh, ui);
       plot_panel(sh, width);
       if (sh.scrub_s < 0 && sh.history.count > 0) {
-        const int back = std::clamp(static_cast<int>(std::lround(-sh.scrub_s * 100.0)), 0, sh.history.count - 1);
+        const int back = std::clamp(static_cast<int>(std::lround(-sh.scrub_s / sh.history.entry_s)), 0, sh.history.count - 1);
         const std::vector<double>& q = sh.history.qpos[static_cast<std::size_t>(sh.history.at(back))];
         std::copy(q.begin(), q.end(), display->qpos);
         mj_forward(&simulation.model(), display.get());
@@ -792,6 +815,7 @@ ViewerStats run_viewer(scenarios::LiveConfig config, const ViewerOptions& option
     stats.realtime_factor = sh.running_wall_s > 0 ? sh.running_sim_s / sh.running_wall_s : 0;
   }
   physics.join();
+  if (!sh.script_error.empty()) throw sim::InvalidArgument(sh.script_error);
   stats.wall_s = std::chrono::duration<double>(Clock::now() - start).count();
   stats.frames_per_s = stats.frames / std::max(stats.wall_s, 1e-9);
   ImGui_ImplOpenGL3_Shutdown();
