@@ -291,4 +291,15 @@ Json params_to_json(const ControllerParams& params, const std::vector<JointGroup
           {"joints", joints}};
 }
 
+void apply_params_file_json(const std::string& json_text, const std::string& source,
+                            const std::vector<JointGroup>& groups, double timestep_s,
+                            ControllerParams* params) {
+  apply_params_json(json_text, source, groups, params);
+  try {
+    params->validate(timestep_s);
+  } catch (const sim::InvalidArgument& e) {
+    throw sim::InvalidArgument(source + ": " + e.what());
+  }
+}
+
 }  // namespace biodyn::controllers

@@ -1,25 +1,16 @@
 // `biodyn render` headless (issue 6): the video has the frames asked for and the PNG shows the
 // character where the camera looks (non-background pixels in the middle, floor and sky at the
 // edges); bad options are refused in one line with nothing written.
-#include <stb/stb_image.h>
-
 #include <filesystem>
 #include <nlohmann/json.hpp>
 
 #include "cli_runner.h"
+#include "image_check.h"
 #include "test_support.h"
 
 namespace fs = std::filesystem;
 using biodyn::testing::run_biodyn;
 using biodyn::testing::slurp;
-
-namespace {
-
-/// The character's colour (MuJoCo's default geom material: a warm tan) against the blue-grey
-/// floor and the black sky.
-bool character_pixel(const unsigned char* p) { return p[0] > 120 && p[0] > p[2] + 40 && p[1] > p[2]; }
-
-}  // namespace
 
 TEST_CASE("biodyn render films the walk headless: MP4 frames and a PNG showing the character",
           "[apps][render]") {
@@ -45,21 +36,12 @@ TEST_CASE("biodyn render films the walk headless: MP4 frames and a PNG showing t
       dir);
   CHECK(probe.out.find("320,240,21") != std::string::npos);
 
-  int w = 0, h = 0, channels = 0;
-  unsigned char* img = stbi_load((dir / "walk.png").c_str(), &w, &h, &channels, 3);
-  REQUIRE(img != nullptr);
-  CHECK(w == 320);
-  CHECK(h == 240);
-  // The camera follows the pelvis: the character fills the middle of the frame.
-  int middle = 0, edges = 0;
-  for (int y = 0; y < h; ++y) {
-    for (int x = 0; x < w; ++x) {
-      if (!character_pixel(img + 3 * (y * w + x))) continue;
-      if (x > w / 3 && x < 2 * w / 3) ++middle;
-      if (x < w / 8 || x > 7 * w / 8) ++edges;
-    }
-  }
-  stbi_image_free(img);
+  const biodyn::testing::CharacterPixels px =
+      biodyn::testing::count_character_pixels((dir / "walk.png").string());
+  REQUIRE(px.loaded);
+  CHECK(px.width == 320);
+  CHECK(px.height == 240);
+  const int middle = px.middle, edges = px.edges;
   WARN("character pixels: " << middle << " in the middle third, " << edges << " at the edges");
   // Measured 1378 pixels (the figure ~45% of the frame height, ~25 px wide); half of it at least.
   CHECK(middle > 700);

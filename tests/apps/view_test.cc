@@ -2,8 +2,6 @@
 // takes a screenshot and saves the parameters; the test checks the effect, the screenshot, that
 // the saved files reload identically in `biodyn walk`, and that the viewer's physics is the
 // headless run's, bit for bit.
-#include <stb/stb_image.h>
-
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -11,6 +9,7 @@
 #include "biodyn/scenarios/live.h"
 #include "biodyn/sim/queries.h"
 #include "cli_runner.h"
+#include "image_check.h"
 #include "test_support.h"
 
 namespace fs = std::filesystem;
@@ -70,21 +69,12 @@ TEST_CASE("biodyn view: a scripted session under Xvfb edits, pushes, shoots and 
   CHECK(b["fallen"] == false);
 
   // The screenshot shows the character in the middle of the frame.
-  int w = 0, h = 0, n = 0;
-  unsigned char* img = stbi_load((edited / "shot.png").c_str(), &w, &h, &n, 3);
-  REQUIRE(img != nullptr);
-  CHECK(w == 1280);
-  CHECK(h == 720);
-  int middle = 0, edges = 0;
-  for (int y = 0; y < h; ++y) {
-    for (int x = 0; x < w; ++x) {
-      const unsigned char* p = img + 3 * (y * w + x);
-      if (!(p[0] > 120 && p[0] > p[2] + 40 && p[1] > p[2])) continue;  // the tan figure
-      if (x > w / 3 && x < 2 * w / 3) ++middle;
-      if (x < w / 8 || x > 7 * w / 8) ++edges;
-    }
-  }
-  stbi_image_free(img);
+  const biodyn::testing::CharacterPixels px =
+      biodyn::testing::count_character_pixels((edited / "shot.png").string());
+  REQUIRE(px.loaded);
+  CHECK(px.width == 1280);
+  CHECK(px.height == 720);
+  const int middle = px.middle, edges = px.edges;
   CHECK(middle > 6000);  // measured 12,986 at 1280x720: half of it at least
   CHECK(edges == 0);
   WARN("screenshot: " << middle << " character pixels in the middle third");

@@ -51,13 +51,8 @@ LiveScenario::LiveScenario(LiveConfig config) : config_(std::move(config)) {
   groups_ = controllers::find_joint_groups(m);
   controller_params_ = controllers::default_params(m, groups_);
   if (!config_.controller_json.empty()) {
-    controllers::apply_params_json(config_.controller_json, config_.controller_source, groups_,
-                                   &controller_params_);
-    try {
-      controller_params_.validate(m.opt.timestep);
-    } catch (const sim::InvalidArgument& e) {
-      throw sim::InvalidArgument(config_.controller_source + ": " + e.what());
-    }
+    controllers::apply_params_file_json(config_.controller_json, config_.controller_source,
+                                        groups_, m.opt.timestep, &controller_params_);
   }
   if (!config_.gait_json.empty()) {
     controllers::apply_torque_gait_json(config_.gait_json, config_.gait_source, &gait_params_);

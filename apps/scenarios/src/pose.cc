@@ -61,12 +61,8 @@ PoseRunResult run_pose(sim::Simulation* sim, const PoseRunParams& params,
   const std::vector<JointGroup> groups = controllers::find_joint_groups(m);
   controllers::ControllerParams cp = controllers::default_params(m, groups);
   if (!params.params_json.empty()) {
-    controllers::apply_params_json(params.params_json, params.params_source, groups, &cp);
-    try {
-      cp.validate(m.opt.timestep);
-    } catch (const sim::InvalidArgument& e) {
-      throw sim::InvalidArgument(params.params_source + ": " + e.what());
-    }
+    controllers::apply_params_file_json(params.params_json, params.params_source, groups,
+                                        m.opt.timestep, &cp);
   }
   if (params.reaction_time_s > 0) {
     for (controllers::JointParams& j : cp.joints) j.reaction_time_s = params.reaction_time_s;

@@ -143,12 +143,8 @@ WalkRunResult run_walk(sim::Simulation* sim, const WalkRunParams& params,
   const std::vector<JointGroup> groups = controllers::find_joint_groups(m);
   controllers::ControllerParams cp = controllers::default_params(m, groups);
   if (!params.controller_json.empty()) {
-    controllers::apply_params_json(params.controller_json, params.controller_source, groups, &cp);
-    try {
-      cp.validate(m.opt.timestep);
-    } catch (const sim::InvalidArgument& e) {
-      throw sim::InvalidArgument(params.controller_source + ": " + e.what());
-    }
+    controllers::apply_params_file_json(params.controller_json, params.controller_source, groups,
+                                        m.opt.timestep, &cp);
   }
   if (params.reaction_time_s > 0) {
     for (controllers::JointParams& j : cp.joints) j.reaction_time_s = params.reaction_time_s;

@@ -81,6 +81,12 @@ ControllerParams default_params(const mjModel& m, const std::vector<JointGroup>&
 void apply_params_json(const std::string& json_text, const std::string& source,
                        const std::vector<JointGroup>& groups, ControllerParams* params);
 
+/// apply_params_json, then validate(timestep_s) with errors prefixed by `source`: what every
+/// scenario does with a user's controller file.
+void apply_params_file_json(const std::string& json_text, const std::string& source,
+                            const std::vector<JointGroup>& groups, double timestep_s,
+                            ControllerParams* params);
+
 /// The full parameter set as JSON (every joint spelled out, angles in degrees); reading it
 /// back with apply_params_json gives the same parameters.
 nlohmann::json params_to_json(const ControllerParams& params,
