@@ -18,7 +18,7 @@ packages=(
   libstb-dev                         # PNG screenshots (stb_image_write)
   ffmpeg                             # MP4 videos (biodyn render), fed frames through a pipe
   libglfw3-dev libimgui-dev          # the interactive viewer's window and panels
-  xvfb xauth                         # the viewer's tests run it under a virtual display
+  xvfb xauth xdotool                 # the viewer's tests: a virtual display, and a mouse to drag with
 )
 
 missing=()

@@ -90,6 +90,27 @@ TEST_CASE("biodyn view: a scripted session under Xvfb edits, pushes, shoots and 
   CHECK(walked.exit_code == 0);
 }
 
+TEST_CASE("biodyn view: ctrl + drag on the character pushes it", "[apps][view]") {
+  const fs::path dir = biodyn::testing::fresh_dir("view_test", "drag");
+  std::ofstream(dir / "script.txt") << "at 6.0 quit\n";
+  const std::string exe = biodyn::testing::binary_dir() + "/apps/biodyn";
+  // The camera follows the pelvis, so the window's centre is on the character. The drag waits
+  // for the window (xdotool --sync), presses ctrl, drags up-left and lets go.
+  const auto r = run_shell(
+      "timeout 300 xvfb-run -a -s '-screen 0 1280x720x24' sh -c \"'" + exe +
+          "' view --size 1280x720 --script script.txt --summary summary.json & "
+          "xdotool search --sync --name 'biodyn view' > /dev/null; sleep 1; "
+          "xdotool mousemove 640 360 keydown ctrl mousedown 1; sleep 0.3; "
+          "xdotool mousemove 640 300; sleep 0.3; xdotool mousemove 560 250; sleep 0.3; "
+          "xdotool mouseup 1 keyup ctrl; wait\"",
+      dir);
+  INFO(r.out << r.err);
+  REQUIRE(r.exit_code == 0);
+  const json s = json::parse(slurp(dir / "summary.json"));
+  CHECK(s["pushes"] == 1);
+  CHECK(s["simulated_s"].get<double>() == Approx(6.0).margin(1e-9));
+}
+
 TEST_CASE("biodyn view refuses a bad script in one line naming the file and line", "[apps][view]") {
   const fs::path dir = biodyn::testing::fresh_dir("view_test", "bad");
   auto r = run_view("at 1.0 set speed 1.2\nat soon quit\n", dir);

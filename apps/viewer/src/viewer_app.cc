@@ -34,6 +34,8 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 constexpr double kPi = 3.14159265358979323846;
+/// Ctrl + drag pushes: N of force per pixel dragged (a 100-pixel drag is 200 N).
+constexpr double kDragNewtonsPerPixel = 2.0;
 
 // ---------------------------------------------------------------------------------------------
 // Script
@@ -549,6 +551,7 @@ void control_panel(Shared& sh, UiState& ui) {
         push_relative(s, bodies[ui.push_body], ui.push_force_N, ui.push_direction_deg, ui.push_duration_s);
       }
       ImGui::TextDisabled("direction: 0 = forward along the heading, 90 = to the left");
+      ImGui::TextDisabled("or ctrl + drag on a body: 2 N per pixel, for the duration above");
     }
     if (ImGui::CollapsingHeader("Parameter files")) {
       ImGui::InputText("walker", ui.walker_path, sizeof ui.walker_path);
@@ -671,6 +674,11 @@ ViewerStats run_viewer(scenarios::LiveConfig config, const ViewerOptions& option
   } joiner{sh, physics};
 
   UiState ui;
+  struct Drag {
+    int body = -1;  // the body being pushed by a ctrl + drag, -1 when none
+    double start_x = 0, start_y = 0;
+    Eigen::Vector3d force_W = Eigen::Vector3d::Zero();
+  } drag;
   ViewerStats stats;
   std::vector<sim::OverlayGeom> overlays;
   std::vector<std::uint8_t> rgb;
@@ -728,10 +736,43 @@ ViewerStats run_viewer(scenarios::LiveConfig config, const ViewerOptions& option
       // Mouse: orbit (left), pan (right), zoom (wheel), outside the panels.
       double mx = 0, my = 0;
       glfwGetCursorPos(window, &mx, &my);
-      if (!ImGui::GetIO().WantCaptureMouse) {
+      const bool left = glfwGetMouseButton(window, GLFW_MOUSE_BUTTON_LEFT) == GLFW_PRESS;
+      const bool ctrl = glfwGetKey(window, GLFW_KEY_LEFT_CONTROL) == GLFW_PRESS ||
+                        glfwGetKey(window, GLFW_KEY_RIGHT_CONTROL) == GLFW_PRESS;
+      int win_w = 1, win_h = 1;
+      glfwGetWindowSize(window, &win_w, &win_h);
+      if (drag.body < 0 && left && ctrl && !ImGui::GetIO().WantCaptureMouse) {
+        // Ctrl + drag on a body: pick it (MuJoCo's ray selection), the drag sets the push.
+        mjtNum point[3] = {0, 0, 0};
+        int geom = -1, skin = -1;
+        const int body = mjv_select(&simulation.model(), &simulation.data(), &renderer.options(),
+                                    static_cast<mjtNum>(win_w) / win_h, mx / win_w, 1.0 - my / win_h,
+                                    &renderer.scene(), point, &geom, &skin);
+        if (body > 0) {
+          drag.body = body;
+          drag.start_x = mx;
+          drag.start_y = my;
+        }
+      }
+      if (drag.body >= 0) {
+        // Screen right and up map to the ground plane as the camera sees it.
+        const double a = renderer.view().azimuth_deg * kPi / 180.0;
+        const Eigen::Vector3d right(std::sin(a), -std::cos(a), 0), ahead(std::cos(a), std::sin(a), 0);
+        drag.force_W = kDragNewtonsPerPixel * ((mx - drag.start_x) * right - (my - drag.start_y) * ahead);
+        if (!left) {  // released: push
+          if (drag.force_W.norm() >= 1.0) {
+            const char* name = mj_id2name(&simulation.model(), mjOBJ_BODY, drag.body);
+            scenario.push(name, drag.force_W, ui.push_duration_s);
+            sh.message = std::string("pushed ") + name + " with " +
+                         std::to_string(static_cast<int>(drag.force_W.norm())) + " N for " +
+                         std::to_string(ui.push_duration_s) + " s";
+          }
+          drag.body = -1;
+        }
+      } else if (!ImGui::GetIO().WantCaptureMouse) {
         const double dx = mx - last_mouse_x, dy = my - last_mouse_y;
         sim::CameraView& v = renderer.view();
-        if (glfwGetMouseButton(window, GLFW_MOUSE_BUTTON_LEFT) == GLFW_PRESS) {
+        if (left) {
           v.azimuth_deg -= 0.3 * dx;
           v.elevation_deg = std::clamp(v.elevation_deg - 0.3 * dy, -89.0, 89.0);
         }
@@ -760,6 +801,16 @@ ViewerStats run_viewer(scenarios::LiveConfig config, const ViewerOptions& option
         renderer.update_scene(simulation.model(), *display, overlays);
       } else {
         build_overlays(scenario, ui.overlays, &sh.overlay_buffers, &overlays);
+        if (drag.body >= 0 && drag.force_W.norm() > 0) {
+          sim::OverlayGeom g;
+          g.kind = sim::OverlayGeom::Kind::kArrow;
+          g.to_W = Eigen::Vector3d(simulation.data().xipos + 3 * drag.body);
+          g.from_W = g.to_W - ui.overlays.force_scale_m_per_N * drag.force_W;
+          g.width_m = 0.02;
+          const float yellow[4] = {1.0f, 0.85f, 0.1f, 1.0f};
+          std::copy(yellow, yellow + 4, g.rgba);
+          overlays.push_back(g);
+        }
         renderer.update_scene(simulation.model(), simulation.data(), overlays);
       }
       // Rates, once a second.
@@ -774,7 +825,7 @@ ViewerStats run_viewer(scenarios::LiveConfig config, const ViewerOptions& option
       }
       ImGui::SetNextWindowPos(ImVec2(10, static_cast<float>(height) - 30), ImGuiCond_Always);
       ImGui::Begin("status", nullptr, ImGuiWindowFlags_NoDecoration | ImGuiWindowFlags_AlwaysAutoResize | ImGuiWindowFlags_NoBackground);
-      ImGui::Text("%s  [space] pause  [.] step  [P] push  [F2] screenshot  [F3] record  %s",
+      ImGui::Text("%s  [space] pause  [.] step  [P] push  [ctrl+drag] push a body  [F2] screenshot  [F3] record  %s",
                   controllers::to_string(scenario.controller().config().weld.mode), sh.message.c_str());
       ImGui::End();
     }
