@@ -25,6 +25,9 @@ void ViewOptions::add_to(CLI::App* cmd) {
   cmd->add_option("--params", params_path, "Walker parameters (JSON, as biodyn walk --params)");
   cmd->add_option("--controller-params", controller_params_path,
                   "Joint controller parameters (JSON, as biodyn pose --params)");
+  cmd->add_option("--motion", motion_path,
+                  "scenario mocap: a motion played kinematically (qpos CSV from biodyn mocap "
+                  "ik/retarget for this character, or a BVH retargeted on the fly)");
 }
 
 scenarios::LiveConfig ViewOptions::to_config() const {
@@ -38,11 +41,21 @@ scenarios::LiveConfig ViewOptions::to_config() const {
     c.gait_json = read_text_file(params_path);
     c.gait_source = params_path;
   }
+  c.motion_path = motion_path;
   if (!controller_params_path.empty()) {
     c.controller_json = read_text_file(controller_params_path);
     c.controller_source = controller_params_path;
   }
   return c;
+}
+
+std::string ViewOptions::assumption() const {
+  if (scenario == "mocap") {
+    return "kinematic playback of " + motion_path +
+           ": joint angles as captured, no physics and no controllers (biodyn mocap id gives the "
+           "forces it needs)";
+  }
+  return weld_assumption(weld);
 }
 
 Command add_render_command(CLI::App* app) {
@@ -92,7 +105,7 @@ Command add_render_command(CLI::App* app) {
                 {"character", {{"height_m", scenario.config().character.height_m},
                                {"mass_kg", scenario.config().character.mass_kg}}},
                 {"weld", o->view.weld},
-                {"assumption", weld_assumption(o->view.weld)},
+                {"assumption", o->view.assumption()},
                 {"simulated_s", st.simulated_s},
                 {"fallen", st.fallen},
                 {"frames", st.frames},
@@ -112,7 +125,7 @@ Command add_render_command(CLI::App* app) {
                       << (st.fallen ? " (fell)" : " without falling") << ", " << st.frames
                       << " frames " << o->size << "; physics " << summary["physics_realtime_factor"].get<double>()
                       << "x real time, rendering " << summary["render_frames_per_s"].get<double>()
-                      << " frames/s\n  " << weld_assumption(o->view.weld) << "\n";
+                      << " frames/s\n  " << o->view.assumption() << "\n";
             if (!o->render.video_path.empty()) std::cout << "  video: " << o->render.video_path << "\n";
             if (!o->render.png_path.empty()) std::cout << "  frame: " << o->render.png_path << "\n";
             if (!o->summary_path.empty()) std::cout << "  summary: " << o->summary_path << "\n";

@@ -41,7 +41,7 @@ Command add_view_command(CLI::App* app) {
               throw sim::InvalidArgument("--size: expected WIDTHxHEIGHT of at least 320x240, got '" +
                                          o->size + "'");
             }
-            std::cout << "view " << o->view.scenario << ": " << weld_assumption(o->view.weld) << "\n";
+            std::cout << "view " << o->view.scenario << ": " << o->view.assumption() << "\n";
             const viewer::ViewerStats st = viewer::run_viewer(o->view.to_config(), o->viewer);
             std::cout << "view: " << st.frames << " frames in " << st.wall_s << " s ("
                       << st.frames_per_s << " frames/s); simulated " << st.simulated_s
@@ -55,7 +55,7 @@ Command add_view_command(CLI::App* app) {
                   {"physics_steps_per_s", st.physics_steps_per_s},
                   {"realtime_factor", st.realtime_factor}, {"screenshots", st.screenshots},
                   {"com_x_m", st.com_x_m}, {"com_y_m", st.com_y_m}, {"fallen", st.fallen},
-                  {"pushes", st.pushes}, {"assumption", weld_assumption(o->view.weld)}};
+                  {"pushes", st.pushes}, {"assumption", o->view.assumption()}};
               write_file_atomically(o->summary_path, j.dump(1) + "\n");
             }
             return kExitOk;

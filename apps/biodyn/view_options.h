@@ -17,12 +17,16 @@ struct ViewOptions {
   std::string weld = "honest";
   std::string params_path;             ///< walker parameters (biodyn walk --params)
   std::string controller_params_path;  ///< controller parameters (biodyn pose --params)
+  std::string motion_path;             ///< scenario mocap: qpos CSV or BVH
 
   /// Adds --scenario, the character options, --speed, --heading-rate, --weld, --params,
   /// --controller-params.
   void add_to(CLI::App* cmd);
   /// Reads the files; throws sim::InvalidArgument naming the option or file.
   scenarios::LiveConfig to_config() const;
+  /// What the results depend on, said in every output: the foot-contact mode, or for the mocap
+  /// scenario that it is a kinematic playback.
+  std::string assumption() const;
 };
 
 }  // namespace biodyn::apps

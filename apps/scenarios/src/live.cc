@@ -2,11 +2,15 @@
 #include "biodyn/scenarios/live.h"
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <nlohmann/json.hpp>
 
 #include "biodyn/controllers/joint_groups.h"
 #include "biodyn/controllers/poses.h"
+#include "biodyn/mocap_io/bvh.h"
+#include "biodyn/mocap_io/motion_csv.h"
+#include "biodyn/mocap_io/retarget.h"
 #include "biodyn/models/mjcf.h"
 #include "biodyn/sim/errors.h"
 #include "biodyn/sim/model.h"
@@ -23,6 +27,7 @@ constexpr double kFallenPelvisFraction = 0.7;
 std::vector<std::string> live_scenario_names() {
   std::vector<std::string> names = controllers::pose_scenario_names();
   names.push_back("walk");
+  names.push_back("mocap");
   return names;
 }
 
@@ -32,6 +37,11 @@ void LiveConfig::validate() const {
     std::string list;
     for (const std::string& n : names) list += (list.empty() ? "" : ", ") + n;
     throw sim::InvalidArgument("scenario: expected one of " + list + ", got '" + scenario + "'");
+  }
+  if ((scenario == "mocap") != !motion_path.empty()) {
+    throw sim::InvalidArgument(scenario == "mocap"
+                                   ? "scenario mocap: give the motion (--motion motion.csv or file.bvh)"
+                                   : "--motion: only the mocap scenario plays a motion");
   }
   if (!std::isfinite(speed_m_s) || speed_m_s < 0 || speed_m_s > 3) {
     throw sim::InvalidArgument("speed: must be within [0, 3] m/s, got " + std::to_string(speed_m_s));
@@ -57,6 +67,7 @@ LiveScenario::LiveScenario(LiveConfig config) : config_(std::move(config)) {
   if (!config_.gait_json.empty()) {
     controllers::apply_torque_gait_json(config_.gait_json, config_.gait_source, &gait_params_);
   }
+  if (config_.scenario == "mocap") load_motion(m);
   initial_config_ = config_;
   initial_controller_params_ = controller_params_;
   initial_gait_params_ = gait_params_;
@@ -66,6 +77,63 @@ LiveScenario::LiveScenario(LiveConfig config) : config_(std::move(config)) {
 }
 
 LiveScenario::~LiveScenario() = default;
+
+void LiveScenario::load_motion(const mjModel& m) {
+  const std::string& path = config_.motion_path;
+  std::string ext = path.substr(path.find_last_of('.') + 1);
+  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
+  mocap_io::Motion motion;
+  if (ext == "bvh") {
+    const mocap_io::BvhMotion bvh = mocap_io::read_bvh(path);
+    std::string tried;
+    for (const std::string& name : mocap_io::builtin_joint_map_names()) {
+      const mocap_io::JointMap map = mocap_io::builtin_joint_map(name);
+      try {
+        mocap_io::resolve_joint_map(map, bvh, path);
+      } catch (const sim::InvalidArgument& e) {
+        tried += std::string(" ") + e.what();
+        continue;
+      }
+      mocap_io::RetargetOptions options;
+      options.source = path;
+      motion = mocap_io::retarget_bvh(bvh, map, config_.character, options).motion;
+      break;
+    }
+    if (motion.frame_count() == 0) {
+      throw sim::InvalidArgument(path + ": no built-in joint map fits this BVH (retarget it with "
+                                        "biodyn mocap retarget --map, then play motion.csv):" + tried);
+    }
+  } else {
+    motion = mocap_io::read_motion_csv(path);
+    mocap_io::check_motion_matches(motion, m, path);
+  }
+  // Unsolved frames (NaN rows) are left out.
+  std::vector<int> rows;
+  for (int f = 0; f < motion.frame_count(); ++f) {
+    if (motion.qpos.row(f).allFinite()) rows.push_back(f);
+  }
+  if (rows.size() < 2) throw sim::InvalidArgument(path + ": fewer than 2 solved frames to play");
+  playback_.resize(static_cast<Eigen::Index>(rows.size()), m.nq);
+  playback_t_.clear();
+  for (std::size_t i = 0; i < rows.size(); ++i) {
+    playback_.row(static_cast<Eigen::Index>(i)) = motion.qpos.row(rows[i]);
+    playback_t_.push_back(motion.times_s[static_cast<std::size_t>(rows[i])] -
+                          motion.times_s[static_cast<std::size_t>(rows.front())]);
+  }
+}
+
+void LiveScenario::show_playback_frame() {
+  // The frame at or before playback_time_s_ (looping): kinematic, as captured.
+  const double length = playback_t_.back();
+  const double t = length > 0 ? std::fmod(playback_time_s_, length) : 0.0;
+  const auto it = std::upper_bound(playback_t_.begin(), playback_t_.end(), t);
+  const Eigen::Index f = std::max<Eigen::Index>(0, (it - playback_t_.begin()) - 1);
+  mjData& d = sim_->data();
+  for (int k = 0; k < sim_->model().nq; ++k) d.qpos[k] = playback_(f, k);
+  mju_zero(d.qvel, sim_->model().nv);
+  d.time = playback_time_s_;
+  mj_forward(&sim_->model(), &d);
+}
 
 void LiveScenario::build() {
   // The same set-up as run_walk and run_pose: standing in the first pose at t = 0.
@@ -84,6 +152,9 @@ void LiveScenario::build() {
     gait_->set_speed(config_.speed_m_s);
     gait_->set_heading_rate(config_.heading_rate_deg_s * kRadPerDeg);
     ctrl_->set_driver(gait_.get());
+  } else if (config_.scenario == "mocap") {
+    playback_time_s_ = 0;
+    show_playback_frame();
   } else {
     poses_ = controllers::pose_scenario(config_.scenario, groups_, 0);
     ctrl_->reset_in_pose(poses_.front());
@@ -98,6 +169,7 @@ void LiveScenario::build() {
 double LiveScenario::time_s() const { return sim_->data().time; }
 
 bool LiveScenario::fallen() const {
+  if (playback()) return false;  // a captured motion is shown as it is
   return sim_->data().xpos[3 * pelvis_ + 2] < kFallenPelvisFraction * pelvis_start_z_;
 }
 
@@ -114,8 +186,14 @@ void LiveScenario::step() {
     }
     pending_.clear();
   }
-  // Pose scenarios: the next pose when this one's time is up; the last one holds.
   const double dt = sim_->model().opt.timestep;
+  if (playback()) {
+    playback_time_s_ = static_cast<double>(steps_ + 1) * dt;
+    show_playback_frame();
+    ++steps_;
+    return;
+  }
+  // Pose scenarios: the next pose when this one's time is up; the last one holds.
   if (!gait_) {
     while (pose_index_ + 1 < poses_.size() &&
            time_s() >= pose_start_s_ + poses_[pose_index_].duration_s - 0.5 * dt) {
@@ -188,6 +266,7 @@ void LiveScenario::set_weld_mode(controllers::WeldMode mode) {
 }
 
 void LiveScenario::push(const std::string& body, const Eigen::Vector3d& force_W, double duration_s) {
+  if (playback()) throw sim::InvalidArgument("push: the mocap scenario plays its motion kinematically");
   const int id = mj_name2id(&sim_->model(), mjOBJ_BODY, body.c_str());
   if (id < 0) throw sim::InvalidArgument("push body: no body named '" + body + "'");
   if (!(duration_s > 0) || !std::isfinite(duration_s) || !force_W.allFinite()) {

@@ -36,6 +36,10 @@ struct LiveConfig {
   std::string controller_json, controller_source;
   /// Torque-walker parameters (torque_gait.h JSON; `biodyn walk --params`), optional.
   std::string gait_json, gait_source;
+  /// scenario "mocap": a motion played kinematically on the character (no physics, no
+  /// controllers; it loops): a qpos CSV (`biodyn mocap ik|retarget`, for this character) or a
+  /// BVH retargeted here with the first built-in joint map it fits.
+  std::string motion_path;
 
   void validate() const;  ///< throws sim::InvalidArgument naming the field
 };
@@ -94,6 +98,8 @@ class LiveScenario {
   const std::vector<LivePush>& pushes() const { return pushes_; }
   /// Whether the scenario walks.
   bool walking() const { return gait_ != nullptr; }
+  /// Whether the scenario plays a motion kinematically (scenario "mocap").
+  bool playback() const { return playback_.rows() > 0; }
 
   /// The parameters in the files the CLI reads: controller params JSON (`biodyn pose --params`)
   /// and walker params JSON (`biodyn walk --params`; empty for the pose scenarios).
@@ -106,6 +112,8 @@ class LiveScenario {
     std::function<void(LiveScenario&)> apply;
   };
   void build();
+  void load_motion(const mjModel& m);
+  void show_playback_frame();
   void restart();  // t = 0 with the initial parameters; the log is cleared, future_ kept
   void record(std::function<void(LiveScenario&)> apply);
 
@@ -117,6 +125,9 @@ class LiveScenario {
   std::unique_ptr<controllers::CharacterController> ctrl_;
   std::unique_ptr<controllers::TorqueGait> gait_;
   std::vector<controllers::Pose> poses_;
+  Eigen::MatrixXd playback_;          // mocap: qpos per frame
+  std::vector<double> playback_t_;    // mocap: s, per frame
+  double playback_time_s_ = 0;
   std::size_t pose_index_ = 0;
   double pose_start_s_ = 0;
   int fall_floor_geom_ = -1, pelvis_ = -1;
