@@ -62,6 +62,15 @@ TEST_CASE("biodyn view: a scripted session under Xvfb edits, pushes, shoots and 
   const auto com = biodyn::sim::center_of_mass(headless.simulation().model(), headless.simulation().data());
   CHECK(a["com_x_m"].get<double>() == com.position_W.x());
 
+  // Rewinding in the viewer (the slider's path: back 1 s at 2 s, then running on) ends at 3 s
+  // exactly where the session that never rewound ended.
+  const fs::path rewound = biodyn::testing::fresh_dir("view_test", "rewound");
+  r = run_view("at 2.0 rewind 1.0\nat 3.0 quit\n", rewound);
+  REQUIRE(r.exit_code == 0);
+  const json c = json::parse(slurp(rewound / "summary.json"));
+  CHECK(c["simulated_s"].get<double>() == Approx(3.0).margin(1e-9));
+  CHECK(c["com_x_m"].get<double>() == a["com_x_m"].get<double>());
+
   // The edit took effect: the leaning walker is further ahead; the push happened.
   CHECK(b["com_x_m"].get<double>() > a["com_x_m"].get<double>() + 0.1);
   CHECK(b["pushes"] == 1);
