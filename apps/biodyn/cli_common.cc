@@ -13,6 +13,21 @@
 
 namespace biodyn::apps {
 
+std::pair<int, int> parse_size(const std::string& text, const std::string& option) {
+  const std::size_t x = text.find('x');
+  try {
+    if (x == std::string::npos) throw std::invalid_argument("no x");
+    std::size_t used = 0;
+    const int width = std::stoi(text.substr(0, x), &used);
+    if (used != x) throw std::invalid_argument("width");
+    const int height = std::stoi(text.substr(x + 1), &used);
+    if (used != text.size() - x - 1) throw std::invalid_argument("height");
+    return {width, height};
+  } catch (const std::logic_error&) {
+    throw sim::InvalidArgument(option + ": expected WIDTHxHEIGHT, e.g. 1280x720, got '" + text + "'");
+  }
+}
+
 std::vector<std::string> split_commas(const std::string& text) {
   std::vector<std::string> out;
   std::stringstream in(text);
@@ -56,62 +71,13 @@ models::CharacterSpec CharacterOptions::to_spec() const {
   spec.sex = models::parse_sex(sex, "--sex");
   spec.detail = models::parse_detail(detail, "--detail");
   if (!overrides_path.empty()) {
-    spec.overrides = models::parse_overrides(read_text_file(overrides_path), overrides_path);
+    spec.overrides = models::parse_overrides(read_file(overrides_path), overrides_path);
     models::check_override_names(spec.overrides, spec.detail, overrides_path);
   }
   return spec;
 }
 
-std::string read_text_file(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw sim::InvalidArgument(path + ": cannot open for reading");
-  std::ostringstream s;
-  s << in.rdbuf();
-  if (in.bad()) throw sim::InvalidArgument(path + ": read error");
-  return s.str();
-}
 
-void write_file_atomically(const std::string& path, const std::string& text) {
-  namespace fs = std::filesystem;
-  std::error_code ec;
-  fs::path target(path);
-  const fs::file_status status = fs::status(target, ec);
-  if (fs::exists(status) && !fs::is_regular_file(status)) {
-    // A device or pipe (/dev/stdout, a fifo): stream into it; renaming over it would replace it.
-    if (fs::is_directory(status)) throw sim::Error(path + ": is a directory");
-    std::ofstream out(target, std::ios::binary);
-    if (!(out << text) || !out.flush()) throw sim::Error(path + ": write failed");
-    return;
-  }
-  // Keep a symlink (even a dangling one) and write the file it points to.
-  for (int hops = 0; hops < 40 && fs::is_symlink(fs::symlink_status(target, ec)); ++hops) {
-    const fs::path next = fs::read_symlink(target, ec);
-    if (ec) break;
-    target = next.is_absolute() ? next : target.parent_path() / next;
-  }
-  if (target.has_parent_path()) {
-    fs::create_directories(target.parent_path(), ec);
-    if (ec) throw sim::Error(path + ": cannot create directory: " + ec.message());
-  }
-  const fs::path tmp = target.string() + ".tmp-biodyn";
-  {
-    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-    if (!out) throw sim::Error(path + ": cannot open for writing");
-    out << text;
-    out.flush();
-    if (!out) {
-      out.close();
-      fs::remove(tmp, ec);
-      throw sim::Error(path + ": write failed");
-    }
-  }
-  fs::rename(tmp, target, ec);
-  if (ec) {
-    std::error_code ignore;
-    fs::remove(tmp, ignore);
-    throw sim::Error(path + ": cannot move the finished file into place: " + ec.message());
-  }
-}
 
 void plot_with_gnuplot(const std::string& command, const std::string& script_path,
                        const std::string& png_tmp, const std::string& png) {

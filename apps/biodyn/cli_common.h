@@ -4,7 +4,10 @@
 
 #include <CLI/CLI.hpp>
 #include <string>
+#include <utility>
 #include <vector>
+
+#include "biodyn/sim/file_io.h"
 
 #include "biodyn/models/character.h"
 
@@ -33,14 +36,18 @@ std::vector<std::string> split_commas(const std::string& text);
 std::vector<double> parse_number_list(const std::string& text, const std::string& option,
                                       const std::string& expected);
 
-/// Reads a whole text file; throws sim::InvalidArgument naming the path if it can't.
-std::string read_text_file(const std::string& path);
+/// "WIDTHxHEIGHT" (e.g. 1280x720) as two integers; throws sim::InvalidArgument
+/// "<option>: expected WIDTHxHEIGHT, e.g. 1280x720, got '<text>'" on anything else.
+std::pair<int, int> parse_size(const std::string& text, const std::string& option);
 
-/// Writes `text` to `path` whole or not at all: into a temporary file beside it, then renamed
-/// over it (through a symlink, the file it points to). Creates missing parent directories.
-/// A path that is a device or pipe (/dev/stdout) is written directly. Throws sim::Error naming
-/// the path.
-void write_file_atomically(const std::string& path, const std::string& text);
+/// Whole-file reads (sim/file_io.h), for every subcommand.
+using sim::read_file;
+
+/// sim::write_file_atomically, creating missing parent directories: a subcommand's outputs go
+/// where the user says.
+inline void write_file_atomically(const std::string& path, const std::string& text) {
+  sim::write_file_atomically(path, text, sim::MissingDirectories::kCreate);
+}
 
 /// Runs gnuplot on `script_path` (a script that writes `png_tmp`), then renames `png_tmp` to
 /// `png`: the plot is written whole or not at all. Throws sim::Error starting with `command`

@@ -607,7 +607,7 @@ Command add_mocap_command(CLI::App* app) {
                                            "with this capture; give --markerset FILE.json");
               }
             } else if (ik->markerset.find(".json") != std::string::npos) {
-              set = models::parse_marker_set(read_text_file(ik->markerset), ik->markerset);
+              set = models::parse_marker_set(read_file(ik->markerset), ik->markerset);
             } else {
               set = models::builtin_marker_set(ik->markerset);
             }

@@ -107,7 +107,7 @@ Command add_pose_command(CLI::App* app) {
             run.weld = controllers::parse_weld_mode(o->weld, "--weld");
             if (!o->push.empty()) run.push = parse_push(o->push, o->push_onset_s);
             if (!o->params_path.empty()) {
-              run.params_json = read_text_file(o->params_path);
+              run.params_json = read_file(o->params_path);
               run.params_source = o->params_path;
             }
             run.validate();

@@ -1,6 +1,7 @@
 // biodyn render: a scenario filmed headless (issue 6): MP4 through ffmpeg, a PNG frame, and the
 // run summary.
 #include <iostream>
+#include <tuple>
 #include <memory>
 #include <nlohmann/json.hpp>
 
@@ -38,12 +39,12 @@ scenarios::LiveConfig ViewOptions::to_config() const {
   c.heading_rate_deg_s = heading_rate_deg_s;
   c.weld = controllers::parse_weld_mode(weld, "--weld");
   if (!params_path.empty()) {
-    c.gait_json = read_text_file(params_path);
+    c.gait_json = read_file(params_path);
     c.gait_source = params_path;
   }
   c.motion_path = motion_path;
   if (!controller_params_path.empty()) {
-    c.controller_json = read_text_file(controller_params_path);
+    c.controller_json = read_file(controller_params_path);
     c.controller_source = controller_params_path;
   }
   return c;
@@ -81,18 +82,7 @@ Command add_render_command(CLI::App* app) {
   cmd->add_option("--distance", o->render.distance_m, "Camera distance, m")->capture_default_str();
   cmd->add_option("--summary", o->summary_path, "Run summary JSON to write");
   return {cmd, [o]() {
-            const std::size_t x = o->size.find('x');
-            try {
-              if (x == std::string::npos) throw std::invalid_argument("no x");
-              std::size_t used = 0;
-              o->render.width = std::stoi(o->size.substr(0, x), &used);
-              if (used != x) throw std::invalid_argument("width");
-              o->render.height = std::stoi(o->size.substr(x + 1), &used);
-              if (used != o->size.size() - x - 1) throw std::invalid_argument("height");
-            } catch (const std::logic_error&) {
-              throw sim::InvalidArgument("--size: expected WIDTHxHEIGHT, e.g. 1280x720, got '" +
-                                         o->size + "'");
-            }
+            std::tie(o->render.width, o->render.height) = parse_size(o->size, "--size");
             o->render.validate();
             scenarios::LiveScenario scenario(o->view.to_config());
             ProgressBar bar("render " + o->view.scenario + ": " +

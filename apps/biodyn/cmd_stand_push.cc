@@ -69,7 +69,7 @@ Command add_stand_push_command(CLI::App* app) {
             base.kind = controllers::parse_controller_kind(o->controller, "--controller");
             base.reaction_time_s = o->reaction_time_s;
             if (!o->params_path.empty()) {
-              base.params_json = read_text_file(o->params_path);
+              base.params_json = read_file(o->params_path);
               base.params_source = o->params_path;
             }
             const std::vector<double> directions = parse_directions(o->directions);

@@ -1,6 +1,6 @@
 // biodyn view: the interactive viewer (issue 6; viewer_app.h).
-#include <cstdio>
 #include <iostream>
+#include <tuple>
 #include <memory>
 #include <nlohmann/json.hpp>
 
@@ -36,8 +36,8 @@ Command add_view_command(CLI::App* app) {
   cmd->add_option("--summary", o->summary_path, "Session summary JSON to write at exit");
   cmd->add_option("--size", o->size, "Window size WIDTHxHEIGHT")->capture_default_str();
   return {cmd, [o]() {
-            if (std::sscanf(o->size.c_str(), "%dx%d", &o->viewer.width, &o->viewer.height) != 2 ||
-                o->viewer.width < 320 || o->viewer.height < 240) {
+            std::tie(o->viewer.width, o->viewer.height) = parse_size(o->size, "--size");
+            if (o->viewer.width < 320 || o->viewer.height < 240) {
               throw sim::InvalidArgument("--size: expected WIDTHxHEIGHT of at least 320x240, got '" +
                                          o->size + "'");
             }

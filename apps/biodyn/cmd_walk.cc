@@ -48,11 +48,11 @@ scenarios::WalkRunParams WalkOptions::to_params() const {
   p.weld = controllers::parse_weld_mode(weld, "--weld");
   p.reaction_time_s = reaction_time_s;
   if (!params_path.empty()) {
-    p.gait_json = read_text_file(params_path);
+    p.gait_json = read_file(params_path);
     p.gait_source = params_path;
   }
   if (!controller_params_path.empty()) {
-    p.controller_json = read_text_file(controller_params_path);
+    p.controller_json = read_file(controller_params_path);
     p.controller_source = controller_params_path;
   }
   return p;

@@ -15,7 +15,7 @@
 #include <utility>
 
 #include "biodyn/mocap_io/errors.h"
-#include "biodyn/mocap_io/file_io.h"
+#include "biodyn/sim/file_io.h"
 #include "biodyn/sim/errors.h"
 
 namespace biodyn::mocap_io {
@@ -525,7 +525,7 @@ BvhMotion parse_bvh(const std::string& text, const std::string& source) {
   return Parser(text, source).parse();
 }
 
-BvhMotion read_bvh(const std::string& path) { return parse_bvh(read_file_bytes(path), path); }
+BvhMotion read_bvh(const std::string& path) { return parse_bvh(sim::read_file(path), path); }
 
 std::string format_bvh(const BvhMotion& motion, int precision) {
   check_writable(motion, precision);
@@ -578,7 +578,7 @@ std::string format_bvh(const BvhMotion& motion, int precision) {
 
 void write_bvh(const std::string& path, const BvhMotion& motion, int precision) {
   // format_bvh throws before the disk is touched; the write is whole or nothing.
-  write_file_whole(path, format_bvh(motion, precision));
+  sim::write_file_atomically(path, format_bvh(motion, precision));
 }
 
 Eigen::Matrix3d local_rotation(const BvhMotion& motion, int j, int f) {

@@ -13,7 +13,7 @@
 
 #include "biodyn/mocap_io/c3d.h"
 
-#include "biodyn/mocap_io/file_io.h"
+#include "biodyn/sim/file_io.h"
 #include "biodyn/mocap_io/errors.h"
 #include "biodyn/sim/errors.h"
 #include "c3d_binary.h"
@@ -105,7 +105,7 @@ struct Layout {
 };
 
 std::vector<std::uint8_t> load(const std::string& path) {
-  const std::string bytes = read_file_bytes(path);
+  const std::string bytes = sim::read_file(path);
   return std::vector<std::uint8_t>(bytes.begin(), bytes.end());
 }
 

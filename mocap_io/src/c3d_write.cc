@@ -10,7 +10,7 @@
 
 #include "biodyn/mocap_io/c3d.h"
 
-#include "biodyn/mocap_io/file_io.h"
+#include "biodyn/sim/file_io.h"
 #include "biodyn/sim/errors.h"
 #include "c3d_binary.h"
 #include "c3d_parameters.h"
@@ -359,7 +359,7 @@ void write_c3d(const std::string& path, const C3dFile& file, const C3dWriteOptio
   } catch (const sim::InvalidArgument& e) {
     throw sim::InvalidArgument(path + ": " + e.what());  // name the file too
   }
-  write_file_whole(path, std::string(bytes.begin(), bytes.end()));
+  sim::write_file_atomically(path, std::string(bytes.begin(), bytes.end()));
 }
 
 }  // namespace biodyn::mocap_io

@@ -4,7 +4,7 @@
 #include <nlohmann/json.hpp>
 #include <set>
 
-#include "biodyn/mocap_io/file_io.h"
+#include "biodyn/sim/file_io.h"
 #include "biodyn/mocap_io/retarget.h"
 #include "biodyn/sim/errors.h"
 
@@ -218,7 +218,7 @@ JointMap parse_joint_map(const std::string& json_text, const std::string& source
 }
 
 JointMap read_joint_map(const std::string& path) {
-  return parse_joint_map(read_file_bytes(path), path);
+  return parse_joint_map(sim::read_file(path), path);
 }
 
 std::vector<std::string> builtin_joint_map_names() { return {"biodyn", "cmu", "mixamo"}; }

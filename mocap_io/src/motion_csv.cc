@@ -7,7 +7,7 @@
 #include <sstream>
 
 #include "biodyn/mocap_io/errors.h"
-#include "biodyn/mocap_io/file_io.h"
+#include "biodyn/sim/file_io.h"
 #include "biodyn/sim/errors.h"
 
 namespace biodyn::mocap_io {
@@ -130,7 +130,7 @@ Motion parse_motion_csv(const std::string& text, const std::string& source) {
 }
 
 Motion read_motion_csv(const std::string& path) {
-  return parse_motion_csv(read_file_bytes(path), path);
+  return parse_motion_csv(sim::read_file(path), path);
 }
 
 void check_motion_matches(const Motion& motion, const mjModel& model, const std::string& source) {

@@ -10,7 +10,7 @@
 #include <sstream>
 
 #include "biodyn/mocap_io/errors.h"
-#include "biodyn/mocap_io/file_io.h"
+#include "biodyn/sim/file_io.h"
 #include "biodyn/sim/errors.h"
 
 namespace biodyn::mocap_io {
@@ -262,7 +262,7 @@ TrcFile parse_trc(const std::string& text, const std::string& source) {
   return file;
 }
 
-TrcFile read_trc(const std::string& path) { return parse_trc(read_file_bytes(path), path); }
+TrcFile read_trc(const std::string& path) { return parse_trc(sim::read_file(path), path); }
 
 std::string format_trc(const MarkerData& markers, const std::string& units,
                        const std::string& file_name, int precision) {
@@ -312,7 +312,7 @@ void write_trc(const std::string& path, const MarkerData& markers, const std::st
                int precision) {
   const size_t slash = path.find_last_of('/');
   const std::string name = slash == std::string::npos ? path : path.substr(slash + 1);
-  write_file_whole(path, format_trc(markers, units, name, precision));
+  sim::write_file_atomically(path, format_trc(markers, units, name, precision));
 }
 
 }  // namespace biodyn::mocap_io

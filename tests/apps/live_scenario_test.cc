@@ -3,7 +3,7 @@
 #include <cstring>
 #include <vector>
 
-#include "biodyn/mocap_io/file_io.h"
+#include "biodyn/sim/file_io.h"
 #include "biodyn/mocap_io/motion_csv.h"
 #include "biodyn/mocap_io/retarget.h"
 #include "biodyn/scenarios/live.h"
@@ -147,7 +147,7 @@ TEST_CASE("Live mocap: a retargeted BVH plays kinematically on the character, lo
         return o;
       }());
   const std::string csv = biodyn::testing::binary_dir() + "/live_scenario_motion.csv";
-  mocap_io::write_file_whole(csv, mocap_io::format_motion_csv(r.motion));
+  sim::write_file_atomically(csv, mocap_io::format_motion_csv(r.motion));
   LiveConfig from_csv = config;
   from_csv.motion_path = csv;
   LiveScenario play_csv(from_csv);

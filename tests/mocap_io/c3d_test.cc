@@ -16,6 +16,7 @@
 #include "biodyn/mocap_io/c3d.h"
 #include "biodyn/mocap_io/errors.h"
 #include "biodyn/sim/errors.h"
+#include "biodyn/sim/file_io.h"
 #include "test_support.h"
 
 using namespace biodyn::mocap_io;
@@ -375,7 +376,7 @@ TEST_CASE("write_c3d round-trips through read_c3d in every processor and storage
         const std::string path = scratch(std::string("round_trip_") + to_string(processor) + "_" +
                                          to_string(storage) + ".c3d");
         write_c3d(path, capture, o);
-        CHECK(!std::filesystem::exists(path + ".tmp"));
+        CHECK(!std::filesystem::exists(path + biodyn::sim::kPartialFileSuffix));
         const C3dFile back = read_c3d(path);
         check_round_trip(capture, back, o);
         check_plate(back.force_plates[0], storage);

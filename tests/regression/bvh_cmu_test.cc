@@ -12,6 +12,7 @@
 #include "biodyn/mocap_io/bvh.h"
 #include "biodyn/models/tables.h"
 #include "biodyn/sim/model.h"
+#include "biodyn/sim/file_io.h"
 #include "test_support.h"
 
 using namespace biodyn;
@@ -286,7 +287,7 @@ TEST_CASE("CMU clip: format_bvh and write_bvh round trips", "[bvh][regression]")
     const std::string path = biodyn::testing::binary_dir() + "/bvh_cmu_round_trip.bvh";
     mocap_io::write_bvh(path, m);
     check_same(mocap_io::read_bvh(path));
-    std::FILE* temp = std::fopen((path + ".tmp").c_str(), "r");
+    std::FILE* temp = std::fopen((path + biodyn::sim::kPartialFileSuffix).c_str(), "r");
     CHECK(temp == nullptr);  // renamed into place, nothing left behind
     if (temp) std::fclose(temp);
     std::remove(path.c_str());

@@ -72,7 +72,6 @@ LiveScenario::LiveScenario(LiveConfig config) : config_(std::move(config)) {
   initial_controller_params_ = controller_params_;
   initial_gait_params_ = gait_params_;
   pelvis_ = mj_name2id(&m, mjOBJ_BODY, "pelvis");
-  fall_floor_geom_ = mj_name2id(&m, mjOBJ_GEOM, "floor");
   build();
 }
 

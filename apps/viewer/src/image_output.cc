@@ -13,6 +13,7 @@
 #include <sstream>
 
 #include "biodyn/sim/errors.h"
+#include "biodyn/sim/file_io.h"
 
 namespace biodyn::viewer {
 namespace {
@@ -37,19 +38,16 @@ void write_png(const std::string& path, int width, int height, const std::vector
     throw sim::InvalidArgument(path + ": image data does not match " + std::to_string(width) +
                                " x " + std::to_string(height) + " RGB");
   }
-  const std::filesystem::path target(path);
-  if (target.has_parent_path()) std::filesystem::create_directories(target.parent_path());
-  const std::string partial = path + ".partial.png";
-  if (!stbi_write_png(partial.c_str(), width, height, 3, rgb.data(), 3 * width)) {
-    std::remove(partial.c_str());
-    throw sim::Error(path + ": cannot write the PNG");
+  // Encoded in memory, then written whole (sim/file_io.h).
+  std::string png;
+  const auto append = [](void* context, void* data, int size) {
+    static_cast<std::string*>(context)->append(static_cast<const char*>(data),
+                                               static_cast<std::size_t>(size));
+  };
+  if (!stbi_write_png_to_func(append, &png, width, height, 3, rgb.data(), 3 * width)) {
+    throw sim::Error(path + ": cannot encode the PNG");
   }
-  std::error_code ec;
-  std::filesystem::rename(partial, target, ec);
-  if (ec) {
-    std::remove(partial.c_str());
-    throw sim::Error(path + ": cannot write the PNG (" + ec.message() + ")");
-  }
+  sim::write_file_atomically(path, png, sim::MissingDirectories::kCreate);
 }
 
 VideoWriter::VideoWriter(std::string path, int width, int height, double fps)

@@ -28,26 +28,31 @@ void polygon(const std::vector<Eigen::Vector2d>& p, const float rgba[4], double 
 
 }  // namespace
 
+void foot_support(const mjModel& m, const mjData& d, OverlayBuffers* b) {
+  if (!b->resolved) {
+    b->floor_geom = mj_name2id(&m, mjOBJ_GEOM, "floor");
+    const char* names[4] = {"foot_l", "foot_r", "toes_l", "toes_r"};
+    for (int i = 0; i < 4; ++i) b->feet[static_cast<std::size_t>(i)] = mj_name2id(&m, mjOBJ_BODY, names[i]);
+    b->resolved = true;
+  }
+  sim::floor_contacts(m, d, b->floor_geom, &b->contacts);
+  controllers::contact_support_polygon(b->contacts, b->feet.data(), 4, &b->points, &b->hull);
+}
+
 void build_overlays(const scenarios::LiveScenario& s, const OverlayOptions& o, OverlayBuffers* b,
                     std::vector<sim::OverlayGeom>* out) {
   out->clear();
   const mjModel& m = s.simulation().model();
   const mjData& d = s.simulation().data();
-  const int floor = mj_name2id(&m, mjOBJ_GEOM, "floor");
-  sim::floor_contacts(m, d, floor, &b->contacts);
+  foot_support(m, d, b);
   static constexpr float kSupport[4] = {0.2f, 0.8f, 0.3f, 1.0f};
   static constexpr float kTolerance[4] = {0.95f, 0.75f, 0.1f, 1.0f};
   static constexpr float kCom[4] = {0.9f, 0.1f, 0.9f, 1.0f};
   static constexpr float kForce[4] = {0.2f, 0.6f, 1.0f, 0.8f};
   static constexpr float kPush[4] = {1.0f, 0.15f, 0.1f, 1.0f};
-  if (o.support_polygon || o.tolerance_polygon) {
-    const int feet[4] = {mj_name2id(&m, mjOBJ_BODY, "foot_l"), mj_name2id(&m, mjOBJ_BODY, "foot_r"),
-                         mj_name2id(&m, mjOBJ_BODY, "toes_l"), mj_name2id(&m, mjOBJ_BODY, "toes_r")};
-    controllers::contact_support_polygon(b->contacts, feet, 4, &b->points, &b->hull);
-    if (o.support_polygon) polygon(b->hull, kSupport, 0.006, out);
-    if (o.tolerance_polygon && s.gait() != nullptr) {
-      polygon(s.gait()->tolerance_polygon(), kTolerance, 0.004, out);
-    }
+  if (o.support_polygon) polygon(b->hull, kSupport, 0.006, out);
+  if (o.tolerance_polygon && s.gait() != nullptr) {
+    polygon(s.gait()->tolerance_polygon(), kTolerance, 0.004, out);
   }
   if (o.com_projection) {
     const sim::CenterOfMass com = sim::center_of_mass(m, d);

@@ -24,6 +24,7 @@
 
 #include "biodyn/controllers/support_polygon.h"
 #include "biodyn/sim/errors.h"
+#include "biodyn/sim/file_io.h"
 #include "biodyn/sim/queries.h"
 #include "biodyn/sim/renderer.h"
 #include "biodyn/viewer/image_output.h"
@@ -174,7 +175,8 @@ struct Shared {
   std::string message;        // one line shown in the status bar
   History history;
   Plots plots;
-  OverlayBuffers overlay_buffers;
+  OverlayBuffers overlay_buffers;  // the render thread's (under the lock)
+  OverlayBuffers plot_buffers;     // the physics thread's plot samples
   std::vector<float> ratio_scratch;
   // The script runs on the physics thread, at its exact steps (a scripted session is as
   // deterministic as a headless run); screenshots are taken by the render thread while the
@@ -194,12 +196,9 @@ void sample_plots(Shared& sh) {
   scenarios::LiveScenario& s = *sh.scenario;
   const mjModel& m = s.simulation().model();
   const mjData& d = s.simulation().data();
-  OverlayBuffers& b = sh.overlay_buffers;
-  const int floor = mj_name2id(&m, mjOBJ_GEOM, "floor");
-  sim::floor_contacts(m, d, floor, &b.contacts);
-  const int feet[4] = {mj_name2id(&m, mjOBJ_BODY, "foot_l"), mj_name2id(&m, mjOBJ_BODY, "foot_r"),
-                       mj_name2id(&m, mjOBJ_BODY, "toes_l"), mj_name2id(&m, mjOBJ_BODY, "toes_r")};
-  controllers::contact_support_polygon(b.contacts, feet, 4, &b.points, &b.hull);
+  OverlayBuffers& b = sh.plot_buffers;
+  foot_support(m, d, &b);
+  const auto& feet = b.feet;
   const sim::CenterOfMass com = sim::center_of_mass(m, d);
   const Eigen::Vector2d c = com.position_W.head<2>();
   const float outside = static_cast<float>(controllers::distance_outside(b.hull, c));
@@ -325,27 +324,12 @@ void push_relative(scenarios::LiveScenario& s, const std::string& body, double f
   s.push(body, force_N * Eigen::Vector3d(std::cos(a), std::sin(a), 0), duration_s);
 }
 
-/// Writes `text` whole or not at all (a partial file renamed into place).
-void write_whole(const std::string& path, const std::string& text) {
-  const std::string partial = path + ".partial";
-  {
-    std::ofstream out(partial);
-    out << text;
-    if (!out.flush()) {
-      std::remove(partial.c_str());
-      throw sim::InvalidArgument(path + ": cannot write the file");
-    }
-  }
-  if (std::rename(partial.c_str(), path.c_str()) != 0) {
-    std::remove(partial.c_str());
-    throw sim::InvalidArgument(path + ": cannot write the file");
-  }
-}
-
 void save_params(const scenarios::LiveScenario& s, const std::string& walker_path,
                  const std::string& controller_path) {
-  if (!walker_path.empty() && s.gait() != nullptr) write_whole(walker_path, s.gait_params_json());
-  if (!controller_path.empty()) write_whole(controller_path, s.controller_params_json());
+  if (!walker_path.empty() && s.gait() != nullptr) {
+    sim::write_file_atomically(walker_path, s.gait_params_json());
+  }
+  if (!controller_path.empty()) sim::write_file_atomically(controller_path, s.controller_params_json());
 }
 
 /// Runs one script command (physics lock held).
@@ -580,8 +564,8 @@ void control_panel(Shared& sh, UiState& ui) {
         sh.message = "loaded the parameter files";
       }
     }
-  } catch (const sim::InvalidArgument& e) {
-    sh.message = e.what();  // a bad value or file: said, nothing changed
+  } catch (const sim::Error& e) {
+    sh.message = e.what();  // a bad value or file, a file that cannot be written: said
   }
   ImGui::End();
 }

@@ -130,7 +130,7 @@ class LiveScenario {
   double playback_time_s_ = 0;
   std::size_t pose_index_ = 0;
   double pose_start_s_ = 0;
-  int fall_floor_geom_ = -1, pelvis_ = -1;
+  int pelvis_ = -1;
   double pelvis_start_z_ = 0;
   long steps_ = 0;
   LiveConfig initial_config_;

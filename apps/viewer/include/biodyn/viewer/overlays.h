@@ -3,6 +3,7 @@
 /// (the feet's floor contacts), the tolerance polygon of the base-polygon balance (paper §4.3,
 /// walking), the CoM's ground projection, contact forces, active pushes as arrows and the foot
 /// welds (green when on, red when the weld pulled: a tension flag).
+#include <array>
 #include <vector>
 
 #include "biodyn/scenarios/live.h"
@@ -20,11 +21,19 @@ struct OverlayOptions {
   double force_scale_m_per_N = 0.001;  ///< arrow length per newton (1 m per kN)
 };
 
-/// Scratch reused frame to frame: no allocation once grown.
+/// Scratch reused frame to frame (no allocation once grown), and the ids the overlays need,
+/// resolved on first use.
 struct OverlayBuffers {
   std::vector<sim::FloorContact> contacts;
   std::vector<Eigen::Vector2d> points, hull, tolerance;
+  int floor_geom = -1;
+  std::array<int, 4> feet = {-1, -1, -1, -1};  ///< foot_l, foot_r, toes_l, toes_r
+  bool resolved = false;
 };
+
+/// The current floor contacts (`contacts`) and the feet's support polygon (`hull`): what the
+/// overlays draw and the viewer's plots sample.
+void foot_support(const mjModel& m, const mjData& d, OverlayBuffers* buffers);
 
 /// Appends the overlays of `s`'s current state to `out` (cleared first). Reads the simulation:
 /// call under the physics lock, with the scene update.

@@ -1,0 +1,29 @@
+#pragma once
+/// Whole-file reads and whole-or-nothing writes, for every module: a file a user gave us is
+/// read in one go with errors naming it; an output is written into a temporary file beside it
+/// and renamed over it, so it is whole or absent.
+
+#include <string>
+
+namespace biodyn::sim {
+
+/// Suffix of the temporary file write_file_atomically writes before renaming it into place.
+inline constexpr const char* kPartialFileSuffix = ".tmp-biodyn";
+
+/// The bytes of the file at `path`. Throws sim::InvalidArgument naming the path if it is a
+/// directory or cannot be opened or read (a file the user gave us: bad input).
+std::string read_file(const std::string& path);
+
+/// What write_file_atomically does about a parent directory that does not exist.
+enum class MissingDirectories {
+  kError,   ///< sim::Error naming the path (libraries: the caller chose the path)
+  kCreate,  ///< create them (command-line outputs go where the user says)
+};
+
+/// Writes `bytes` to `path` whole or not at all: into `path` + kPartialFileSuffix, then renamed
+/// over it (through a symlink, the file it points to). A path that is a device or pipe
+/// (/dev/stdout) is written directly. Throws sim::Error naming the path.
+void write_file_atomically(const std::string& path, const std::string& bytes,
+                           MissingDirectories missing = MissingDirectories::kError);
+
+}  // namespace biodyn::sim

@@ -1,0 +1,73 @@
+// Whole-file reads and whole-or-nothing writes (file_io.h).
+#include "biodyn/sim/file_io.h"
+
+#include <cerrno>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include "biodyn/sim/errors.h"
+
+namespace biodyn::sim {
+
+std::string read_file(const std::string& path) {
+  std::error_code ec;
+  if (std::filesystem::is_directory(path, ec)) {
+    throw sim::InvalidArgument(path + ": cannot read: it is a directory");
+  }
+  std::ifstream in(path, std::ios::binary);
+  if (!in) {
+    throw sim::InvalidArgument(path + ": cannot open for reading (" + std::strerror(errno) + ")");
+  }
+  std::ostringstream bytes;
+  bytes << in.rdbuf();
+  if (in.bad()) throw sim::InvalidArgument(path + ": read error");
+  return bytes.str();
+}
+
+void write_file_atomically(const std::string& path, const std::string& bytes,
+                           MissingDirectories missing) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  fs::path target(path);
+  const fs::file_status status = fs::status(target, ec);
+  if (fs::exists(status) && !fs::is_regular_file(status)) {
+    // A device or pipe (/dev/stdout, a fifo): stream into it; renaming over it would replace it.
+    if (fs::is_directory(status)) throw sim::Error(path + ": is a directory");
+    std::ofstream out(target, std::ios::binary);
+    if (!(out << bytes) || !out.flush()) throw sim::Error(path + ": write failed");
+    return;
+  }
+  // Keep a symlink (even a dangling one) and write the file it points to.
+  for (int hops = 0; hops < 40 && fs::is_symlink(fs::symlink_status(target, ec)); ++hops) {
+    const fs::path next = fs::read_symlink(target, ec);
+    if (ec) break;
+    target = next.is_absolute() ? next : target.parent_path() / next;
+  }
+  if (target.has_parent_path() && missing == MissingDirectories::kCreate) {
+    fs::create_directories(target.parent_path(), ec);
+    if (ec) throw sim::Error(path + ": cannot create directory: " + ec.message());
+  }
+  const fs::path tmp = target.string() + kPartialFileSuffix;
+  {
+    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
+    if (!out) throw sim::Error(path + ": cannot open for writing");
+    out << bytes;
+    out.flush();
+    if (!out) {
+      out.close();
+      fs::remove(tmp, ec);
+      throw sim::Error(path + ": write failed");
+    }
+  }
+  fs::rename(tmp, target, ec);
+  if (ec) {
+    std::error_code ignore;
+    fs::remove(tmp, ignore);
+    throw sim::Error(path + ": cannot move the finished file into place: " + ec.message());
+  }
+}
+
+}  // namespace biodyn::sim
