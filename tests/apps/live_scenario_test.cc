@@ -114,6 +114,10 @@ TEST_CASE("Live scenarios: standing holds; bad configs and edits are refused", "
   CHECK(s.gait() == nullptr);
   CHECK_THROWS_AS(s.set_speed(1.0), sim::InvalidArgument);
   CHECK_THROWS_AS(s.push("nobody", Eigen::Vector3d(1, 0, 0), 0.1), sim::InvalidArgument);
+  // A push no one stands through: down by the scenarios' rule (fall_watch.h).
+  s.push("pelvis", Eigen::Vector3d(800, 0, 0), 0.5);
+  s.run_until(5.0);
+  CHECK(s.fallen());
   LiveConfig bad;
   bad.scenario = "dance";
   CHECK_THROWS_WITH(LiveScenario(bad), Catch::Matchers::Contains("walk"));

@@ -14,12 +14,14 @@
 #include "biodyn/models/mjcf.h"
 #include "biodyn/sim/errors.h"
 #include "biodyn/sim/model.h"
+#include "fall_watch.h"
 
 namespace biodyn::scenarios {
 namespace {
 
 constexpr double kRadPerDeg = 3.14159265358979323846 / 180.0;
-/// references.md: upright = pelvis >= 0.7 x its standing height.
+/// references.md: upright = pelvis >= 0.7 x its standing height (and only the feet touch the
+/// floor: FallWatch).
 constexpr double kFallenPelvisFraction = 0.7;
 
 }  // namespace
@@ -71,7 +73,6 @@ LiveScenario::LiveScenario(LiveConfig config) : config_(std::move(config)) {
   initial_config_ = config_;
   initial_controller_params_ = controller_params_;
   initial_gait_params_ = gait_params_;
-  pelvis_ = mj_name2id(&m, mjOBJ_BODY, "pelvis");
   build();
 }
 
@@ -162,14 +163,14 @@ void LiveScenario::build() {
   pose_start_s_ = 0;
   steps_ = 0;
   pushes_.clear();
-  pelvis_start_z_ = sim_->data().xpos[3 * pelvis_ + 2];
+  fall_ = std::make_unique<FallWatch>(sim_->model(), sim_->data(), kFallenPelvisFraction);
 }
 
 double LiveScenario::time_s() const { return sim_->data().time; }
 
 bool LiveScenario::fallen() const {
   if (playback()) return false;  // a captured motion is shown as it is
-  return sim_->data().xpos[3 * pelvis_ + 2] < kFallenPelvisFraction * pelvis_start_z_;
+  return fall_->down(sim_->model(), sim_->data());
 }
 
 void LiveScenario::step() {

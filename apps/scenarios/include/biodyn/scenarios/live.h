@@ -24,6 +24,8 @@
 
 namespace biodyn::scenarios {
 
+class FallWatch;  // src/fall_watch.h
+
 /// What to build.
 struct LiveConfig {
   /// "stand", "squat", "reach", "one-leg" (the pose scenarios, looping their last pose) or "walk".
@@ -69,6 +71,8 @@ class LiveScenario {
 
   long step_index() const { return steps_; }
   double time_s() const;
+  /// Fallen by the scenarios' rule (fall_watch.h): a body other than the feet touches the floor,
+  /// or the pelvis is below 0.7 x its start height. Never for a kinematic playback.
   bool fallen() const;
 
   // --- Edits: logged, applied before the next step. ---
@@ -130,8 +134,7 @@ class LiveScenario {
   double playback_time_s_ = 0;
   std::size_t pose_index_ = 0;
   double pose_start_s_ = 0;
-  int pelvis_ = -1;
-  double pelvis_start_z_ = 0;
+  std::unique_ptr<FallWatch> fall_;  // the scenarios' fall rule, from the start of each run
   long steps_ = 0;
   LiveConfig initial_config_;
   controllers::ControllerParams initial_controller_params_;
