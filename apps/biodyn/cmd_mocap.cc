@@ -550,6 +550,13 @@ Command add_mocap_command(CLI::App* app) {
                                  {"sex", models::to_string(spec.sex)},
                                  {"detail", models::to_string(spec.detail)}}},
                   {"ground", idopt->grf},
+                  {"ground_caveat",
+                   idopt->grf == "contact"
+                       ? "MuJoCo's soft contact inverted on kinematic data: forces swing strongly "
+                         "with sub-millimetre penetration; an estimate only"
+                       : idopt->grf == "none" ? "no ground force: the root residual is the whole "
+                                                "ground reaction"
+                                              : "measured force plates"},
                   {"filter", {{"type", "Butterworth 2nd order, forward-backward (zero lag)"},
                               {"cutoff_hz", idopt->cutoff_hz}}},
                   {"armature_and_damping", "left out (simulation stabilisers, not body properties)"},
@@ -572,6 +579,17 @@ Command add_mocap_command(CLI::App* app) {
               if (options.ground == mocap_io::GroundForces::kNone) {
                 std::cout << "  --grf none: the residual is the whole ground reaction the motion "
                              "needs, not a modelling error\n";
+              }
+              if (options.ground == mocap_io::GroundForces::kContact) {
+                // Measured on the CMU walk retargeted to 2 m: peaks of 10^4-10^5 N where a
+                // kinematic foot or knee sits a fraction of a millimetre in the floor.
+                Eigen::Index peak = 0;
+                fn.maxCoeff(&peak);
+                std::cout << "  --grf contact: MuJoCo's soft contact inverted on kinematic data; its "
+                             "forces swing strongly with sub-millimetre penetration (peak at t = "
+                          << id.times_s[static_cast<std::size_t>(peak)]
+                          << " s): an estimate only; force plates (--grf from-c3d) are the "
+                             "measurement\n";
               }
               std::cout << "wrote " << idopt->output << "/{torques.csv, residuals.csv, summary.json, "
                            "torques.png}\n";
