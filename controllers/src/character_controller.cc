@@ -59,6 +59,14 @@ CharacterController::CharacterController(sim::Simulation* sim, ControllerParams 
   }
 }
 
+void CharacterController::restore_state(const CharacterController& saved) {
+  sim::Simulation* const sim = sim_;
+  TargetDriver* const driver = driver_;
+  *this = saved;
+  sim_ = sim;
+  driver_ = driver;
+}
+
 void CharacterController::set_params(const ControllerParams& params) {
   joints_.set_params(params);
   limiter_.set_params(params);

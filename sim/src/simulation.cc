@@ -118,6 +118,22 @@ StepStatus Simulation::collect_warnings() {
   return status;
 }
 
+void Simulation::save(Checkpoint* c) const {
+  c->data.save(*model_, *data_);
+  c->pushes = pushes_;
+  c->push_applied_W = push_applied_W_;
+  c->seen = seen_;
+  c->warnings = warnings_total_;
+}
+
+void Simulation::restore(const Checkpoint& c) {
+  c.data.restore(*model_, *data_);
+  pushes_ = c.pushes;
+  push_applied_W_ = c.push_applied_W;
+  seen_ = c.seen;
+  warnings_total_ = c.warnings;
+}
+
 mjData& Simulation::synced_scratch() {
   copy_state(*model_, *data_, scratch_.get());
   mj_forward(model_.get(), scratch_.get());

@@ -68,6 +68,86 @@ TEST_CASE("Live walk: rewinding and resuming gives the same future, edits includ
   CHECK_THROWS_AS(walk.rewind_to(walk.step_index() + 1), sim::InvalidArgument);
 }
 
+TEST_CASE("Live walk: rewinding restores a checkpoint (at most 0.5 s replayed), exact after 30 s of edits",
+          "[apps][live]") {
+  testing::MujocoWarningGuard guard;
+  const auto full_state = [](const LiveScenario& s) {
+    const mjModel& m = s.simulation().model();
+    const mjData& d = s.simulation().data();
+    std::vector<double> x = state_of(s);
+    x.insert(x.end(), d.qacc_warmstart, d.qacc_warmstart + m.nv);
+    x.insert(x.end(), d.ctrl, d.ctrl + m.nu);
+    x.insert(x.end(), m.eq_data, m.eq_data + m.neq * mjNEQDATA);
+    for (int e = 0; e < m.neq; ++e) x.push_back(m.eq_active[e]);
+    x.push_back(static_cast<double>(s.gait()->strike_count()));
+    x.push_back(static_cast<double>(s.gait()->state()));
+    return x;
+  };
+  LiveScenario walk(LiveConfig{});
+  walk.run_until(3.0);
+  controllers::TorqueGaitParams p = walk.gait()->params();
+  p.pelvis_pitch_rad += 0.05;
+  walk.set_gait_params(p);
+  walk.run_until(12.0);
+  walk.push("pelvis", Eigen::Vector3d(0, 60, 0), 0.2);
+  walk.run_until(20.0);
+  walk.set_weld_mode(controllers::WeldMode::kOff);  // welds released mid-run
+  walk.run_until(25.0);
+  walk.set_speed(1.2);
+  walk.run_until(30.0);
+  REQUIRE_FALSE(walk.fallen());
+  const std::vector<double> original = full_state(walk);
+  const long end = walk.step_index();
+  WARN("32 checkpoints hold " << walk.checkpoint_bytes() / 1024 << " KiB");
+  CHECK(walk.checkpoint_bytes() < 32u * 1024 * 1024);
+
+  // 27.3 s: from the checkpoint at 27.0 s, 150 steps replayed; the speed edit at 25 s is in it.
+  walk.rewind_to(13650);
+  CHECK(walk.last_rewind_replayed_steps() == 150);
+  walk.run_until(30.0);
+  REQUIRE(walk.step_index() == end);
+  CHECK(bit_identical(full_state(walk), original));
+
+  // 19.9 s, before the weld edit: the weld mode comes back with the replayed edit.
+  walk.rewind_to(9950);
+  CHECK(walk.last_rewind_replayed_steps() < 250);
+  CHECK(walk.config().weld == controllers::WeldMode::kHonest);
+  walk.run_until(30.0);
+  CHECK(walk.config().weld == controllers::WeldMode::kOff);
+  CHECK(bit_identical(full_state(walk), original));
+
+  // 2 s is older than the ring (16 s): replayed from t = 0, as exact.
+  walk.rewind_to(1000);
+  CHECK(walk.last_rewind_replayed_steps() == 1000);
+  walk.run_until(30.0);
+  CHECK(bit_identical(full_state(walk), original));
+
+  // A new edit drops the checkpoints after it: rewinding into the new future uses its own.
+  walk.rewind_to(12000);
+  walk.set_speed(0.8);
+  walk.run_until(30.0);
+  const std::vector<double> changed = full_state(walk);
+  CHECK_FALSE(bit_identical(changed, original));
+  walk.rewind_to(14000);
+  CHECK(walk.last_rewind_replayed_steps() == 0);  // the new checkpoint at 28.0 s
+  walk.run_until(30.0);
+  CHECK(bit_identical(full_state(walk), changed));
+}
+
+TEST_CASE("Live squat: rewinding across pose changes from a checkpoint is exact", "[apps][live]") {
+  testing::MujocoWarningGuard guard;
+  LiveConfig squat;
+  squat.scenario = "squat";
+  squat.weld = controllers::WeldMode::kGlue;
+  LiveScenario s(squat);
+  s.run_until(6.0);
+  const std::vector<double> original = state_of(s);
+  s.rewind_to(1100);  // 2.2 s, from the checkpoint at 2.0 s
+  CHECK(s.last_rewind_replayed_steps() == 100);
+  s.run_until(6.0);
+  CHECK(bit_identical(state_of(s), original));
+}
+
 TEST_CASE("Live walk: a walker parameter edited mid-run changes the walk; saved params read back",
           "[apps][live]") {
   testing::MujocoWarningGuard guard;

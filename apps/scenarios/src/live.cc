@@ -5,6 +5,7 @@
 #include <cctype>
 #include <cmath>
 #include <nlohmann/json.hpp>
+#include <optional>
 
 #include "biodyn/controllers/joint_groups.h"
 #include "biodyn/controllers/poses.h"
@@ -25,6 +26,20 @@ constexpr double kRadPerDeg = 3.14159265358979323846 / 180.0;
 constexpr double kFallenPelvisFraction = 0.7;
 
 }  // namespace
+
+/// The whole state of a LiveScenario at one step (live.h: rewind).
+struct LiveScenario::Checkpoint {
+  long step = -1;  // -1: free (or dropped by a new edit)
+  sim::Simulation::Checkpoint sim;
+  std::optional<controllers::CharacterController> controller;
+  std::optional<controllers::TorqueGait> gait;
+  LiveConfig config;  // speed, heading and weld as edited
+  controllers::ControllerParams controller_params;
+  controllers::TorqueGaitParams gait_params;
+  std::size_t pose_index = 0;
+  double pose_start_s = 0, playback_time_s = 0;
+  std::vector<LivePush> pushes;
+};
 
 std::vector<std::string> live_scenario_names() {
   std::vector<std::string> names = controllers::pose_scenario_names();
@@ -73,6 +88,8 @@ LiveScenario::LiveScenario(LiveConfig config) : config_(std::move(config)) {
   initial_config_ = config_;
   initial_controller_params_ = controller_params_;
   initial_gait_params_ = gait_params_;
+  checkpoint_every_ = std::max(1L, std::lround(kCheckpointInterval_s / m.opt.timestep));
+  for (int i = 0; i < kCheckpoints; ++i) checkpoints_.push_back(std::make_unique<Checkpoint>());
   build();
 }
 
@@ -191,6 +208,7 @@ void LiveScenario::step() {
     playback_time_s_ = static_cast<double>(steps_ + 1) * dt;
     show_playback_frame();
     ++steps_;
+    if (steps_ % checkpoint_every_ == 0) save_checkpoint();
     return;
   }
   // Pose scenarios: the next pose when this one's time is up; the last one holds.
@@ -204,6 +222,60 @@ void LiveScenario::step() {
   }
   ctrl_->step();
   ++steps_;
+  if (steps_ % checkpoint_every_ == 0) save_checkpoint();
+}
+
+void LiveScenario::save_checkpoint() {
+  // Once per step index: after a rewind the replay passes checkpoints it already has.
+  Checkpoint* slot = nullptr;
+  for (const std::unique_ptr<Checkpoint>& c : checkpoints_) {
+    if (c->step == steps_) return;
+    if (slot == nullptr || c->step < slot->step) slot = c.get();  // a free one, else the oldest
+  }
+  Checkpoint& c = *slot;
+  c.step = steps_;
+  sim_->save(&c.sim);
+  if (c.controller) {
+    *c.controller = *ctrl_;
+  } else {
+    c.controller.emplace(*ctrl_);
+  }
+  if (gait_) {
+    if (c.gait) {
+      *c.gait = *gait_;
+    } else {
+      c.gait.emplace(*gait_);
+    }
+  }
+  c.config = config_;
+  c.controller_params = controller_params_;
+  c.gait_params = gait_params_;
+  c.pose_index = pose_index_;
+  c.pose_start_s = pose_start_s_;
+  c.playback_time_s = playback_time_s_;
+  c.pushes = pushes_;
+}
+
+void LiveScenario::restore_checkpoint(const Checkpoint& c) {
+  sim_->restore(c.sim);
+  ctrl_->restore_state(*c.controller);
+  if (gait_) *gait_ = *c.gait;
+  config_ = c.config;
+  controller_params_ = c.controller_params;
+  gait_params_ = c.gait_params;
+  pose_index_ = c.pose_index;
+  pose_start_s_ = c.pose_start_s;
+  playback_time_s_ = c.playback_time_s;
+  pushes_ = c.pushes;
+  steps_ = c.step;
+}
+
+std::size_t LiveScenario::checkpoint_bytes() const {
+  std::size_t bytes = 0;
+  for (const std::unique_ptr<Checkpoint>& c : checkpoints_) {
+    if (c->step >= 0) bytes += sizeof(Checkpoint) + c->sim.data.bytes();
+  }
+  return bytes;
 }
 
 void LiveScenario::run_until(double t_s) {
@@ -215,6 +287,9 @@ void LiveScenario::record(std::function<void(LiveScenario&)> apply) {
   // A new edit starts a new future: the edits a rewound run would have replayed are dropped.
   future_.clear();
   future_next_ = 0;
+  for (const std::unique_ptr<Checkpoint>& c : checkpoints_) {
+    if (c->step > steps_) c->step = -1;  // states of the dropped future
+  }
   pending_.push_back({steps_, std::move(apply)});
 }
 
@@ -297,6 +372,7 @@ void LiveScenario::restart() {
 void LiveScenario::reset() {
   future_.clear();
   future_next_ = 0;
+  for (const std::unique_ptr<Checkpoint>& c : checkpoints_) c->step = -1;
   restart();
 }
 
@@ -305,12 +381,26 @@ void LiveScenario::rewind_to(long step) {
     throw sim::InvalidArgument("rewind: step must be within [0, " + std::to_string(steps_) +
                                "], got " + std::to_string(step));
   }
-  // Every edit made so far (applied, and any still to be replayed), replayed from t = 0.
+  // Every edit made so far (applied, and any still to be replayed), in step order.
   std::vector<Edit> all = log_;
   all.insert(all.end(), future_.begin() + static_cast<long>(future_next_), future_.end());
-  restart();
-  future_ = std::move(all);
+  const Checkpoint* from = nullptr;
+  for (const std::unique_ptr<Checkpoint>& c : checkpoints_) {
+    if (c->step >= 0 && c->step <= step && (from == nullptr || c->step > from->step)) from = c.get();
+  }
+  if (from != nullptr) {
+    // The checkpoint's state has the edits made before its step; the rest are replayed.
+    pending_.clear();
+    restore_checkpoint(*from);
+    log_.clear();
+    future_.clear();
+    for (Edit& e : all) (e.step < from->step ? log_ : future_).push_back(std::move(e));
+  } else {
+    restart();
+    future_ = std::move(all);
+  }
   future_next_ = 0;
+  last_rewind_replayed_ = step - steps_;
   while (steps_ < step) this->step();
 }
 

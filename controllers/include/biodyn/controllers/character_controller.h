@@ -112,6 +112,11 @@ class CharacterController {
   void set_velocity_once(int group, const Eigen::Vector3d& w_body) { joints_.set_velocity_once(group, w_body); }
   sim::Simulation& simulation() { return *sim_; }
   const StepReport& last_report() const { return last_report_; }
+  /// Takes over the whole state of `saved` (a copy of this controller made earlier: targets,
+  /// welds, balance integrators, parameters), keeping this controller's simulation and driver.
+  /// With the simulation restored to the same moment (sim::Simulation::restore), the following
+  /// steps repeat bit for bit (rewind: scenarios/live.h).
+  void restore_state(const CharacterController& saved);
 
  private:
   void control(mjData& d, bool* outside);

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "biodyn/sim/model.h"
+#include "biodyn/sim/snapshot.h"
 
 namespace biodyn::sim {
 
@@ -84,6 +85,20 @@ class Simulation {
   /// Throws InvalidArgument. Allocation happens here, never in step().
   void schedule_push(const Push& push);
   const std::vector<Push>& pushes() const { return pushes_; }
+
+  /// Everything this simulation's future depends on: the data (DataCheckpoint: state, derived
+  /// fields a controller may read, the welds' model fields), the pushes and the warning counts.
+  struct Checkpoint {
+    DataCheckpoint data;
+    std::vector<Push> pushes;
+    std::vector<Eigen::Vector3d> push_applied_W;
+    std::array<int, mjNWARNING> seen{};
+    WarningCounts warnings;
+  };
+  /// Saves into `c` (its storage is reused once grown). Restoring it later makes the following
+  /// steps bit-identical to those that followed the save (rewind: scenarios/live.h).
+  void save(Checkpoint* c) const;
+  void restore(const Checkpoint& c);
 
   /// Warnings accumulated since construction or the last reset().
   const WarningCounts& warnings() const { return warnings_total_; }

@@ -5,9 +5,13 @@
 /// limits, the foot welds in the chosen mode, the standing balance or the torque walker.
 ///
 /// Rewind is exact: every edit (parameters, speed, heading, a push) is logged with the step it
-/// took effect at, and rewinding to step k rebuilds the scenario and replays the log up to k.
-/// The simulation is deterministic (sim/determinism.h), so resuming from k gives the same future
-/// the first run had, until a new edit is made (which drops the logged edits after k).
+/// took effect at, and every 0.5 s of simulated time the whole state (simulation, controllers,
+/// walker, scenario) is saved into a ring of checkpoints covering the last 16 s. Rewinding to
+/// step k restores the newest checkpoint at or before k and replays the log from it to k (at most
+/// 0.5 s of simulation); further back than the ring it rebuilds the scenario at t = 0 and replays
+/// from there (slower, as exact). The simulation is deterministic (sim/determinism.h), so
+/// resuming from k gives the same future the first run had, until a new edit is made (which
+/// drops the logged edits and the checkpoints after k).
 
 #include <Eigen/Core>
 #include <functional>
@@ -86,9 +90,17 @@ class LiveScenario {
 
   /// Back to t = 0 with the config's parameters; the edit log is cleared.
   void reset();
-  /// Back to step `step` (0 <= step <= step_index()) by replaying the log from t = 0: the state
-  /// equals the one the run had at that step.
+  /// Back to step `step` (0 <= step <= step_index()) from the newest checkpoint at or before it
+  /// (or from t = 0), replaying the log: the state equals the one the run had at that step.
   void rewind_to(long step);
+
+  /// Simulated time between checkpoints, and how many the ring keeps (16 s).
+  static constexpr double kCheckpointInterval_s = 0.5;
+  static constexpr int kCheckpoints = 32;
+  /// Steps the last rewind_to replayed (from its checkpoint, or from t = 0).
+  long last_rewind_replayed_steps() const { return last_rewind_replayed_; }
+  /// Memory the checkpoints hold, bytes.
+  std::size_t checkpoint_bytes() const;
 
   // --- Read-outs (for panels, overlays and plots). ---
   const LiveConfig& config() const { return config_; }
@@ -115,6 +127,9 @@ class LiveScenario {
     long step;
     std::function<void(LiveScenario&)> apply;
   };
+  struct Checkpoint;  // live.cc
+  void save_checkpoint();
+  void restore_checkpoint(const Checkpoint& c);
   void build();
   void load_motion(const mjModel& m);
   void show_playback_frame();
@@ -144,6 +159,9 @@ class LiveScenario {
   std::vector<Edit> future_;   // after a rewind: the edits to replay at their steps
   std::size_t future_next_ = 0;
   std::vector<LivePush> pushes_;
+  std::vector<std::unique_ptr<Checkpoint>> checkpoints_;  // kCheckpoints slots, step -1 = free
+  long checkpoint_every_ = 250;                           // steps
+  long last_rewind_replayed_ = 0;
 };
 
 }  // namespace biodyn::scenarios
