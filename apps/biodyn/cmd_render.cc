@@ -1,6 +1,9 @@
 // biodyn render: a scenario filmed headless (issue 6): MP4 through ffmpeg, a PNG frame, and the
 // run summary.
+#include <cmath>
+#include <iomanip>
 #include <iostream>
+#include <sstream>
 #include <tuple>
 #include <memory>
 #include <nlohmann/json.hpp>
@@ -19,7 +22,9 @@ void ViewOptions::add_to(CLI::App* cmd) {
   for (const std::string& n : scenarios::live_scenario_names()) names += (names.empty() ? "" : " | ") + n;
   cmd->add_option("--scenario", scenario, "Scenario: " + names)->capture_default_str();
   character.add_to(cmd);
-  cmd->add_option("--speed", speed_m_s, "walk: commanded speed, m/s")->capture_default_str();
+  speed_option = cmd->add_option("--speed", speed_m_s,
+                                 "walk: commanded speed, m/s (default 1.0; stones 0.7, the plan's mean step "
+                                 "at the gait's cadence)");
   cmd->add_option("--heading-rate", heading_rate_deg_s, "walk: turning rate, deg/s (+ left)")
       ->capture_default_str();
   cmd->add_option("--weld", weld, "Foot-contact mode: off | honest | glue")->capture_default_str();
@@ -29,13 +34,24 @@ void ViewOptions::add_to(CLI::App* cmd) {
   cmd->add_option("--motion", motion_path,
                   "scenario mocap: a motion played kinematically (qpos CSV from biodyn mocap "
                   "ik/retarget for this character, or a BVH retargeted on the fly)");
+  cmd->add_option("--steps", steps,
+                  "scenario stones: step lengths, m (ankle to ankle along the heading), e.g. "
+                  "0.60,0.20,0.50 (default: the paper's 0.60,0.20,0.50,0.16,0.50,0.30)");
+  cmd->add_option("--steps-start", steps_start_s, "scenario stones: when the stones begin (steady walking first), s")
+      ->capture_default_str();
 }
 
 scenarios::LiveConfig ViewOptions::to_config() const {
   scenarios::LiveConfig c;
   c.scenario = scenario;
   c.character = character.to_spec();
-  c.speed_m_s = speed_m_s;
+  const bool speed_given = speed_option != nullptr && speed_option->count() > 0;
+  c.speed_m_s = speed_given ? speed_m_s : scenario == "stones" ? 0.7 : 1.0;
+  if (!steps.empty()) {
+    if (scenario != "stones") throw sim::InvalidArgument("--steps: only --scenario stones walks planned steps");
+    c.steps_m = parse_number_list(steps, "--steps", "step lengths in m separated by commas");
+  }
+  c.steps_start_s = steps_start_s;
   c.heading_rate_deg_s = heading_rate_deg_s;
   c.weld = controllers::parse_weld_mode(weld, "--weld");
   if (!params_path.empty()) {
@@ -57,6 +73,31 @@ std::string ViewOptions::assumption() const {
            "forces it needs)";
   }
   return weld_assumption(weld);
+}
+
+nlohmann::json stones_json(const std::vector<scenarios::LiveStone>& stones) {
+  nlohmann::json targets = nlohmann::json::array(), walked = nlohmann::json::array(),
+                 errors = nlohmann::json::array();
+  double sq = 0;
+  for (const scenarios::LiveStone& st : stones) {
+    targets.push_back(st.target_m);
+    if (std::isnan(st.walked_m)) continue;
+    walked.push_back(st.walked_m);
+    errors.push_back(st.walked_m - st.target_m);
+    sq += (st.walked_m - st.target_m) * (st.walked_m - st.target_m);
+  }
+  const double rms = errors.empty() ? 0.0 : std::sqrt(sq / static_cast<double>(errors.size()));
+  return {{"targets_m", targets}, {"walked_m", walked}, {"errors_m", errors}, {"rms_error_m", rms},
+          {"definition", "step length ankle to ankle along the heading at each strike, against the plan"}};
+}
+
+std::string stones_line(const std::vector<scenarios::LiveStone>& stones) {
+  if (stones.empty()) return "";
+  const nlohmann::json j = stones_json(stones);
+  std::ostringstream out;
+  out << "stepping stones: " << j["walked_m"].size() << " of " << stones.size() << " planned steps walked, error RMS "
+      << std::fixed << std::setprecision(1) << 100 * j["rms_error_m"].get<double>() << " cm";
+  return out.str();
 }
 
 Command add_render_command(CLI::App* app) {
@@ -90,7 +131,7 @@ Command add_render_command(CLI::App* app) {
             const viewer::RenderStats st =
                 viewer::render_scenario(&scenario, o->render, [&](double f) { bar.update(f); });
             bar.finish();
-            const nlohmann::json summary = {
+            nlohmann::json summary = {
                 {"scenario", o->view.scenario},
                 {"character", {{"height_m", scenario.config().character.height_m},
                                {"mass_kg", scenario.config().character.mass_kg}}},
@@ -108,6 +149,7 @@ Command add_render_command(CLI::App* app) {
                 {"physics_realtime_factor", st.simulated_s / std::max(st.physics_s, 1e-9)},
                 {"video", o->render.video_path},
                 {"png", o->render.png_path}};
+            if (o->view.scenario == "stones") summary["stones"] = stones_json(scenario.stones());
             if (!o->summary_path.empty()) {
               write_file_atomically(o->summary_path, summary.dump(1) + "\n");
             }
@@ -116,6 +158,7 @@ Command add_render_command(CLI::App* app) {
                       << " frames " << o->size << "; physics " << summary["physics_realtime_factor"].get<double>()
                       << "x real time, rendering " << summary["render_frames_per_s"].get<double>()
                       << " frames/s\n  " << o->view.assumption() << "\n";
+            if (!stones_line(scenario.stones()).empty()) std::cout << "  " << stones_line(scenario.stones()) << "\n";
             if (!o->render.video_path.empty()) std::cout << "  video: " << o->render.video_path << "\n";
             if (!o->render.png_path.empty()) std::cout << "  frame: " << o->render.png_path << "\n";
             if (!o->summary_path.empty()) std::cout << "  summary: " << o->summary_path << "\n";

@@ -48,14 +48,16 @@ Command add_view_command(CLI::App* app) {
                       << " s, physics " << st.physics_steps_per_s << " steps/s ("
                       << st.realtime_factor << "x real time while running); "
                       << st.screenshots << " screenshots\n";
+            if (!stones_line(st.stones).empty()) std::cout << "  " << stones_line(st.stones) << "\n";
             if (!o->summary_path.empty()) {
-              const nlohmann::json j = {
+              nlohmann::json j = {
                   {"scenario", o->view.scenario}, {"frames", st.frames}, {"wall_s", st.wall_s},
                   {"frames_per_s", st.frames_per_s}, {"simulated_s", st.simulated_s},
                   {"physics_steps_per_s", st.physics_steps_per_s},
                   {"realtime_factor", st.realtime_factor}, {"screenshots", st.screenshots},
                   {"com_x_m", st.com_x_m}, {"com_y_m", st.com_y_m}, {"fallen", st.fallen},
                   {"pushes", st.pushes}, {"assumption", o->view.assumption()}};
+              if (o->view.scenario == "stones") j["stones"] = stones_json(st.stones);
               write_file_atomically(o->summary_path, j.dump(1) + "\n");
             }
             return kExitOk;

@@ -2,6 +2,7 @@
 /// Options shared by `biodyn view` and `biodyn render`: the scenario and its character and
 /// parameters (the same files `biodyn walk --params` and `biodyn pose --params` read).
 #include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
 #include <string>
 
 #include "biodyn/scenarios/live.h"
@@ -18,9 +19,12 @@ struct ViewOptions {
   std::string params_path;             ///< walker parameters (biodyn walk --params)
   std::string controller_params_path;  ///< controller parameters (biodyn pose --params)
   std::string motion_path;             ///< scenario mocap: qpos CSV or BVH
+  std::string steps;                   ///< scenario stones: lengths, m, comma-separated
+  double steps_start_s = 5.0;
+  CLI::Option* speed_option = nullptr;  ///< to tell a given --speed from the default
 
   /// Adds --scenario, the character options, --speed, --heading-rate, --weld, --params,
-  /// --controller-params.
+  /// --controller-params, --motion, --steps, --steps-start.
   void add_to(CLI::App* cmd);
   /// Reads the files; throws sim::InvalidArgument naming the option or file.
   scenarios::LiveConfig to_config() const;
@@ -28,5 +32,10 @@ struct ViewOptions {
   /// scenario that it is a kinematic playback.
   std::string assumption() const;
 };
+
+/// scenario stones: the planned and walked lengths, their errors and RMS (JSON), and one line
+/// for the terminal ("" when no stone was planned).
+nlohmann::json stones_json(const std::vector<scenarios::LiveStone>& stones);
+std::string stones_line(const std::vector<scenarios::LiveStone>& stones);
 
 }  // namespace biodyn::apps

@@ -313,10 +313,14 @@ void TorqueGait::request_stop() {
   speed_ = 0;
 }
 
-void TorqueGait::plan_steps(const std::vector<double>& lengths_m) {
+void TorqueGait::validate_plan(const std::vector<double>& lengths_m) {
   for (std::size_t i = 0; i < lengths_m.size(); ++i)
     check(lengths_m[i] >= 0 && lengths_m[i] <= 1.5, "planned step " + std::to_string(i + 1), "must be in [0, 1.5] m",
           lengths_m[i]);
+}
+
+void TorqueGait::plan_steps(const std::vector<double>& lengths_m) {
+  validate_plan(lengths_m);
   plan_ = lengths_m;
   plan_next_ = 0;
 }

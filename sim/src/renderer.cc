@@ -1,6 +1,8 @@
 // MuJoCo's scene and GPU context (renderer.h).
 #include "biodyn/sim/renderer.h"
 
+#include <cmath>
+
 #include <algorithm>
 #include <cstring>
 
@@ -66,6 +68,13 @@ void SceneRenderer::add_overlays(const std::vector<OverlayGeom>& overlays) {
       case OverlayGeom::Kind::kSphere: {
         const mjtNum size[3] = {o.width_m, o.width_m, o.width_m};
         mjv_initGeom(g, mjGEOM_SPHERE, size, from, nullptr, o.rgba);
+        break;
+      }
+      case OverlayGeom::Kind::kBox: {
+        const mjtNum size[3] = {o.half_size_m.x(), o.half_size_m.y(), o.half_size_m.z()};
+        const mjtNum c = std::cos(o.yaw_rad), s = std::sin(o.yaw_rad);
+        const mjtNum mat[9] = {c, -s, 0, s, c, 0, 0, 0, 1};
+        mjv_initGeom(g, mjGEOM_BOX, size, from, mat, o.rgba);
         break;
       }
       case OverlayGeom::Kind::kArrow:

@@ -34,4 +34,18 @@ inline CharacterPixels count_character_pixels(const std::string& png) {
   return c;
 }
 
+/// Pixels of the stones' green (the overlays' "stepped on within 2 cm"), -1 if unreadable.
+inline int count_green_stone_pixels(const std::string& png) {
+  int width = 0, height = 0, channels = 0;
+  unsigned char* img = stbi_load(png.c_str(), &width, &height, &channels, 3);
+  if (img == nullptr) return -1;
+  int n = 0;
+  for (int i = 0; i < width * height; ++i) {
+    const unsigned char* p = img + 3 * i;
+    if (p[1] > 120 && p[1] > p[0] + 60 && p[1] > p[2] + 40) ++n;
+  }
+  stbi_image_free(img);
+  return n;
+}
+
 }  // namespace biodyn::testing

@@ -6,7 +6,9 @@
 #include "biodyn/sim/file_io.h"
 #include "biodyn/mocap_io/motion_csv.h"
 #include "biodyn/mocap_io/retarget.h"
+#include "biodyn/models/mjcf.h"
 #include "biodyn/scenarios/live.h"
+#include "biodyn/scenarios/walk.h"
 #include "biodyn/sim/errors.h"
 #include "test_support.h"
 
@@ -146,6 +148,74 @@ TEST_CASE("Live squat: rewinding across pose changes from a checkpoint is exact"
   CHECK(s.last_rewind_replayed_steps() == 100);
   s.run_until(6.0);
   CHECK(bit_identical(state_of(s), original));
+}
+
+TEST_CASE("Live stones: the paper's stepping stones, walked as biodyn walk --steps walks them",
+          "[apps][live][stones]") {
+  testing::MujocoWarningGuard guard;
+  LiveConfig config;
+  config.scenario = "stones";
+  config.speed_m_s = 0.7;  // the plan's mean step at the gait's cadence (walk_test.cc)
+  config.weld = controllers::WeldMode::kOff;
+  LiveScenario live(config);
+  const std::vector<scenarios::LiveStone>& stones = live.stones();
+  // To the strike on the last stone: each stone is drawn where its foot then lands, off by the
+  // length error along the heading (the walker plans lengths, not widths: across, by how far
+  // the swing foot strayed).
+  while (live.time_s() < 14.0 && !(stones.size() == 6 && !std::isnan(stones.back().walked_m))) live.step();
+  REQUIRE(stones.size() == 6);
+  {
+    const mjModel& m = live.simulation().model();
+    const mjData& d = live.simulation().data();
+    const scenarios::LiveStone& last = stones.back();
+    const int foot = mj_name2id(&m, mjOBJ_BODY, last.side == 0 ? "foot_l" : "foot_r");
+    const Eigen::Vector2d off = Eigen::Vector2d(d.xpos[3 * foot], d.xpos[3 * foot + 1]) - last.ankle_W;
+    const Eigen::Vector2d along(std::cos(last.heading_rad), std::sin(last.heading_rad));
+    const double off_along = off.dot(along), off_across = std::abs(off.x() * along.y() - off.y() * along.x());
+    WARN("last stone at " << d.time << " s: the foot lands " << 100 * off_along << " cm ahead of it (walked - target "
+         << 100 * (last.walked_m - last.target_m) << " cm), " << 100 * off_across << " cm across");
+    CHECK(off_along == Approx(last.walked_m - last.target_m).margin(0.01));
+    CHECK(off_across < 0.05);
+  }
+  live.run_until(14.0);
+  CHECK_FALSE(live.fallen());
+  REQUIRE(stones.size() == 6);
+
+  sim::Simulation sim(sim::Model::from_string(models::to_mjcf(models::generate_character(config.character)),
+                                              "generated character"));
+  scenarios::WalkRunParams p;
+  p.duration_s = 14;
+  p.speed_m_s = 0.7;
+  p.weld = controllers::WeldMode::kOff;
+  p.steps_m = scenarios::paper_stepping_stones_m();
+  const scenarios::WalkRunResult r = scenarios::run_walk(&sim, p);
+  REQUIRE(r.stones);
+  REQUIRE(r.stones->lengths_m.size() == 6);
+  for (std::size_t i = 0; i < stones.size(); ++i) {
+    INFO("stone " << i + 1 << ": target " << stones[i].target_m << " m, walked " << stones[i].walked_m
+                  << " m (biodyn walk: " << r.stones->lengths_m[i] << " m)");
+    CHECK(stones[i].target_m == p.steps_m[i]);
+    CHECK(stones[i].walked_m == Approx(r.stones->lengths_m[i]).margin(1e-9));
+    CHECK(std::abs(stones[i].walked_m - stones[i].target_m) < 0.05);
+    if (i > 0) CHECK(stones[i].side != stones[i - 1].side);
+  }
+
+  // Rewound into the stones (7.3 s, from a checkpoint): the same walk, the same stones.
+  const std::vector<double> end_state = state_of(live);
+  const std::vector<scenarios::LiveStone> walked = stones;
+  live.rewind_to(3650);
+  CHECK(stones.size() < walked.size());
+  live.run_until(14.0);
+  CHECK(bit_identical(state_of(live), end_state));
+  REQUIRE(stones.size() == walked.size());
+  CHECK(stones.back().walked_m == walked.back().walked_m);
+  CHECK(stones.back().ankle_W == walked.back().ankle_W);
+
+  LiveConfig walk_with_steps;
+  walk_with_steps.steps_m = {0.5};
+  CHECK_THROWS_WITH(LiveScenario(walk_with_steps), Catch::Matchers::Contains("stones scenario"));
+  config.steps_m = {0.5, 2.0};
+  CHECK_THROWS_WITH(LiveScenario(config), Catch::Matchers::Contains("planned step 2"));
 }
 
 TEST_CASE("Live walk: a walker parameter edited mid-run changes the walk; saved params read back",

@@ -48,6 +48,39 @@ TEST_CASE("biodyn render films the walk headless: MP4 frames and a PNG showing t
   CHECK(edges == 0);
 }
 
+TEST_CASE("biodyn render --scenario stones walks the paper's stones and draws them",
+          "[apps][render][stones]") {
+  const fs::path dir = biodyn::testing::fresh_dir("render_test", "stones");
+  const auto r = run_biodyn(
+      "render --scenario stones --duration 9 --size 640x360 --png stones.png --summary summary.json", dir);
+  INFO(r.out << r.err);
+  REQUIRE(r.exit_code == 0);
+  CHECK(r.out.find("stepping stones: 6 of 6 planned steps walked") != std::string::npos);
+  const nlohmann::json s = nlohmann::json::parse(slurp(dir / "summary.json"));
+  CHECK(s["fallen"] == false);
+  REQUIRE(s.contains("stones"));
+  CHECK(s["stones"]["targets_m"] == nlohmann::json({0.60, 0.20, 0.50, 0.16, 0.50, 0.30}));
+  REQUIRE(s["stones"]["walked_m"].size() == 6);
+  // At 0.7 m/s (the stones' default speed), honest welds: measured RMS 1.6 cm.
+  CHECK(s["stones"]["rms_error_m"].get<double>() < 0.03);
+  // Green in the frame: the stepped-on stones (and the small weld markers, all there is before
+  // the stones begin at 5 s).
+  const auto before = run_biodyn("render --scenario stones --duration 4.9 --size 640x360 --png before.png", dir);
+  REQUIRE(before.exit_code == 0);
+  const int green = biodyn::testing::count_green_stone_pixels((dir / "stones.png").string());
+  const int green_before = biodyn::testing::count_green_stone_pixels((dir / "before.png").string());
+  WARN("green pixels: " << green << " at 9 s, " << green_before << " at 4.9 s (weld markers only)");
+  CHECK(green_before >= 0);
+  CHECK(green_before < 60);
+  CHECK(green > green_before + 200);
+
+  // --steps belongs to the stones scenario.
+  const auto bad = run_biodyn("render --scenario walk --steps 0.5 --png x.png", dir);
+  CHECK(bad.exit_code == 2);
+  CHECK(bad.err.find("--steps") != std::string::npos);
+  CHECK_FALSE(fs::exists(dir / "x.png"));
+}
+
 TEST_CASE("biodyn render refuses bad options and writes nothing", "[apps][render]") {
   const fs::path dir = biodyn::testing::fresh_dir("render_test", "bad");
   for (const char* args : {"render --scenario dance -o v.mp4", "render --size 321x240 -o v.mp4",

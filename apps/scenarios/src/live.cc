@@ -39,11 +39,17 @@ struct LiveScenario::Checkpoint {
   std::size_t pose_index = 0;
   double pose_start_s = 0, playback_time_s = 0;
   std::vector<LivePush> pushes;
+  std::vector<LiveStone> stones;
+  bool stones_planned = false, stone_pending = false;
+  int strikes_seen = 0;
 };
+
+std::vector<double> paper_stepping_stones_m() { return {0.60, 0.20, 0.50, 0.16, 0.50, 0.30}; }
 
 std::vector<std::string> live_scenario_names() {
   std::vector<std::string> names = controllers::pose_scenario_names();
   names.push_back("walk");
+  names.push_back("stones");
   names.push_back("mocap");
   return names;
 }
@@ -60,6 +66,13 @@ void LiveConfig::validate() const {
                                    ? "scenario mocap: give the motion (--motion motion.csv or file.bvh)"
                                    : "--motion: only the mocap scenario plays a motion");
   }
+  if (!steps_m.empty() && scenario != "stones") {
+    throw sim::InvalidArgument("steps: only the stones scenario walks planned steps");
+  }
+  controllers::TorqueGait::validate_plan(steps_m);
+  if (!(steps_start_s >= 0) || !std::isfinite(steps_start_s)) {
+    throw sim::InvalidArgument("steps start: must be a time >= 0 s, got " + std::to_string(steps_start_s));
+  }
   if (!std::isfinite(speed_m_s) || speed_m_s < 0 || speed_m_s > 3) {
     throw sim::InvalidArgument("speed: must be within [0, 3] m/s, got " + std::to_string(speed_m_s));
   }
@@ -71,6 +84,7 @@ void LiveConfig::validate() const {
 
 LiveScenario::LiveScenario(LiveConfig config) : config_(std::move(config)) {
   config_.validate();
+  if (config_.scenario == "stones" && config_.steps_m.empty()) config_.steps_m = paper_stepping_stones_m();
   const models::Character character = models::generate_character(config_.character);
   sim_ = std::make_unique<sim::Simulation>(
       sim::Model::from_string(models::to_mjcf(character), "generated character"));
@@ -88,6 +102,8 @@ LiveScenario::LiveScenario(LiveConfig config) : config_(std::move(config)) {
   initial_config_ = config_;
   initial_controller_params_ = controller_params_;
   initial_gait_params_ = gait_params_;
+  foot_body_[0] = mj_name2id(&m, mjOBJ_BODY, "foot_l");
+  foot_body_[1] = mj_name2id(&m, mjOBJ_BODY, "foot_r");
   checkpoint_every_ = std::max(1L, std::lround(kCheckpointInterval_s / m.opt.timestep));
   for (int i = 0; i < kCheckpoints; ++i) checkpoints_.push_back(std::make_unique<Checkpoint>());
   build();
@@ -161,7 +177,7 @@ void LiveScenario::build() {
   controllers::CharacterControllerConfig cc;
   cc.weld.mode = config_.weld;
   ctrl_ = std::make_unique<controllers::CharacterController>(sim_.get(), controller_params_, cc);
-  if (config_.scenario == "walk") {
+  if (config_.scenario == "walk" || config_.scenario == "stones") {
     poses_ = controllers::pose_scenario("stand", groups_, 0);
     ctrl_->reset_in_pose(poses_.front());
     gait_ = std::make_unique<controllers::TorqueGait>(m, groups_, gait_params_);
@@ -180,6 +196,9 @@ void LiveScenario::build() {
   pose_start_s_ = 0;
   steps_ = 0;
   pushes_.clear();
+  stones_.clear();
+  stones_planned_ = stone_pending_ = false;
+  strikes_seen_ = 0;
   fall_ = std::make_unique<FallWatch>(sim_->model(), sim_->data(), kFallenPelvisFraction);
 }
 
@@ -222,7 +241,50 @@ void LiveScenario::step() {
   }
   ctrl_->step();
   ++steps_;
+  if (config_.scenario == "stones") track_stones();
   if (steps_ % checkpoint_every_ == 0) save_checkpoint();
+}
+
+void LiveScenario::track_stones() {
+  // As run_walk: the plan starts at the first strike at or after steps_start_s; each strike
+  // ends one planned step (its length walked) and begins the next swing.
+  const controllers::TorqueGait& g = *gait_;
+  if (g.strike_count() != strikes_seen_) {
+    strikes_seen_ = g.strike_count();
+    const controllers::TorqueGaitStrike& st = g.last_strike();
+    if (!std::isnan(st.target_length_m) && !stones_.empty() && std::isnan(stones_.back().walked_m)) {
+      stones_.back().walked_m = st.step_length_m;
+    }
+    if (!stones_planned_ && time_s() >= config_.steps_start_s) {
+      gait_->plan_steps(config_.steps_m);  // from the swing that starts now
+      stones_planned_ = true;
+    }
+    stone_pending_ = stones_planned_;
+  }
+  if (std::isnan(g.swing_target_m())) return;
+  // The swing's stone, from the walker's reference: the stance ankle (which rolls forward a
+  // little during the swing, so the stone follows it until the strike fixes it), along the
+  // heading by the planned length, across as far as the swing ankle was when the swing began.
+  const mjData& d = sim_->data();
+  const int swing = 1 - g.stance_side();
+  const int stance_body = foot_body_[g.stance_side()];
+  const Eigen::Vector2d stance(d.xpos[3 * stance_body], d.xpos[3 * stance_body + 1]);
+  const Eigen::Vector2d along(std::cos(g.heading_rad()), std::sin(g.heading_rad()));
+  const Eigen::Vector2d across(-along.y(), along.x());
+  if (stone_pending_) {
+    stone_pending_ = false;
+    const int swing_body = foot_body_[swing];
+    const Eigen::Vector2d swing_at(d.xpos[3 * swing_body], d.xpos[3 * swing_body + 1]);
+    LiveStone stone;
+    stone.side = swing;
+    stone.target_m = g.swing_target_m();
+    stone.across_m = (swing_at - stance).dot(across);
+    stones_.push_back(stone);
+  }
+  LiveStone& stone = stones_.back();
+  if (!std::isnan(stone.walked_m)) return;
+  stone.heading_rad = g.heading_rad();
+  stone.ankle_W = stance + stone.target_m * along + stone.across_m * across;
 }
 
 void LiveScenario::save_checkpoint() {
@@ -254,6 +316,10 @@ void LiveScenario::save_checkpoint() {
   c.pose_start_s = pose_start_s_;
   c.playback_time_s = playback_time_s_;
   c.pushes = pushes_;
+  c.stones = stones_;
+  c.stones_planned = stones_planned_;
+  c.stone_pending = stone_pending_;
+  c.strikes_seen = strikes_seen_;
 }
 
 void LiveScenario::restore_checkpoint(const Checkpoint& c) {
@@ -267,6 +333,10 @@ void LiveScenario::restore_checkpoint(const Checkpoint& c) {
   pose_start_s_ = c.pose_start_s;
   playback_time_s_ = c.playback_time_s;
   pushes_ = c.pushes;
+  stones_ = c.stones;
+  stones_planned_ = c.stones_planned;
+  stone_pending_ = c.stone_pending;
+  strikes_seen_ = c.strikes_seen;
   steps_ = c.step;
 }
 

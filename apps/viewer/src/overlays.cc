@@ -1,6 +1,9 @@
 // Overlays of the live scenario (overlays.h).
 #include "biodyn/viewer/overlays.h"
 
+#include <cmath>
+
+#include "biodyn/controllers/foot_contact.h"
 #include "biodyn/controllers/support_polygon.h"
 #include "biodyn/sim/queries.h"
 
@@ -33,6 +36,17 @@ void foot_support(const mjModel& m, const mjData& d, OverlayBuffers* b) {
     b->floor_geom = mj_name2id(&m, mjOBJ_GEOM, "floor");
     const char* names[4] = {"foot_l", "foot_r", "toes_l", "toes_r"};
     for (int i = 0; i < 4; ++i) b->feet[static_cast<std::size_t>(i)] = mj_name2id(&m, mjOBJ_BODY, names[i]);
+    // The stones' size: the left sole from the heel to the toe tips (the toes' box ends there).
+    constexpr double kMargin_m = 0.01;
+    const controllers::Sole sole = controllers::find_sole(m, b->feet[0]);
+    double front = sole.x_max;
+    for (int g = 0; g < m.ngeom; ++g) {
+      if (m.geom_bodyid[g] != b->feet[2] || m.geom_type[g] != mjGEOM_BOX) continue;
+      front = std::max(front, m.body_pos[3 * b->feet[2]] + m.geom_pos[3 * g] + m.geom_size[3 * g]);
+    }
+    b->stone_back_m = sole.x_min - kMargin_m;
+    b->stone_front_m = front + kMargin_m;
+    b->stone_half_width_m = 0.5 * (sole.y_max - sole.y_min) + kMargin_m;
     b->resolved = true;
   }
   sim::floor_contacts(m, d, b->floor_geom, &b->contacts);
@@ -88,6 +102,30 @@ void build_overlays(const scenarios::LiveScenario& s, const OverlayOptions& o, O
       g.to_W = at;
       g.width_m = 0.02;
       std::copy(kPush, kPush + 4, g.rgba);
+      out->push_back(g);
+    }
+  }
+  if (o.stones) {
+    static constexpr float kStone[4] = {0.55f, 0.55f, 0.52f, 1.0f};
+    static constexpr float kStoneHit[4] = {0.25f, 0.7f, 0.35f, 1.0f};
+    static constexpr float kStoneMissed[4] = {0.95f, 0.55f, 0.1f, 1.0f};
+    constexpr double kHit_m = 0.02, kThick_m = 0.003;
+    for (const scenarios::LiveStone& st : s.stones()) {
+      const double mid = 0.5 * (b->stone_back_m + b->stone_front_m);
+      const Eigen::Vector2d along(std::cos(st.heading_rad), std::sin(st.heading_rad));
+      const Eigen::Vector2d c = st.ankle_W + mid * along;
+      sim::OverlayGeom g;
+      g.kind = sim::OverlayGeom::Kind::kBox;
+      // Short steps put a stone over the other foot's last one: the right foot's stand 1 mm
+      // higher so the two do not flicker through each other.
+      const double half_thick = kThick_m + 0.001 * st.side;
+      g.from_W = Eigen::Vector3d(c.x(), c.y(), half_thick);
+      g.half_size_m = Eigen::Vector3d(0.5 * (b->stone_front_m - b->stone_back_m), b->stone_half_width_m, half_thick);
+      g.yaw_rad = st.heading_rad;
+      const float* rgba = std::isnan(st.walked_m)                           ? kStone
+                          : std::abs(st.walked_m - st.target_m) <= kHit_m ? kStoneHit
+                                                                          : kStoneMissed;
+      std::copy(rgba, rgba + 4, g.rgba);
       out->push_back(g);
     }
   }

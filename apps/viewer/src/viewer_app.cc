@@ -429,6 +429,24 @@ void simulation_panel(Shared& sh, UiState& ui, double fps, double sim_rate) {
   ImGui::Checkbox("pushes", &ui.overlays.pushes);
   ImGui::SameLine();
   ImGui::Checkbox("welds", &ui.overlays.welds);
+  if (s.config().scenario == "stones") {
+    ImGui::SameLine();
+    ImGui::Checkbox("stones", &ui.overlays.stones);
+    // The plan and how each step came out (green within 2 cm, as drawn).
+    ImGui::Separator();
+    ImGui::Text("Stepping stones from %.1f s", s.config().steps_start_s);
+    const auto& stones = s.stones();
+    for (std::size_t i = 0; i < s.config().steps_m.size(); ++i) {
+      const double target = s.config().steps_m[i];
+      if (i < stones.size() && !std::isnan(stones[i].walked_m)) {
+        const double err = stones[i].walked_m - target;
+        ImGui::TextColored(std::abs(err) <= 0.02 ? ImVec4(0.4f, 0.9f, 0.5f, 1) : ImVec4(1.0f, 0.6f, 0.2f, 1),
+                           "%zu: %.2f m  walked %.3f m  (%+.1f cm)", i + 1, target, stones[i].walked_m, 100 * err);
+      } else {
+        ImGui::Text("%zu: %.2f m  %s", i + 1, target, i < stones.size() ? "in swing" : "");
+      }
+    }
+  }
   ImGui::End();
 }
 
@@ -846,6 +864,7 @@ ViewerStats run_viewer(scenarios::LiveConfig config, const ViewerOptions& option
     stats.com_y_m = com.position_W.y();
     stats.fallen = scenario.fallen();
     stats.pushes = static_cast<int>(scenario.pushes().size());
+    stats.stones = scenario.stones();
     stats.physics_steps_per_s = sh.running_wall_s > 0 ? static_cast<double>(sh.steps_run) / sh.running_wall_s : 0;
     stats.realtime_factor = sh.running_wall_s > 0 ? sh.running_sim_s / sh.running_wall_s : 0;
   }

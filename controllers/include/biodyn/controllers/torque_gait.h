@@ -172,6 +172,8 @@ class TorqueGait : public TargetDriver {
   /// Replaces any plan not yet walked. Throws sim::InvalidArgument for a length outside
   /// [0, 1.5] m (naming its index).
   void plan_steps(const std::vector<double>& lengths_m);
+  /// The check plan_steps makes, without a walker (to refuse a plan before a run starts).
+  static void validate_plan(const std::vector<double>& lengths_m);
   /// Stopping back to standing: the speed command drops to 0 and the steps brake (the swing
   /// foot lands further ahead, stop_brake_rad_per_m_s) until the CoM is slower than
   /// stop_speed_m_s at a strike; then one planned step (as above) brings the feet side by

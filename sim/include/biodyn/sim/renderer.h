@@ -18,11 +18,13 @@ namespace biodyn::sim {
 
 /// An extra geom drawn with the scene (mjvGeom kinds biodyn uses).
 struct OverlayGeom {
-  enum class Kind { kArrow, kLine, kSphere };
+  enum class Kind { kArrow, kLine, kSphere, kBox };
   Kind kind = Kind::kLine;
-  Eigen::Vector3d from_W = Eigen::Vector3d::Zero();  ///< m; the sphere's centre
-  Eigen::Vector3d to_W = Eigen::Vector3d::Zero();    ///< m; unused for spheres
+  Eigen::Vector3d from_W = Eigen::Vector3d::Zero();  ///< m; the sphere's or box's centre
+  Eigen::Vector3d to_W = Eigen::Vector3d::Zero();    ///< m; unused for spheres and boxes
   double width_m = 0.01;                             ///< arrow shaft / line width / radius
+  Eigen::Vector3d half_size_m = Eigen::Vector3d::Zero();  ///< box: half extents (its frame)
+  double yaw_rad = 0;                                     ///< box: turned about z
   float rgba[4] = {1, 1, 1, 1};
 };
 

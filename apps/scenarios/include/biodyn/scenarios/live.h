@@ -15,6 +15,7 @@
 
 #include <Eigen/Core>
 #include <functional>
+#include <limits>
 #include <memory>
 #include <optional>
 #include <string>
@@ -32,7 +33,8 @@ class FallWatch;  // src/fall_watch.h
 
 /// What to build.
 struct LiveConfig {
-  /// "stand", "squat", "reach", "one-leg" (the pose scenarios, looping their last pose) or "walk".
+  /// "stand", "squat", "reach", "one-leg" (the pose scenarios, holding their last pose), "walk",
+  /// "stones" (walk, then the stepping stones: steps_m) or "mocap" (motion_path).
   std::string scenario = "walk";
   models::CharacterSpec character;
   controllers::WeldMode weld = controllers::WeldMode::kHonest;
@@ -46,12 +48,33 @@ struct LiveConfig {
   /// controllers; it loops): a qpos CSV (`biodyn mocap ik|retarget`, for this character) or a
   /// BVH retargeted here with the first built-in joint map it fits.
   std::string motion_path;
+  /// scenario "stones" (paper §4.2): step lengths, m, ankle to ankle along the heading, walked
+  /// from the first strike at or after steps_start_s (steady walking first); free steps after.
+  /// Empty: the paper's (paper_stepping_stones_m).
+  std::vector<double> steps_m;
+  double steps_start_s = 5.0;
 
   void validate() const;  ///< throws sim::InvalidArgument naming the field
 };
 
 /// Names LiveConfig::scenario accepts.
 std::vector<std::string> live_scenario_names();
+
+/// The paper's stepping stones (§4.2): 0.60, 0.20, 0.50, 0.16, 0.50, 0.30 m.
+std::vector<double> paper_stepping_stones_m();
+
+/// scenario "stones": one planned step. Drawn where its length puts the swing foot's ankle:
+/// from the stance ankle (the walker's reference; it rolls forward a little during the swing,
+/// and the stone with it until the strike) along the heading, as far across as the swing ankle
+/// was when the swing began (the walker plans lengths, not widths).
+struct LiveStone {
+  Eigen::Vector2d ankle_W = Eigen::Vector2d::Zero();  ///< m, world xy
+  double heading_rad = 0;
+  int side = 0;          ///< the swing foot (0 left, 1 right)
+  double target_m = 0;   ///< planned length
+  double across_m = 0;   ///< m, left of the stance ankle (heading frame)
+  double walked_m = std::numeric_limits<double>::quiet_NaN();  ///< length at the strike; NaN: in swing
+};
 
 /// A push being applied or drawn.
 struct LivePush {
@@ -112,6 +135,8 @@ class LiveScenario {
   const controllers::TorqueGait* gait() const { return gait_.get(); }
   const controllers::StepReport& last_report() const { return ctrl_->last_report(); }
   const std::vector<LivePush>& pushes() const { return pushes_; }
+  /// scenario "stones": the steps planned so far (empty before steps_start_s).
+  const std::vector<LiveStone>& stones() const { return stones_; }
   /// Whether the scenario walks.
   bool walking() const { return gait_ != nullptr; }
   /// Whether the scenario plays a motion kinematically (scenario "mocap").
@@ -159,6 +184,13 @@ class LiveScenario {
   std::vector<Edit> future_;   // after a rewind: the edits to replay at their steps
   std::size_t future_next_ = 0;
   std::vector<LivePush> pushes_;
+  // scenario "stones": whether the plan was given, strikes seen, whether the new swing's stone
+  // is still to be placed.
+  std::vector<LiveStone> stones_;
+  bool stones_planned_ = false, stone_pending_ = false;
+  int strikes_seen_ = 0;
+  int foot_body_[2] = {-1, -1};  // foot_l, foot_r
+  void track_stones();
   std::vector<std::unique_ptr<Checkpoint>> checkpoints_;  // kCheckpoints slots, step -1 = free
   long checkpoint_every_ = 250;                           // steps
   long last_rewind_replayed_ = 0;

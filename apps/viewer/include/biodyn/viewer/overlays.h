@@ -1,8 +1,10 @@
 #pragma once
 /// What the viewer and `biodyn render` draw over the character (issue 6): the support polygon
 /// (the feet's floor contacts), the tolerance polygon of the base-polygon balance (paper §4.3,
-/// walking), the CoM's ground projection, contact forces, active pushes as arrows and the foot
-/// welds (green when on, red when the weld pulled: a tension flag).
+/// walking), the CoM's ground projection, contact forces, active pushes as arrows, the foot
+/// welds (green when on, red when the weld pulled: a tension flag) and the stepping stones
+/// (scenario stones: grey until stepped on, then green within 2 cm of the planned length,
+/// orange beyond).
 #include <array>
 #include <vector>
 
@@ -18,6 +20,7 @@ struct OverlayOptions {
   bool contact_forces = true;
   bool pushes = true;
   bool welds = true;
+  bool stones = true;
   double force_scale_m_per_N = 0.001;  ///< arrow length per newton (1 m per kN)
 };
 
@@ -28,6 +31,8 @@ struct OverlayBuffers {
   std::vector<Eigen::Vector2d> points, hull, tolerance;
   int floor_geom = -1;
   std::array<int, 4> feet = {-1, -1, -1, -1};  ///< foot_l, foot_r, toes_l, toes_r
+  /// A stone's outline in the ankle's frame: the sole from heel to toe tips, 1 cm around.
+  double stone_back_m = 0, stone_front_m = 0, stone_half_width_m = 0;
   bool resolved = false;
 };
 

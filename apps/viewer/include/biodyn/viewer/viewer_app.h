@@ -46,6 +46,7 @@ struct ViewerStats {
   double com_x_m = 0, com_y_m = 0;
   bool fallen = false;
   int pushes = 0;
+  std::vector<scenarios::LiveStone> stones;  ///< scenario stones
 };
 
 /// Opens the window and runs until it is closed (or a script says quit). Throws
