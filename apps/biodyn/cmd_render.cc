@@ -34,6 +34,12 @@ void ViewOptions::add_to(CLI::App* cmd) {
   cmd->add_option("--motion", motion_path,
                   "scenario mocap: a motion played kinematically (qpos CSV from biodyn mocap "
                   "ik/retarget for this character, or a BVH retargeted on the fly)");
+  cmd->add_flag("--track", track,
+               "scenario mocap: track the motion with the joint controllers (physics, muscles within tau_max, "
+               "the root free: no balance help) instead of playing it kinematically");
+  cmd->add_option("--track-lookahead", track_lookahead_s,
+                  "scenario mocap --track: each joint's target is the motion this far ahead, s")
+      ->capture_default_str();
   cmd->add_option("--steps", steps,
                   "scenario stones: step lengths, m (ankle to ankle along the heading), e.g. "
                   "0.60,0.20,0.50 (default: the paper's 0.60,0.20,0.50,0.16,0.50,0.30)");
@@ -59,6 +65,8 @@ scenarios::LiveConfig ViewOptions::to_config() const {
     c.gait_source = params_path;
   }
   c.motion_path = motion_path;
+  c.track = track;
+  c.track_lookahead_s = track_lookahead_s;
   if (!controller_params_path.empty()) {
     c.controller_json = read_file(controller_params_path);
     c.controller_source = controller_params_path;
@@ -67,6 +75,12 @@ scenarios::LiveConfig ViewOptions::to_config() const {
 }
 
 std::string ViewOptions::assumption() const {
+  if (scenario == "mocap" && track) {
+    return "motion " + motion_path +
+           " tracked by the joint controllers: physics, joint torques within tau_max, the root moved only by "
+           "muscles and contacts (no balance help; a motion this body cannot balance falls); foot contact " +
+           weld_assumption(weld);
+  }
   if (scenario == "mocap") {
     return "kinematic playback of " + motion_path +
            ": joint angles as captured, no physics and no controllers (biodyn mocap id gives the "
@@ -89,6 +103,34 @@ nlohmann::json stones_json(const std::vector<scenarios::LiveStone>& stones) {
   const double rms = errors.empty() ? 0.0 : std::sqrt(sq / static_cast<double>(errors.size()));
   return {{"targets_m", targets}, {"walked_m", walked}, {"errors_m", errors}, {"rms_error_m", rms},
           {"definition", "step length ankle to ankle along the heading at each strike, against the plan"}};
+}
+
+nlohmann::json tracking_json(const scenarios::LiveScenario& s) {
+  constexpr double kDeg = 180.0 / 3.14159265358979323846;
+  const scenarios::LiveScenario::TrackingStats& t = s.tracking_stats();
+  return {{"motion_length_s", s.motion_length_s()},
+          {"lookahead_s", s.config().track_lookahead_s},
+          {"start_lift_m", s.track_start_lift_m()},
+          {"fell_at_s", s.fell_at_s() >= 0 ? nlohmann::json(s.fell_at_s()) : nlohmann::json(nullptr)},
+          {"joint_error_rms_deg", t.joint_rms_rad() * kDeg},
+          {"joint_error_max_deg", t.joint_max_rad * kDeg},
+          {"root_horizontal_error_max_m", t.root_max_m},
+          {"definition", "joint error: RMS over the joint groups of the rotation from the body's joint orientation "
+                         "to the motion's, sampled every 20 ms until a fall; root: the pelvis's horizontal "
+                         "distance from the motion's"}};
+}
+
+std::string tracking_line(const scenarios::LiveScenario& s) {
+  if (s.tracker() == nullptr) return "";
+  const nlohmann::json j = tracking_json(s);
+  std::ostringstream out;
+  out << std::fixed << std::setprecision(1) << "tracking: joint error RMS " << j["joint_error_rms_deg"].get<double>()
+      << " deg (max " << j["joint_error_max_deg"].get<double>() << "), root off by up to " << std::setprecision(2)
+      << j["root_horizontal_error_max_m"].get<double>() << " m; "
+      << (s.fell_at_s() >= 0 ? "fell at " + std::to_string(s.fell_at_s()).substr(0, 5) + " s"
+                             : std::string("did not fall"))
+      << " (motion " << std::setprecision(2) << s.motion_length_s() << " s)";
+  return out.str();
 }
 
 std::string stones_line(const std::vector<scenarios::LiveStone>& stones) {
@@ -150,6 +192,7 @@ Command add_render_command(CLI::App* app) {
                 {"video", o->render.video_path},
                 {"png", o->render.png_path}};
             if (o->view.scenario == "stones") summary["stones"] = stones_json(scenario.stones());
+            if (scenario.tracker() != nullptr) summary["tracking"] = tracking_json(scenario);
             if (!o->summary_path.empty()) {
               write_file_atomically(o->summary_path, summary.dump(1) + "\n");
             }
@@ -159,6 +202,7 @@ Command add_render_command(CLI::App* app) {
                       << "x real time, rendering " << summary["render_frames_per_s"].get<double>()
                       << " frames/s\n  " << o->view.assumption() << "\n";
             if (!stones_line(scenario.stones()).empty()) std::cout << "  " << stones_line(scenario.stones()) << "\n";
+            if (!tracking_line(scenario).empty()) std::cout << "  " << tracking_line(scenario) << "\n";
             if (!o->render.video_path.empty()) std::cout << "  video: " << o->render.video_path << "\n";
             if (!o->render.png_path.empty()) std::cout << "  frame: " << o->render.png_path << "\n";
             if (!o->summary_path.empty()) std::cout << "  summary: " << o->summary_path << "\n";

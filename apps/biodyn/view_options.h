@@ -19,6 +19,8 @@ struct ViewOptions {
   std::string params_path;             ///< walker parameters (biodyn walk --params)
   std::string controller_params_path;  ///< controller parameters (biodyn pose --params)
   std::string motion_path;             ///< scenario mocap: qpos CSV or BVH
+  bool track = false;                  ///< scenario mocap: tracked by the controllers
+  double track_lookahead_s = 0.1;
   std::string steps;                   ///< scenario stones: lengths, m, comma-separated
   double steps_start_s = 5.0;
   CLI::Option* speed_option = nullptr;  ///< to tell a given --speed from the default
@@ -32,6 +34,10 @@ struct ViewOptions {
   /// scenario that it is a kinematic playback.
   std::string assumption() const;
 };
+
+/// scenario mocap --track: the tracking error over the run and the fall (JSON), and one line.
+nlohmann::json tracking_json(const scenarios::LiveScenario& s);
+std::string tracking_line(const scenarios::LiveScenario& s);
 
 /// scenario stones: the planned and walked lengths, their errors and RMS (JSON), and one line
 /// for the terminal ("" when no stone was planned).

@@ -42,6 +42,8 @@ struct LiveScenario::Checkpoint {
   std::vector<LiveStone> stones;
   bool stones_planned = false, stone_pending = false;
   int strikes_seen = 0;
+  TrackingStats tracking_stats;
+  double fell_at_s = -1;
 };
 
 std::vector<double> paper_stepping_stones_m() { return {0.60, 0.20, 0.50, 0.16, 0.50, 0.30}; }
@@ -60,6 +62,10 @@ void LiveConfig::validate() const {
     std::string list;
     for (const std::string& n : names) list += (list.empty() ? "" : ", ") + n;
     throw sim::InvalidArgument("scenario: expected one of " + list + ", got '" + scenario + "'");
+  }
+  if (track && scenario != "mocap") throw sim::InvalidArgument("track: only the mocap scenario tracks a motion");
+  if (!(track_lookahead_s > 0) || track_lookahead_s > 1 || !std::isfinite(track_lookahead_s)) {
+    throw sim::InvalidArgument("track lookahead: must be within (0, 1] s, got " + std::to_string(track_lookahead_s));
   }
   if ((scenario == "mocap") != !motion_path.empty()) {
     throw sim::InvalidArgument(scenario == "mocap"
@@ -98,7 +104,10 @@ LiveScenario::LiveScenario(LiveConfig config) : config_(std::move(config)) {
   if (!config_.gait_json.empty()) {
     controllers::apply_torque_gait_json(config_.gait_json, config_.gait_source, &gait_params_);
   }
-  if (config_.scenario == "mocap") load_motion(m);
+  if (config_.scenario == "mocap") {
+    load_motion(m);
+    if (config_.track) tracked_ = controllers::make_tracked_motion(m, playback_t_, playback_);
+  }
   initial_config_ = config_;
   initial_controller_params_ = controller_params_;
   initial_gait_params_ = gait_params_;
@@ -146,6 +155,14 @@ void LiveScenario::load_motion(const mjModel& m) {
     if (motion.qpos.row(f).allFinite()) rows.push_back(f);
   }
   if (rows.size() < 2) throw sim::InvalidArgument(path + ": fewer than 2 solved frames to play");
+  if (config_.track) {
+    // Tracking needs a motion without gaps in time: solved frames must be consecutive.
+    if (rows.back() - rows.front() + 1 != static_cast<int>(rows.size())) {
+      throw sim::InvalidArgument(path + ": unsolved frames inside the motion (" +
+                                 std::to_string(motion.frame_count() - static_cast<int>(rows.size())) +
+                                 "); tracking needs a continuous motion (play it kinematically, or trim it)");
+    }
+  }
   playback_.resize(static_cast<Eigen::Index>(rows.size()), m.nq);
   playback_t_.clear();
   for (std::size_t i = 0; i < rows.size(); ++i) {
@@ -185,6 +202,8 @@ void LiveScenario::build() {
     gait_->set_speed(config_.speed_m_s);
     gait_->set_heading_rate(config_.heading_rate_deg_s * kRadPerDeg);
     ctrl_->set_driver(gait_.get());
+  } else if (config_.scenario == "mocap" && config_.track) {
+    start_tracking();
   } else if (config_.scenario == "mocap") {
     playback_time_s_ = 0;
     show_playback_frame();
@@ -199,7 +218,44 @@ void LiveScenario::build() {
   stones_.clear();
   stones_planned_ = stone_pending_ = false;
   strikes_seen_ = 0;
+  tracking_stats_ = TrackingStats{};
+  fell_at_s_ = -1;
   fall_ = std::make_unique<FallWatch>(sim_->model(), sim_->data(), kFallenPelvisFraction);
+}
+
+void LiveScenario::start_tracking() {
+  // The first frame, moving as the motion does, raised or lowered so the lowest sole point
+  // touches the floor (captured roots are rarely at the simulated floor's height).
+  const mjModel& m = sim_->model();
+  mjData& d = sim_->data();
+  std::vector<mjtNum> q0(static_cast<std::size_t>(m.nq)), q1(static_cast<std::size_t>(m.nq));
+  for (int k = 0; k < m.nq; ++k) {
+    q0[static_cast<std::size_t>(k)] = tracked_.qpos(0, k);
+    q1[static_cast<std::size_t>(k)] = tracked_.qpos(1, k);
+  }
+  std::copy(q0.begin(), q0.end(), d.qpos);
+  mj_differentiatePos(&m, d.qvel, tracked_.times_s[1] - tracked_.times_s[0], q0.data(), q1.data());
+  mj_kinematics(&m, &d);
+  double lowest = 1e9;
+  for (int g = 0; g < m.ngeom; ++g) {
+    const char* body = mj_id2name(&m, mjOBJ_BODY, m.geom_bodyid[g]);
+    if (body == nullptr || m.geom_type[g] != mjGEOM_BOX || !FallWatch::is_foot_body(body)) continue;
+    const mjtNum* R = d.geom_xmat + 9 * g;
+    const mjtNum* size = m.geom_size + 3 * g;
+    lowest = std::min(lowest, d.geom_xpos[3 * g + 2] - std::abs(R[6]) * size[0] - std::abs(R[7]) * size[1] -
+                                  std::abs(R[8]) * size[2]);
+  }
+  track_lift_m_ = -lowest;
+  d.qpos[m.jnt_qposadr[0] + 2] += track_lift_m_;
+  mj_forward(&m, &d);
+  ctrl_->reset();
+  tracker_ = std::make_unique<controllers::MotionTracker>(m, groups_, &tracked_, config_.track_lookahead_s);
+  ctrl_->set_driver(tracker_.get());
+}
+
+controllers::MotionTracker::Error LiveScenario::tracking_error() const {
+  if (!tracker_) return {};
+  return tracker_->error(sim_->model(), sim_->data());
 }
 
 double LiveScenario::time_s() const { return sim_->data().time; }
@@ -242,6 +298,15 @@ void LiveScenario::step() {
   ctrl_->step();
   ++steps_;
   if (config_.scenario == "stones") track_stones();
+  if (fell_at_s_ < 0 && fallen()) fell_at_s_ = time_s();
+  if (tracker_ && fell_at_s_ < 0 && steps_ % 10 == 0) {
+    const controllers::MotionTracker::Error e = tracker_->error(sim_->model(), sim_->data());
+    TrackingStats& t = tracking_stats_;
+    ++t.samples;
+    t.joint_sum_sq_rad2 += e.joint_rms_rad * e.joint_rms_rad;
+    t.joint_max_rad = std::max(t.joint_max_rad, e.joint_rms_rad);
+    t.root_max_m = std::max(t.root_max_m, e.root_horizontal_m);
+  }
   if (steps_ % checkpoint_every_ == 0) save_checkpoint();
 }
 
@@ -320,6 +385,8 @@ void LiveScenario::save_checkpoint() {
   c.stones_planned = stones_planned_;
   c.stone_pending = stone_pending_;
   c.strikes_seen = strikes_seen_;
+  c.tracking_stats = tracking_stats_;
+  c.fell_at_s = fell_at_s_;
 }
 
 void LiveScenario::restore_checkpoint(const Checkpoint& c) {
@@ -337,6 +404,8 @@ void LiveScenario::restore_checkpoint(const Checkpoint& c) {
   stones_planned_ = c.stones_planned;
   stone_pending_ = c.stone_pending;
   strikes_seen_ = c.strikes_seen;
+  tracking_stats_ = c.tracking_stats;
+  fell_at_s_ = c.fell_at_s;
   steps_ = c.step;
 }
 

@@ -14,6 +14,7 @@
 /// drops the logged edits and the checkpoints after k).
 
 #include <Eigen/Core>
+#include <cmath>
 #include <functional>
 #include <limits>
 #include <memory>
@@ -23,6 +24,7 @@
 
 #include "biodyn/controllers/character_controller.h"
 #include "biodyn/controllers/controller_params.h"
+#include "biodyn/controllers/motion_tracker.h"
 #include "biodyn/controllers/torque_gait.h"
 #include "biodyn/models/character.h"
 #include "biodyn/sim/simulation.h"
@@ -44,10 +46,14 @@ struct LiveConfig {
   std::string controller_json, controller_source;
   /// Torque-walker parameters (torque_gait.h JSON; `biodyn walk --params`), optional.
   std::string gait_json, gait_source;
-  /// scenario "mocap": a motion played kinematically on the character (no physics, no
-  /// controllers; it loops): a qpos CSV (`biodyn mocap ik|retarget`, for this character) or a
-  /// BVH retargeted here with the first built-in joint map it fits.
+  /// scenario "mocap": a motion played on the character: a qpos CSV (`biodyn mocap
+  /// ik|retarget`, for this character) or a BVH retargeted here with the first built-in joint
+  /// map it fits. Kinematically (no physics, no controllers; it loops), or with `track` by the
+  /// joint controllers (controllers/motion_tracker.h: physics, muscles within tau_max, the root
+  /// free; once through, then holding the last frame's targets).
   std::string motion_path;
+  bool track = false;
+  double track_lookahead_s = 0.1;  ///< the tracker's lookahead (motion_tracker.h)
   /// scenario "stones" (paper §4.2): step lengths, m, ankle to ankle along the heading, walked
   /// from the first strike at or after steps_start_s (steady walking first); free steps after.
   /// Empty: the paper's (paper_stepping_stones_m).
@@ -139,8 +145,24 @@ class LiveScenario {
   const std::vector<LiveStone>& stones() const { return stones_; }
   /// Whether the scenario walks.
   bool walking() const { return gait_ != nullptr; }
-  /// Whether the scenario plays a motion kinematically (scenario "mocap").
-  bool playback() const { return playback_.rows() > 0; }
+  /// Whether the scenario plays a motion kinematically (scenario "mocap" without track).
+  bool playback() const { return playback_.rows() > 0 && !config_.track; }
+  /// scenario "mocap" with track: the tracker (nullptr otherwise), its error now, and how far
+  /// the start was raised so the lowest sole touched the floor (m; negative: lowered).
+  const controllers::MotionTracker* tracker() const { return tracker_.get(); }
+  controllers::MotionTracker::Error tracking_error() const;
+  /// The tracking error over the run so far, sampled every 10 steps (20 ms) while upright.
+  struct TrackingStats {
+    long samples = 0;
+    double joint_sum_sq_rad2 = 0, joint_max_rad = 0, root_max_m = 0;
+    double joint_rms_rad() const { return samples > 0 ? std::sqrt(joint_sum_sq_rad2 / samples) : 0.0; }
+  };
+  const TrackingStats& tracking_stats() const { return tracking_stats_; }
+  /// When the character first fell in this run (s), or -1.
+  double fell_at_s() const { return fell_at_s_; }
+  double track_start_lift_m() const { return track_lift_m_; }
+  /// The motion's length, s (scenario "mocap").
+  double motion_length_s() const { return playback_t_.empty() ? 0.0 : playback_t_.back(); }
 
   /// The parameters in the files the CLI reads: controller params JSON (`biodyn pose --params`)
   /// and walker params JSON (`biodyn walk --params`; empty for the pose scenarios).
@@ -158,6 +180,7 @@ class LiveScenario {
   void build();
   void load_motion(const mjModel& m);
   void show_playback_frame();
+  void start_tracking();
   void restart();  // t = 0 with the initial parameters; the log is cleared, future_ kept
   void record(std::function<void(LiveScenario&)> apply);
 
@@ -168,6 +191,11 @@ class LiveScenario {
   controllers::TorqueGaitParams gait_params_;
   std::unique_ptr<controllers::CharacterController> ctrl_;
   std::unique_ptr<controllers::TorqueGait> gait_;
+  controllers::TrackedMotion tracked_;  // mocap + track
+  std::unique_ptr<controllers::MotionTracker> tracker_;
+  double track_lift_m_ = 0;
+  TrackingStats tracking_stats_;
+  double fell_at_s_ = -1;
   std::vector<controllers::Pose> poses_;
   Eigen::MatrixXd playback_;          // mocap: qpos per frame
   std::vector<double> playback_t_;    // mocap: s, per frame
