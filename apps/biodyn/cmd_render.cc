@@ -36,7 +36,10 @@ void ViewOptions::add_to(CLI::App* cmd) {
                   "ik/retarget for this character, or a BVH retargeted on the fly)");
   cmd->add_flag("--track", track,
                "scenario mocap: track the motion with the joint controllers (physics, muscles within tau_max, "
-               "the root free: no balance help) instead of playing it kinematically");
+               "the root free; balance feedback through the hips and ankles: motion_tracker.h) instead of "
+               "playing it kinematically");
+  cmd->add_flag("--track-open-loop", track_open_loop,
+                "scenario mocap --track: without the balance feedback (the joints only follow the motion)");
   cmd->add_option("--track-lookahead", track_lookahead_s,
                   "scenario mocap --track: each joint's target is the motion this far ahead, s")
       ->capture_default_str();
@@ -66,7 +69,8 @@ scenarios::LiveConfig ViewOptions::to_config() const {
   }
   c.motion_path = motion_path;
   c.track = track;
-  c.track_lookahead_s = track_lookahead_s;
+  c.tracker.lookahead_s = track_lookahead_s;
+  c.tracker.balance = !track_open_loop;
   if (!controller_params_path.empty()) {
     c.controller_json = read_file(controller_params_path);
     c.controller_source = controller_params_path;
@@ -109,7 +113,8 @@ nlohmann::json tracking_json(const scenarios::LiveScenario& s) {
   constexpr double kDeg = 180.0 / 3.14159265358979323846;
   const scenarios::LiveScenario::TrackingStats& t = s.tracking_stats();
   return {{"motion_length_s", s.motion_length_s()},
-          {"lookahead_s", s.config().track_lookahead_s},
+          {"lookahead_s", s.config().tracker.lookahead_s},
+          {"balance_feedback", s.config().tracker.balance},
           {"start_lift_m", s.track_start_lift_m()},
           {"fell_at_s", s.fell_at_s() >= 0 ? nlohmann::json(s.fell_at_s()) : nlohmann::json(nullptr)},
           {"joint_error_rms_deg", t.joint_rms_rad() * kDeg},

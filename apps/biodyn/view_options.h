@@ -21,6 +21,7 @@ struct ViewOptions {
   std::string motion_path;             ///< scenario mocap: qpos CSV or BVH
   bool track = false;                  ///< scenario mocap: tracked by the controllers
   double track_lookahead_s = 0.1;
+  bool track_open_loop = false;
   std::string steps;                   ///< scenario stones: lengths, m, comma-separated
   double steps_start_s = 5.0;
   CLI::Option* speed_option = nullptr;  ///< to tell a given --speed from the default

@@ -4,9 +4,11 @@
 #include <algorithm>
 #include <cmath>
 #include <string>
+#include <utility>
 
 #include "biodyn/sim/errors.h"
 #include "biodyn/sim/model.h"
+#include "biodyn/sim/queries.h"
 
 namespace biodyn::controllers {
 namespace {
@@ -67,9 +69,13 @@ TrackedMotion make_tracked_motion(const mjModel& m, const std::vector<double>& t
   mjData& d = *scratch;
   std::vector<Eigen::Vector2d> previous(2, Eigen::Vector2d::Zero());
   motion.stance.resize(times_s.size());
+  motion.com_W.resize(times_s.size());
+  motion.ankle_W.resize(times_s.size());
   for (std::size_t f = 0; f < times_s.size(); ++f) {
     for (int k = 0; k < m.nq; ++k) d.qpos[k] = qpos(static_cast<Eigen::Index>(f), k);
     mj_kinematics(&m, &d);
+    mj_comPos(&m, &d);
+    motion.com_W[f] = Eigen::Vector3d(d.subtree_com[3], d.subtree_com[4], d.subtree_com[5]);  // body 1: the root's tree
     for (int s = 0; s < 2; ++s) {
       double lowest = 1e9;
       for (int g : sole_geoms[s]) {
@@ -85,9 +91,28 @@ TrackedMotion make_tracked_motion(const mjModel& m, const std::vector<double>& t
       previous[static_cast<std::size_t>(s)] = at;
       motion.stance[f][static_cast<std::size_t>(s)] =
           lowest < TrackedMotion::kStanceHeight_m && speed < TrackedMotion::kStanceSpeed_m_s;
+      motion.ankle_W[f][static_cast<std::size_t>(s)] = at;
     }
   }
+  // Velocities over +-kVelocityWindow_s: captured and retargeted frames jitter by millimetres,
+  // which frame-to-frame differences at 120 Hz turn into tenths of a metre per second.
+  const std::size_t n = times_s.size();
+  motion.com_velocity_W.resize(n);
+  for (std::size_t f = 0; f < n; ++f) {
+    const std::size_t a = motion.frame_at(times_s[f] - TrackedMotion::kVelocityWindow_s);
+    const std::size_t b = motion.frame_at(times_s[f] + TrackedMotion::kVelocityWindow_s);
+    motion.com_velocity_W[f] = b > a ? Eigen::Vector3d((motion.com_W[b] - motion.com_W[a]) / (times_s[b] - times_s[a]))
+                                     : Eigen::Vector3d::Zero();
+  }
   return motion;
+}
+
+std::size_t TrackedMotion::frame_at(double t_s) const {
+  if (t_s <= times_s.front()) return 0;
+  const auto it = std::lower_bound(times_s.begin(), times_s.end(), t_s);
+  if (it == times_s.end()) return times_s.size() - 1;
+  const std::size_t f = static_cast<std::size_t>(it - times_s.begin());
+  return t_s - times_s[f - 1] < times_s[f] - t_s ? f - 1 : f;
 }
 
 void motion_pose_at(const mjModel& m, const TrackedMotion& motion, double t_s, double* qpos) {
@@ -121,12 +146,38 @@ void motion_pose_at(const mjModel& m, const TrackedMotion& motion, double t_s, d
   }
 }
 
-MotionTracker::MotionTracker(const mjModel& m, std::vector<JointGroup> groups, const TrackedMotion* motion,
-                             double lookahead_s)
-    : groups_(std::move(groups)), motion_(motion), lookahead_s_(lookahead_s), pose_(static_cast<std::size_t>(m.nq)) {
-  if (!(lookahead_s > 0) || !std::isfinite(lookahead_s)) {
-    throw sim::InvalidArgument("tracking lookahead: must be > 0 s, got " + std::to_string(lookahead_s));
+void MotionTrackerParams::validate() const {
+  const auto check = [](bool ok, const char* field, double value) {
+    if (!ok) throw sim::InvalidArgument(std::string("tracker ") + field + ": out of range, got " + std::to_string(value));
+  };
+  check(lookahead_s > 0 && lookahead_s <= 1, "lookahead_s (0, 1] s", lookahead_s);
+  for (const auto& [name, v] : {std::pair<const char*, double>{"sagittal_cd", sagittal_cd},
+                                {"sagittal_cv", sagittal_cv},
+                                {"frontal_cd", frontal_cd},
+                                {"frontal_cv", frontal_cv},
+                                {"ankle_cd", ankle_cd},
+                                {"ankle_cv", ankle_cv}}) {
+    check(std::isfinite(v) && std::abs(v) <= 10, name, v);
   }
+}
+
+MotionTracker::MotionTracker(const mjModel& m, std::vector<JointGroup> groups, const TrackedMotion* motion,
+                             MotionTrackerParams params)
+    : groups_(std::move(groups)), motion_(motion), params_(params), pose_(static_cast<std::size_t>(m.nq)) {
+  params_.validate();
+  const char* sides[2] = {"_l", "_r"};
+  for (int s = 0; s < 2; ++s) {
+    hip_[s] = find_group(groups_, std::string("hip") + sides[s]);
+    ankle_[s] = find_group(groups_, std::string("ankle") + sides[s]);
+    thigh_[s] = mj_name2id(&m, mjOBJ_BODY, (std::string("thigh") + sides[s]).c_str());
+    foot_[s] = mj_name2id(&m, mjOBJ_BODY, (std::string("foot") + sides[s]).c_str());
+    if (hip_[s] < 0 || ankle_[s] < 0 || thigh_[s] < 0 || foot_[s] < 0 ||
+        !groups_[static_cast<std::size_t>(hip_[s])].ball) {
+      throw sim::InvalidArgument(std::string("motion tracker: the model needs a ball hip") + sides[s] +
+                                 ", an ankle, thigh and foot bodies");
+    }
+  }
+  pelvis_ = m.body_parentid[thigh_[0]];
 }
 
 Eigen::Quaterniond MotionTracker::group_orientation(const mjModel& m, const JointGroup& g, const double* qpos) const {
@@ -138,8 +189,8 @@ Eigen::Quaterniond MotionTracker::group_orientation(const mjModel& m, const Join
 
 void MotionTracker::drive(CharacterController& c, const mjModel& m, const mjData& d) {
   // Targets: the motion lookahead_s from now, due then (the same at a redone step: drive()
-  // depends on the time only).
-  const double due = d.time + lookahead_s_;
+  // depends on the state at the step's start only).
+  const double due = d.time + params_.lookahead_s;
   motion_pose_at(m, *motion_, due, pose_.data());
   for (std::size_t i = 0; i < groups_.size(); ++i) {
     const JointGroup& g = groups_[i];
@@ -156,8 +207,66 @@ void MotionTracker::drive(CharacterController& c, const mjModel& m, const mjData
   std::size_t f0 = 0;
   double a = 0;
   bracket(motion_->times_s, d.time, &f0, &a);
-  const std::array<bool, 2>& on = motion_->stance[a < 1 ? f0 : f0 + 1];
+  const std::size_t now = a < 1 ? f0 : f0 + 1;
+  const std::array<bool, 2>& on = motion_->stance[now];
   for (int s = 0; s < 2; ++s) c.set_stance(s, on[static_cast<std::size_t>(s)]);
+  if (!params_.balance) return;
+
+  // Stance hips carry the pelvis to the motion's world orientation: with the thigh where it is,
+  // the hip rotation that gives it (xquat_thigh = xquat_pelvis * body_quat_thigh * q_hip).
+  const int root_adr = m.jnt_qposadr[0];
+  const Eigen::Quaterniond pelvis_wanted =
+      quat_at(m.body_quat + 4 * pelvis_) * quat_at(pose_.data() + root_adr + 3);
+  for (int s = 0; s < 2; ++s) {
+    if (!on[static_cast<std::size_t>(s)]) continue;
+    const Eigen::Quaterniond thigh = quat_at(d.xquat + 4 * thigh_[s]);
+    const Eigen::Quaterniond hip = quat_at(m.body_quat + 4 * thigh_[s]).conjugate() * pelvis_wanted.conjugate() * thigh;
+    c.set_joint_target(hip_[s], hip.normalized(), due);
+  }
+  if (!on[0] && !on[1]) return;  // flight: nothing to push against
+  // The CoM relative to the stance ankle(s), and the same in the motion, in the pelvis's
+  // heading frame (its x axis on the floor).
+  const sim::CenterOfMass com = sim::center_of_mass(m, d);
+  Eigen::Vector2d ankle = Eigen::Vector2d::Zero(), ankle_ref = Eigen::Vector2d::Zero();
+  int stance_feet = 0;
+  for (int s = 0; s < 2; ++s) {
+    if (!on[static_cast<std::size_t>(s)]) continue;
+    ankle += Eigen::Vector2d(d.xpos[3 * foot_[s]], d.xpos[3 * foot_[s] + 1]);
+    ankle_ref += motion_->ankle_W[now][static_cast<std::size_t>(s)];
+    ++stance_feet;
+  }
+  ankle /= stance_feet;
+  ankle_ref /= stance_feet;
+  const Eigen::Vector2d dd =
+      (com.position_W.head<2>() - ankle) - (motion_->com_W[now].head<2>() - ankle_ref);
+  const Eigen::Vector2d dv = com.velocity_W.head<2>() - motion_->com_velocity_W[now].head<2>();
+  const mjtNum* R = d.xmat + 9 * pelvis_;
+  Eigen::Vector2d along(R[0], R[3]);
+  if (along.norm() < 1e-6) return;
+  along.normalize();
+  const Eigen::Vector2d left(-along.y(), along.x());
+  if (on[0] && on[1]) {
+    // Double support: the ankles lean the body back towards the motion's CoM.
+    const double lean = -(params_.ankle_cd * dd.dot(along) + params_.ankle_cv * dv.dot(along));
+    for (int s = 0; s < 2; ++s) {
+      const JointGroup& g = groups_[static_cast<std::size_t>(ankle_[s])];
+      Eigen::Vector3d angles = Eigen::Vector3d::Zero();
+      for (int k = 0; k < g.dof_count; ++k) angles[k] = pose_[static_cast<std::size_t>(m.jnt_qposadr[m.dof_jntid[g.dof_begin + k]])];
+      angles[0] += lean;  // dorsiflexion leans the shank forward
+      c.set_joint_angles(ankle_[s], angles, due);
+    }
+    return;
+  }
+  // Single support: the swing foot lands further along where the CoM is ahead of, or faster
+  // than, the motion's (SIMBICON's c_d d + c_v v on the deviations).
+  const int stance = on[0] ? 0 : 1, swing = 1 - stance;
+  const double sagittal = params_.sagittal_cd * dd.dot(along) + params_.sagittal_cv * dv.dot(along);
+  const double frontal = params_.frontal_cd * dd.dot(left) + params_.frontal_cv * dv.dot(left);
+  const JointGroup& hip = groups_[static_cast<std::size_t>(hip_[swing])];
+  Eigen::Vector3d angles = angles_from_orientation(hip, group_orientation(m, hip, pose_.data()));
+  angles[0] += sagittal;                             // flexion: the thigh forward
+  angles[1] += (swing == 0 ? 1.0 : -1.0) * frontal;  // abduction: left leg to the left
+  c.set_joint_target(hip_[swing], orientation_from_angles(hip, angles), due);
 }
 
 MotionTracker::Error MotionTracker::error(const mjModel& m, const mjData& d) const {

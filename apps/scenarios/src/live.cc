@@ -64,9 +64,7 @@ void LiveConfig::validate() const {
     throw sim::InvalidArgument("scenario: expected one of " + list + ", got '" + scenario + "'");
   }
   if (track && scenario != "mocap") throw sim::InvalidArgument("track: only the mocap scenario tracks a motion");
-  if (!(track_lookahead_s > 0) || track_lookahead_s > 1 || !std::isfinite(track_lookahead_s)) {
-    throw sim::InvalidArgument("track lookahead: must be within (0, 1] s, got " + std::to_string(track_lookahead_s));
-  }
+  tracker.validate();
   if ((scenario == "mocap") != !motion_path.empty()) {
     throw sim::InvalidArgument(scenario == "mocap"
                                    ? "scenario mocap: give the motion (--motion motion.csv or file.bvh)"
@@ -228,13 +226,16 @@ void LiveScenario::start_tracking() {
   // touches the floor (captured roots are rarely at the simulated floor's height).
   const mjModel& m = sim_->model();
   mjData& d = sim_->data();
+  // The velocity over the first kVelocityWindow_s (frame-to-frame differences carry the
+  // capture's jitter: motion_tracker.h).
+  const std::size_t f1 = std::max<std::size_t>(1, tracked_.frame_at(controllers::TrackedMotion::kVelocityWindow_s));
   std::vector<mjtNum> q0(static_cast<std::size_t>(m.nq)), q1(static_cast<std::size_t>(m.nq));
   for (int k = 0; k < m.nq; ++k) {
     q0[static_cast<std::size_t>(k)] = tracked_.qpos(0, k);
-    q1[static_cast<std::size_t>(k)] = tracked_.qpos(1, k);
+    q1[static_cast<std::size_t>(k)] = tracked_.qpos(static_cast<Eigen::Index>(f1), k);
   }
   std::copy(q0.begin(), q0.end(), d.qpos);
-  mj_differentiatePos(&m, d.qvel, tracked_.times_s[1] - tracked_.times_s[0], q0.data(), q1.data());
+  mj_differentiatePos(&m, d.qvel, tracked_.times_s[f1] - tracked_.times_s[0], q0.data(), q1.data());
   mj_kinematics(&m, &d);
   double lowest = 1e9;
   for (int g = 0; g < m.ngeom; ++g) {
@@ -249,7 +250,7 @@ void LiveScenario::start_tracking() {
   d.qpos[m.jnt_qposadr[0] + 2] += track_lift_m_;
   mj_forward(&m, &d);
   ctrl_->reset();
-  tracker_ = std::make_unique<controllers::MotionTracker>(m, groups_, &tracked_, config_.track_lookahead_s);
+  tracker_ = std::make_unique<controllers::MotionTracker>(m, groups_, &tracked_, config_.tracker);
   ctrl_->set_driver(tracker_.get());
 }
 

@@ -5,9 +5,19 @@
 /// then turns at the motion's own rate plus the error over the lookahead. Each foot is wanted
 /// in stance (and may weld, in the chosen weld mode) while the motion has it on the floor.
 ///
-/// The root is not driven: only the muscles (within tau_max) and the contacts move the body, so a
-/// motion this body cannot balance ends in a fall. That is an answer, not a failure of the
-/// tracker; there is no balance feedback here.
+/// Balance feedback on the deviation from the motion (SIMBICON, Yin et al. 2007, applied to a
+/// reference motion as in Lee et al. 2010, "Data-driven biped control"), both through joint
+/// targets only:
+///  - a stance hip's target is the one that turns the pelvis to the motion's world orientation
+///    with the thigh where it is (the stance leg carries the trunk; SIMBICON's torso control);
+///  - in double support both ankles lean the body (dorsiflexion) by
+///    -(a_d * (d - d_ref) + a_v * (v - v_ref)), d the CoM relative to the midpoint of the
+///    ankles (the ankle strategy of standing balance, on the deviation from the motion);
+///  - in single support the swing hip's flexion and abduction targets are moved by
+///    c_d * (d - d_ref) + c_v * (v - v_ref): d the CoM relative to the stance ankle, v the CoM
+///    velocity, in the pelvis's heading frame, the ref values the motion's own.
+/// The root is not driven: only the muscles (within tau_max) and the contacts move the body, so
+/// a motion this body cannot keep up with still ends in a fall; that is reported, not hidden.
 
 #include <Eigen/Core>
 #include <array>
@@ -25,8 +35,15 @@ struct TrackedMotion {
   /// Per frame: left and right foot on the floor (lowest sole point below
   /// kStanceHeight_m and the foot slower than kStanceSpeed_m_s horizontally).
   std::vector<std::array<bool, 2>> stance;
+  /// Per frame: the whole-body CoM and its velocity (central differences over
+  /// +-kVelocityWindow_s), and each foot's origin (the ankle), world, for the balance feedback.
+  std::vector<Eigen::Vector3d> com_W, com_velocity_W;
+  std::vector<std::array<Eigen::Vector2d, 2>> ankle_W;
   static constexpr double kStanceHeight_m = 0.02;
   static constexpr double kStanceSpeed_m_s = 0.4;
+  static constexpr double kVelocityWindow_s = 0.05;
+  /// The frame nearest t (clamped to the motion).
+  std::size_t frame_at(double t_s) const;
 };
 
 /// Builds a TrackedMotion from qpos frames (forward kinematics on `m`; bodies foot_l/_r and
@@ -38,10 +55,22 @@ TrackedMotion make_tracked_motion(const mjModel& m, const std::vector<double>& t
 /// and the root orientation by slerp. `qpos` must have nq entries.
 void motion_pose_at(const mjModel& m, const TrackedMotion& motion, double t_s, double* qpos);
 
+struct MotionTrackerParams {
+  double lookahead_s = 0.1;  ///< s, targets are the motion this far ahead
+  bool balance = true;       ///< the stance-hip pelvis control and the swing placement feedback
+  double sagittal_cd = 0.5;  ///< rad of swing hip flexion per m of CoM further ahead than the motion's
+  double sagittal_cv = 0.2;  ///< rad per m/s of CoM faster forward than the motion's
+  double frontal_cd = 0.5;   ///< rad of swing hip abduction (towards the CoM's side) per m
+  double frontal_cv = 0.3;   ///< rad per m/s
+  double ankle_cd = 1.0;     ///< double support: rad of ankle plantarflexion per m of CoM ahead of the motion's
+  double ankle_cv = 0.3;     ///< rad per m/s
+  void validate() const;     ///< throws sim::InvalidArgument naming the field
+};
+
 class MotionTracker : public TargetDriver {
  public:
   MotionTracker(const mjModel& m, std::vector<JointGroup> groups, const TrackedMotion* motion,
-                double lookahead_s = 0.1);
+                MotionTrackerParams params = {});
   void drive(CharacterController& controller, const mjModel& m, const mjData& d) override;
 
   /// How far the body is from the motion at the current time: RMS over the joint groups of
@@ -53,14 +82,15 @@ class MotionTracker : public TargetDriver {
   };
   Error error(const mjModel& m, const mjData& d) const;
 
-  double lookahead_s() const { return lookahead_s_; }
+  const MotionTrackerParams& params() const { return params_; }
 
  private:
   Eigen::Quaterniond group_orientation(const mjModel& m, const JointGroup& g, const double* qpos) const;
 
   std::vector<JointGroup> groups_;
   const TrackedMotion* motion_;
-  double lookahead_s_;
+  MotionTrackerParams params_;
+  int hip_[2] = {-1, -1}, ankle_[2] = {-1, -1}, thigh_[2] = {-1, -1}, foot_[2] = {-1, -1}, pelvis_ = -1;
   mutable std::vector<double> pose_;  // nq scratch (drive and error: one thread)
 };
 

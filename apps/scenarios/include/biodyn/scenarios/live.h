@@ -53,7 +53,7 @@ struct LiveConfig {
   /// free; once through, then holding the last frame's targets).
   std::string motion_path;
   bool track = false;
-  double track_lookahead_s = 0.1;  ///< the tracker's lookahead (motion_tracker.h)
+  controllers::MotionTrackerParams tracker;  ///< lookahead, balance feedback and its gains
   /// scenario "stones" (paper §4.2): step lengths, m, ankle to ankle along the heading, walked
   /// from the first strike at or after steps_start_s (steady walking first); free steps after.
   /// Empty: the paper's (paper_stepping_stones_m).
@@ -155,7 +155,7 @@ class LiveScenario {
   struct TrackingStats {
     long samples = 0;
     double joint_sum_sq_rad2 = 0, joint_max_rad = 0, root_max_m = 0;
-    double joint_rms_rad() const { return samples > 0 ? std::sqrt(joint_sum_sq_rad2 / samples) : 0.0; }
+    double joint_rms_rad() const { return samples > 0 ? std::sqrt(joint_sum_sq_rad2 / static_cast<double>(samples)) : 0.0; }
   };
   const TrackingStats& tracking_stats() const { return tracking_stats_; }
   /// When the character first fell in this run (s), or -1.
