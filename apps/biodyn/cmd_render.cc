@@ -109,32 +109,34 @@ nlohmann::json stones_json(const std::vector<scenarios::LiveStone>& stones) {
           {"definition", "step length ankle to ankle along the heading at each strike, against the plan"}};
 }
 
-nlohmann::json tracking_json(const scenarios::LiveScenario& s) {
+nlohmann::json tracking_json(const scenarios::LiveScenario::TrackingReport& r) {
   constexpr double kDeg = 180.0 / 3.14159265358979323846;
-  const scenarios::LiveScenario::TrackingStats& t = s.tracking_stats();
-  return {{"motion_length_s", s.motion_length_s()},
-          {"lookahead_s", s.config().tracker.lookahead_s},
-          {"balance_feedback", s.config().tracker.balance},
-          {"start_lift_m", s.track_start_lift_m()},
-          {"fell_at_s", s.fell_at_s() >= 0 ? nlohmann::json(s.fell_at_s()) : nlohmann::json(nullptr)},
-          {"joint_error_rms_deg", t.joint_rms_rad() * kDeg},
-          {"joint_error_max_deg", t.joint_max_rad * kDeg},
-          {"root_horizontal_error_max_m", t.root_max_m},
+  return {{"motion_length_s", r.motion_length_s},
+          {"lookahead_s", r.lookahead_s},
+          {"balance_feedback", r.balance},
+          {"start_lift_m", r.start_lift_m},
+          {"fell_at_s", r.fell_at_s >= 0 ? nlohmann::json(r.fell_at_s) : nlohmann::json(nullptr)},
+          {"joint_error_rms_deg", r.stats.joint_rms_rad() * kDeg},
+          {"joint_error_max_deg", r.stats.joint_max_rad * kDeg},
+          {"root_horizontal_error_max_m", r.stats.root_max_m},
           {"definition", "joint error: RMS over the joint groups of the rotation from the body's joint orientation "
                          "to the motion's, sampled every 20 ms until a fall; root: the pelvis's horizontal "
                          "distance from the motion's"}};
 }
 
-std::string tracking_line(const scenarios::LiveScenario& s) {
-  if (s.tracker() == nullptr) return "";
-  const nlohmann::json j = tracking_json(s);
+std::string tracking_line(const scenarios::LiveScenario::TrackingReport& r) {
+  if (!r.tracked) return "";
+  constexpr double kDeg = 180.0 / 3.14159265358979323846;
   std::ostringstream out;
-  out << std::fixed << std::setprecision(1) << "tracking: joint error RMS " << j["joint_error_rms_deg"].get<double>()
-      << " deg (max " << j["joint_error_max_deg"].get<double>() << "), root off by up to " << std::setprecision(2)
-      << j["root_horizontal_error_max_m"].get<double>() << " m; "
-      << (s.fell_at_s() >= 0 ? "fell at " + std::to_string(s.fell_at_s()).substr(0, 5) + " s"
-                             : std::string("did not fall"))
-      << " (motion " << std::setprecision(2) << s.motion_length_s() << " s)";
+  out << std::fixed << std::setprecision(1) << "tracking" << (r.balance ? "" : " (open loop)") << ": joint error RMS "
+      << r.stats.joint_rms_rad() * kDeg << " deg (max " << r.stats.joint_max_rad * kDeg << "), root off by up to "
+      << std::setprecision(2) << r.stats.root_max_m << " m; ";
+  if (r.fell_at_s >= 0) {
+    out << "fell at " << r.fell_at_s << " s";
+  } else {
+    out << "did not fall";
+  }
+  out << " (motion " << r.motion_length_s << " s)";
   return out.str();
 }
 
@@ -197,7 +199,7 @@ Command add_render_command(CLI::App* app) {
                 {"video", o->render.video_path},
                 {"png", o->render.png_path}};
             if (o->view.scenario == "stones") summary["stones"] = stones_json(scenario.stones());
-            if (scenario.tracker() != nullptr) summary["tracking"] = tracking_json(scenario);
+            if (scenario.tracker() != nullptr) summary["tracking"] = tracking_json(scenario.tracking_report());
             if (!o->summary_path.empty()) {
               write_file_atomically(o->summary_path, summary.dump(1) + "\n");
             }
@@ -207,7 +209,8 @@ Command add_render_command(CLI::App* app) {
                       << "x real time, rendering " << summary["render_frames_per_s"].get<double>()
                       << " frames/s\n  " << o->view.assumption() << "\n";
             if (!stones_line(scenario.stones()).empty()) std::cout << "  " << stones_line(scenario.stones()) << "\n";
-            if (!tracking_line(scenario).empty()) std::cout << "  " << tracking_line(scenario) << "\n";
+            const std::string tracking = tracking_line(scenario.tracking_report());
+            if (!tracking.empty()) std::cout << "  " << tracking << "\n";
             if (!o->render.video_path.empty()) std::cout << "  video: " << o->render.video_path << "\n";
             if (!o->render.png_path.empty()) std::cout << "  frame: " << o->render.png_path << "\n";
             if (!o->summary_path.empty()) std::cout << "  summary: " << o->summary_path << "\n";

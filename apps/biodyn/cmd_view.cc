@@ -49,6 +49,7 @@ Command add_view_command(CLI::App* app) {
                       << st.realtime_factor << "x real time while running); "
                       << st.screenshots << " screenshots\n";
             if (!stones_line(st.stones).empty()) std::cout << "  " << stones_line(st.stones) << "\n";
+            if (!tracking_line(st.tracking).empty()) std::cout << "  " << tracking_line(st.tracking) << "\n";
             if (!o->summary_path.empty()) {
               nlohmann::json j = {
                   {"scenario", o->view.scenario}, {"frames", st.frames}, {"wall_s", st.wall_s},
@@ -58,6 +59,7 @@ Command add_view_command(CLI::App* app) {
                   {"com_x_m", st.com_x_m}, {"com_y_m", st.com_y_m}, {"fallen", st.fallen},
                   {"pushes", st.pushes}, {"assumption", o->view.assumption()}};
               if (o->view.scenario == "stones") j["stones"] = stones_json(st.stones);
+              if (st.tracking.tracked) j["tracking"] = tracking_json(st.tracking);
               write_file_atomically(o->summary_path, j.dump(1) + "\n");
             }
             return kExitOk;

@@ -37,8 +37,8 @@ struct ViewOptions {
 };
 
 /// scenario mocap --track: the tracking error over the run and the fall (JSON), and one line.
-nlohmann::json tracking_json(const scenarios::LiveScenario& s);
-std::string tracking_line(const scenarios::LiveScenario& s);
+nlohmann::json tracking_json(const scenarios::LiveScenario::TrackingReport& r);
+std::string tracking_line(const scenarios::LiveScenario::TrackingReport& r);  ///< "" when not tracked
 
 /// scenario stones: the planned and walked lengths, their errors and RMS (JSON), and one line
 /// for the terminal ("" when no stone was planned).

@@ -81,6 +81,32 @@ TEST_CASE("biodyn render --scenario stones walks the paper's stones and draws th
   CHECK_FALSE(fs::exists(dir / "x.png"));
 }
 
+TEST_CASE("biodyn render --track films a captured motion tracked by the controllers and reports the fall",
+          "[apps][render][track]") {
+  const fs::path dir = biodyn::testing::fresh_dir("render_test", "track");
+  const std::string bvh = biodyn::testing::source_dir() + "/../shared/data/mocap/bvh/cmu_131_01_start_walk_stop.bvh";
+  const auto r = run_biodyn("render --scenario mocap --motion " + bvh +
+                                " --track --duration 3 --size 320x240 --png tracked.png --summary summary.json",
+                            dir);
+  INFO(r.out << r.err);
+  REQUIRE(r.exit_code == 0);
+  CHECK(r.out.find("tracked by the joint controllers") != std::string::npos);
+  CHECK(r.out.find("tracking: joint error RMS") != std::string::npos);
+  const nlohmann::json s = nlohmann::json::parse(slurp(dir / "summary.json"));
+  REQUIRE(s.contains("tracking"));
+  const nlohmann::json& t = s["tracking"];
+  CHECK(t["balance_feedback"] == true);
+  CHECK(t["motion_length_s"].get<double>() > 8.0);
+  // No balance that keeps a walk up yet (README): the fall is reported, with its time.
+  CHECK(s["fallen"] == t["fell_at_s"].is_number());
+  CHECK(t["joint_error_rms_deg"].get<double>() > 0);
+
+  const auto bad = run_biodyn("render --scenario walk --track --png x.png", dir);
+  CHECK(bad.exit_code == 2);
+  CHECK(bad.err.find("only the mocap scenario") != std::string::npos);
+  CHECK_FALSE(fs::exists(dir / "x.png"));
+}
+
 TEST_CASE("biodyn render refuses bad options and writes nothing", "[apps][render]") {
   const fs::path dir = biodyn::testing::fresh_dir("render_test", "bad");
   for (const char* args : {"render --scenario dance -o v.mp4", "render --size 321x240 -o v.mp4",

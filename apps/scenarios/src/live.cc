@@ -259,6 +259,19 @@ controllers::MotionTracker::Error LiveScenario::tracking_error() const {
   return tracker_->error(sim_->model(), sim_->data());
 }
 
+LiveScenario::TrackingReport LiveScenario::tracking_report() const {
+  TrackingReport r;
+  r.tracked = tracker_ != nullptr;
+  if (!r.tracked) return r;
+  r.balance = config_.tracker.balance;
+  r.motion_length_s = motion_length_s();
+  r.lookahead_s = config_.tracker.lookahead_s;
+  r.start_lift_m = track_lift_m_;
+  r.fell_at_s = fell_at_s_;
+  r.stats = tracking_stats_;
+  return r;
+}
+
 double LiveScenario::time_s() const { return sim_->data().time; }
 
 bool LiveScenario::fallen() const {

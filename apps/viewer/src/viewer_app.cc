@@ -875,6 +875,7 @@ ViewerStats run_viewer(scenarios::LiveConfig config, const ViewerOptions& option
     stats.fallen = scenario.fallen();
     stats.pushes = static_cast<int>(scenario.pushes().size());
     stats.stones = scenario.stones();
+    stats.tracking = scenario.tracking_report();
     stats.physics_steps_per_s = sh.running_wall_s > 0 ? static_cast<double>(sh.steps_run) / sh.running_wall_s : 0;
     stats.realtime_factor = sh.running_wall_s > 0 ? sh.running_sim_s / sh.running_wall_s : 0;
   }

@@ -160,6 +160,14 @@ class LiveScenario {
   const TrackingStats& tracking_stats() const { return tracking_stats_; }
   /// When the character first fell in this run (s), or -1.
   double fell_at_s() const { return fell_at_s_; }
+  /// scenario mocap with track: everything the summaries report about the tracking.
+  struct TrackingReport {
+    bool tracked = false;
+    bool balance = false;
+    double motion_length_s = 0, lookahead_s = 0, start_lift_m = 0, fell_at_s = -1;
+    TrackingStats stats;
+  };
+  TrackingReport tracking_report() const;
   double track_start_lift_m() const { return track_lift_m_; }
   /// The motion's length, s (scenario "mocap").
   double motion_length_s() const { return playback_t_.empty() ? 0.0 : playback_t_.back(); }

@@ -47,6 +47,7 @@ struct ViewerStats {
   bool fallen = false;
   int pushes = 0;
   std::vector<scenarios::LiveStone> stones;  ///< scenario stones
+  scenarios::LiveScenario::TrackingReport tracking;  ///< scenario mocap --track
 };
 
 /// Opens the window and runs until it is closed (or a script says quit). Throws
