@@ -65,12 +65,16 @@ RenderStats render_scenario(scenarios::LiveScenario* s, const RenderOptions& o,
     auto phase = Clock::now();
     s->run_until(t);
     st.physics_s += seconds_since(phase);
+    // Drawn only when filmed or when it is the PNG's frame (a PNG alone costs one frame).
+    const bool png_frame = !o.png_path.empty() && !png_taken && (t >= png_at - 0.5 / o.fps || f + 1 == frames);
+    if (progress) progress(static_cast<double>(f + 1) / frames);
+    if (!video && !png_frame) continue;
     phase = Clock::now();
     build_overlays(*s, o.overlays, &buffers, &overlays);
     renderer.update_scene(simulation.model(), simulation.data(), overlays);
     renderer.render_offscreen(o.width, o.height, &rgb);
     st.render_s += seconds_since(phase);
-    if (!o.png_path.empty() && !png_taken && (t >= png_at - 0.5 / o.fps || f + 1 == frames)) {
+    if (png_frame) {
       png_rgb = rgb;
       png_taken = true;
     }
@@ -80,7 +84,6 @@ RenderStats render_scenario(scenarios::LiveScenario* s, const RenderOptions& o,
       st.encode_s += seconds_since(phase);
     }
     ++st.frames;
-    if (progress) progress(static_cast<double>(f + 1) / frames);
   }
   if (video) {
     const auto phase = Clock::now();
