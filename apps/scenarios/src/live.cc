@@ -33,17 +33,7 @@ struct LiveScenario::Checkpoint {
   sim::Simulation::Checkpoint sim;
   std::optional<controllers::CharacterController> controller;
   std::optional<controllers::TorqueGait> gait;
-  LiveConfig config;  // speed, heading and weld as edited
-  controllers::ControllerParams controller_params;
-  controllers::TorqueGaitParams gait_params;
-  std::size_t pose_index = 0;
-  double pose_start_s = 0, playback_time_s = 0;
-  std::vector<LivePush> pushes;
-  std::vector<LiveStone> stones;
-  bool stones_planned = false, stone_pending = false;
-  int strikes_seen = 0;
-  TrackingStats tracking_stats;
-  double fell_at_s = -1;
+  RunState run;
 };
 
 std::vector<double> paper_stepping_stones_m() { return {0.60, 0.20, 0.50, 0.16, 0.50, 0.30}; }
@@ -86,29 +76,30 @@ void LiveConfig::validate() const {
   }
 }
 
-LiveScenario::LiveScenario(LiveConfig config) : config_(std::move(config)) {
-  config_.validate();
-  if (config_.scenario == "stones" && config_.steps_m.empty()) config_.steps_m = paper_stepping_stones_m();
-  const models::Character character = models::generate_character(config_.character);
+LiveScenario::LiveScenario(LiveConfig config) {
+  run_.config = std::move(config);
+  run_.config.validate();
+  if (run_.config.scenario == "stones" && run_.config.steps_m.empty()) run_.config.steps_m = paper_stepping_stones_m();
+  const models::Character character = models::generate_character(run_.config.character);
   sim_ = std::make_unique<sim::Simulation>(
       sim::Model::from_string(models::to_mjcf(character), "generated character"));
   const mjModel& m = sim_->model();
   groups_ = controllers::find_joint_groups(m);
-  controller_params_ = controllers::default_params(m, groups_);
-  if (!config_.controller_json.empty()) {
-    controllers::apply_params_file_json(config_.controller_json, config_.controller_source,
-                                        groups_, m.opt.timestep, &controller_params_);
+  run_.controller_params = controllers::default_params(m, groups_);
+  if (!run_.config.controller_json.empty()) {
+    controllers::apply_params_file_json(run_.config.controller_json, run_.config.controller_source,
+                                        groups_, m.opt.timestep, &run_.controller_params);
   }
-  if (!config_.gait_json.empty()) {
-    controllers::apply_torque_gait_json(config_.gait_json, config_.gait_source, &gait_params_);
+  if (!run_.config.gait_json.empty()) {
+    controllers::apply_torque_gait_json(run_.config.gait_json, run_.config.gait_source, &run_.gait_params);
   }
-  if (config_.scenario == "mocap") {
+  if (run_.config.scenario == "mocap") {
     load_motion(m);
-    if (config_.track) tracked_ = controllers::make_tracked_motion(m, playback_t_, playback_);
+    if (run_.config.track) tracked_ = controllers::make_tracked_motion(m, playback_t_, playback_);
   }
-  initial_config_ = config_;
-  initial_controller_params_ = controller_params_;
-  initial_gait_params_ = gait_params_;
+  initial_config_ = run_.config;
+  initial_controller_params_ = run_.controller_params;
+  initial_gait_params_ = run_.gait_params;
   foot_body_[0] = mj_name2id(&m, mjOBJ_BODY, "foot_l");
   foot_body_[1] = mj_name2id(&m, mjOBJ_BODY, "foot_r");
   checkpoint_every_ = std::max(1L, std::lround(kCheckpointInterval_s / m.opt.timestep));
@@ -119,7 +110,7 @@ LiveScenario::LiveScenario(LiveConfig config) : config_(std::move(config)) {
 LiveScenario::~LiveScenario() = default;
 
 void LiveScenario::load_motion(const mjModel& m) {
-  const std::string& path = config_.motion_path;
+  const std::string& path = run_.config.motion_path;
   std::string ext = path.substr(path.find_last_of('.') + 1);
   std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
   mocap_io::Motion motion;
@@ -136,7 +127,7 @@ void LiveScenario::load_motion(const mjModel& m) {
       }
       mocap_io::RetargetOptions options;
       options.source = path;
-      motion = mocap_io::retarget_bvh(bvh, map, config_.character, options).motion;
+      motion = mocap_io::retarget_bvh(bvh, map, run_.config.character, options).motion;
       break;
     }
     if (motion.frame_count() == 0) {
@@ -153,7 +144,7 @@ void LiveScenario::load_motion(const mjModel& m) {
     if (motion.qpos.row(f).allFinite()) rows.push_back(f);
   }
   if (rows.size() < 2) throw sim::InvalidArgument(path + ": fewer than 2 solved frames to play");
-  if (config_.track) {
+  if (run_.config.track) {
     // Tracking needs a motion without gaps in time: solved frames must be consecutive.
     if (rows.back() - rows.front() + 1 != static_cast<int>(rows.size())) {
       throw sim::InvalidArgument(path + ": unsolved frames inside the motion (" +
@@ -171,15 +162,15 @@ void LiveScenario::load_motion(const mjModel& m) {
 }
 
 void LiveScenario::show_playback_frame() {
-  // The frame at or before playback_time_s_ (looping): kinematic, as captured.
+  // The frame at or before run_.playback_time_s (looping): kinematic, as captured.
   const double length = playback_t_.back();
-  const double t = length > 0 ? std::fmod(playback_time_s_, length) : 0.0;
+  const double t = length > 0 ? std::fmod(run_.playback_time_s, length) : 0.0;
   const auto it = std::upper_bound(playback_t_.begin(), playback_t_.end(), t);
   const Eigen::Index f = std::max<Eigen::Index>(0, (it - playback_t_.begin()) - 1);
   mjData& d = sim_->data();
   for (int k = 0; k < sim_->model().nq; ++k) d.qpos[k] = playback_(f, k);
   mju_zero(d.qvel, sim_->model().nv);
-  d.time = playback_time_s_;
+  d.time = run_.playback_time_s;
   mj_forward(&sim_->model(), &d);
 }
 
@@ -190,34 +181,34 @@ void LiveScenario::build() {
   sim_->reset();
   const mjModel& m = sim_->model();
   controllers::CharacterControllerConfig cc;
-  cc.weld.mode = config_.weld;
-  ctrl_ = std::make_unique<controllers::CharacterController>(sim_.get(), controller_params_, cc);
-  if (config_.scenario == "walk" || config_.scenario == "stones") {
+  cc.weld.mode = run_.config.weld;
+  ctrl_ = std::make_unique<controllers::CharacterController>(sim_.get(), run_.controller_params, cc);
+  if (run_.config.scenario == "walk" || run_.config.scenario == "stones") {
     poses_ = controllers::pose_scenario("stand", groups_, 0);
     ctrl_->reset_in_pose(poses_.front());
-    gait_ = std::make_unique<controllers::TorqueGait>(m, groups_, gait_params_);
+    gait_ = std::make_unique<controllers::TorqueGait>(m, groups_, run_.gait_params);
     gait_->reset(sim_->data());
-    gait_->set_speed(config_.speed_m_s);
-    gait_->set_heading_rate(config_.heading_rate_deg_s * kRadPerDeg);
+    gait_->set_speed(run_.config.speed_m_s);
+    gait_->set_heading_rate(run_.config.heading_rate_deg_s * kRadPerDeg);
     ctrl_->set_driver(gait_.get());
-  } else if (config_.scenario == "mocap" && config_.track) {
+  } else if (run_.config.scenario == "mocap" && run_.config.track) {
     start_tracking();
-  } else if (config_.scenario == "mocap") {
-    playback_time_s_ = 0;
+  } else if (run_.config.scenario == "mocap") {
+    run_.playback_time_s = 0;
     show_playback_frame();
   } else {
-    poses_ = controllers::pose_scenario(config_.scenario, groups_, 0);
+    poses_ = controllers::pose_scenario(run_.config.scenario, groups_, 0);
     ctrl_->reset_in_pose(poses_.front());
   }
-  pose_index_ = 0;
-  pose_start_s_ = 0;
-  steps_ = 0;
-  pushes_.clear();
-  stones_.clear();
-  stones_planned_ = stone_pending_ = false;
-  strikes_seen_ = 0;
-  tracking_stats_ = TrackingStats{};
-  fell_at_s_ = -1;
+  run_.pose_index = 0;
+  run_.pose_start_s = 0;
+  run_.steps = 0;
+  run_.pushes.clear();
+  run_.stones.clear();
+  run_.stones_planned = run_.stone_pending = false;
+  run_.strikes_seen = 0;
+  run_.tracking_stats = TrackingStats{};
+  run_.fell_at_s = -1;
   fall_ = std::make_unique<FallWatch>(sim_->model(), sim_->data(), kFallenPelvisFraction);
 }
 
@@ -250,7 +241,7 @@ void LiveScenario::start_tracking() {
   d.qpos[m.jnt_qposadr[0] + 2] += track_lift_m_;
   mj_forward(&m, &d);
   ctrl_->reset();
-  tracker_ = std::make_unique<controllers::MotionTracker>(m, groups_, &tracked_, config_.tracker);
+  tracker_ = std::make_unique<controllers::MotionTracker>(m, groups_, &tracked_, run_.config.tracker);
   ctrl_->set_driver(tracker_.get());
 }
 
@@ -263,12 +254,12 @@ LiveScenario::TrackingReport LiveScenario::tracking_report() const {
   TrackingReport r;
   r.tracked = tracker_ != nullptr;
   if (!r.tracked) return r;
-  r.balance = config_.tracker.balance;
+  r.balance = run_.config.tracker.balance;
   r.motion_length_s = motion_length_s();
-  r.lookahead_s = config_.tracker.lookahead_s;
+  r.lookahead_s = run_.config.tracker.lookahead_s;
   r.start_lift_m = track_lift_m_;
-  r.fell_at_s = fell_at_s_;
-  r.stats = tracking_stats_;
+  r.fell_at_s = run_.fell_at_s;
+  r.stats = run_.tracking_stats;
   return r;
 }
 
@@ -281,12 +272,12 @@ bool LiveScenario::fallen() const {
 
 void LiveScenario::step() {
   // After a rewind, the edits the run had made from here on come back at their steps.
-  while (future_next_ < future_.size() && future_[future_next_].step == steps_) {
+  while (future_next_ < future_.size() && future_[future_next_].step == run_.steps) {
     pending_.push_back(future_[future_next_++]);
   }
   if (!pending_.empty()) {
     for (Edit& e : pending_) {
-      e.step = steps_;
+      e.step = run_.steps;
       e.apply(*this);
       log_.push_back(std::move(e));
     }
@@ -294,51 +285,51 @@ void LiveScenario::step() {
   }
   const double dt = sim_->model().opt.timestep;
   if (playback()) {
-    playback_time_s_ = static_cast<double>(steps_ + 1) * dt;
+    run_.playback_time_s = static_cast<double>(run_.steps + 1) * dt;
     show_playback_frame();
-    ++steps_;
-    if (steps_ % checkpoint_every_ == 0) save_checkpoint();
+    ++run_.steps;
+    if (run_.steps % checkpoint_every_ == 0) save_checkpoint();
     return;
   }
   // Pose scenarios: the next pose when this one's time is up; the last one holds.
   if (!gait_) {
-    while (pose_index_ + 1 < poses_.size() &&
-           time_s() >= pose_start_s_ + poses_[pose_index_].duration_s - 0.5 * dt) {
-      pose_start_s_ += poses_[pose_index_].duration_s;
-      ++pose_index_;
-      ctrl_->set_pose(poses_[pose_index_]);
+    while (run_.pose_index + 1 < poses_.size() &&
+           time_s() >= run_.pose_start_s + poses_[run_.pose_index].duration_s - 0.5 * dt) {
+      run_.pose_start_s += poses_[run_.pose_index].duration_s;
+      ++run_.pose_index;
+      ctrl_->set_pose(poses_[run_.pose_index]);
     }
   }
   ctrl_->step();
-  ++steps_;
-  if (config_.scenario == "stones") track_stones();
-  if (fell_at_s_ < 0 && fallen()) fell_at_s_ = time_s();
-  if (tracker_ && fell_at_s_ < 0 && steps_ % 10 == 0) {
+  ++run_.steps;
+  if (run_.config.scenario == "stones") track_stones();
+  if (run_.fell_at_s < 0 && fallen()) run_.fell_at_s = time_s();
+  if (tracker_ && run_.fell_at_s < 0 && run_.steps % 10 == 0) {
     const controllers::MotionTracker::Error e = tracker_->error(sim_->model(), sim_->data());
-    TrackingStats& t = tracking_stats_;
+    TrackingStats& t = run_.tracking_stats;
     ++t.samples;
     t.joint_sum_sq_rad2 += e.joint_rms_rad * e.joint_rms_rad;
     t.joint_max_rad = std::max(t.joint_max_rad, e.joint_rms_rad);
     t.root_max_m = std::max(t.root_max_m, e.root_horizontal_m);
   }
-  if (steps_ % checkpoint_every_ == 0) save_checkpoint();
+  if (run_.steps % checkpoint_every_ == 0) save_checkpoint();
 }
 
 void LiveScenario::track_stones() {
   // As run_walk: the plan starts at the first strike at or after steps_start_s; each strike
   // ends one planned step (its length walked) and begins the next swing.
   const controllers::TorqueGait& g = *gait_;
-  if (g.strike_count() != strikes_seen_) {
-    strikes_seen_ = g.strike_count();
+  if (g.strike_count() != run_.strikes_seen) {
+    run_.strikes_seen = g.strike_count();
     const controllers::TorqueGaitStrike& st = g.last_strike();
-    if (!std::isnan(st.target_length_m) && !stones_.empty() && std::isnan(stones_.back().walked_m)) {
-      stones_.back().walked_m = st.step_length_m;
+    if (!std::isnan(st.target_length_m) && !run_.stones.empty() && std::isnan(run_.stones.back().walked_m)) {
+      run_.stones.back().walked_m = st.step_length_m;
     }
-    if (!stones_planned_ && time_s() >= config_.steps_start_s) {
-      gait_->plan_steps(config_.steps_m);  // from the swing that starts now
-      stones_planned_ = true;
+    if (!run_.stones_planned && time_s() >= run_.config.steps_start_s) {
+      gait_->plan_steps(run_.config.steps_m);  // from the swing that starts now
+      run_.stones_planned = true;
     }
-    stone_pending_ = stones_planned_;
+    run_.stone_pending = run_.stones_planned;
   }
   if (std::isnan(g.swing_target_m())) return;
   // The swing's stone, from the walker's reference: the stance ankle (which rolls forward a
@@ -350,17 +341,17 @@ void LiveScenario::track_stones() {
   const Eigen::Vector2d stance(d.xpos[3 * stance_body], d.xpos[3 * stance_body + 1]);
   const Eigen::Vector2d along(std::cos(g.heading_rad()), std::sin(g.heading_rad()));
   const Eigen::Vector2d across(-along.y(), along.x());
-  if (stone_pending_) {
-    stone_pending_ = false;
+  if (run_.stone_pending) {
+    run_.stone_pending = false;
     const int swing_body = foot_body_[swing];
     const Eigen::Vector2d swing_at(d.xpos[3 * swing_body], d.xpos[3 * swing_body + 1]);
     LiveStone stone;
     stone.side = swing;
     stone.target_m = g.swing_target_m();
     stone.across_m = (swing_at - stance).dot(across);
-    stones_.push_back(stone);
+    run_.stones.push_back(stone);
   }
-  LiveStone& stone = stones_.back();
+  LiveStone& stone = run_.stones.back();
   if (!std::isnan(stone.walked_m)) return;
   stone.heading_rad = g.heading_rad();
   stone.ankle_W = stance + stone.target_m * along + stone.across_m * across;
@@ -370,11 +361,11 @@ void LiveScenario::save_checkpoint() {
   // Once per step index: after a rewind the replay passes checkpoints it already has.
   Checkpoint* slot = nullptr;
   for (const std::unique_ptr<Checkpoint>& c : checkpoints_) {
-    if (c->step == steps_) return;
+    if (c->step == run_.steps) return;
     if (slot == nullptr || c->step < slot->step) slot = c.get();  // a free one, else the oldest
   }
   Checkpoint& c = *slot;
-  c.step = steps_;
+  c.step = run_.steps;
   sim_->save(&c.sim);
   if (c.controller) {
     *c.controller = *ctrl_;
@@ -388,39 +379,14 @@ void LiveScenario::save_checkpoint() {
       c.gait.emplace(*gait_);
     }
   }
-  c.config = config_;
-  c.controller_params = controller_params_;
-  c.gait_params = gait_params_;
-  c.pose_index = pose_index_;
-  c.pose_start_s = pose_start_s_;
-  c.playback_time_s = playback_time_s_;
-  c.pushes = pushes_;
-  c.stones = stones_;
-  c.stones_planned = stones_planned_;
-  c.stone_pending = stone_pending_;
-  c.strikes_seen = strikes_seen_;
-  c.tracking_stats = tracking_stats_;
-  c.fell_at_s = fell_at_s_;
+  c.run = run_;
 }
 
 void LiveScenario::restore_checkpoint(const Checkpoint& c) {
   sim_->restore(c.sim);
   ctrl_->restore_state(*c.controller);
   if (gait_) *gait_ = *c.gait;
-  config_ = c.config;
-  controller_params_ = c.controller_params;
-  gait_params_ = c.gait_params;
-  pose_index_ = c.pose_index;
-  pose_start_s_ = c.pose_start_s;
-  playback_time_s_ = c.playback_time_s;
-  pushes_ = c.pushes;
-  stones_ = c.stones;
-  stones_planned_ = c.stones_planned;
-  stone_pending_ = c.stone_pending;
-  strikes_seen_ = c.strikes_seen;
-  tracking_stats_ = c.tracking_stats;
-  fell_at_s_ = c.fell_at_s;
-  steps_ = c.step;
+  run_ = c.run;
 }
 
 std::size_t LiveScenario::checkpoint_bytes() const {
@@ -441,15 +407,15 @@ void LiveScenario::record(std::function<void(LiveScenario&)> apply) {
   future_.clear();
   future_next_ = 0;
   for (const std::unique_ptr<Checkpoint>& c : checkpoints_) {
-    if (c->step > steps_) c->step = -1;  // states of the dropped future
+    if (c->step > run_.steps) c->step = -1;  // states of the dropped future
   }
-  pending_.push_back({steps_, std::move(apply)});
+  pending_.push_back({run_.steps, std::move(apply)});
 }
 
 void LiveScenario::set_controller_params(const controllers::ControllerParams& params) {
   params.validate(sim_->model().opt.timestep);
   record([params](LiveScenario& s) {
-    s.controller_params_ = params;
+    s.run_.controller_params = params;
     s.ctrl_->set_params(params);
   });
 }
@@ -458,7 +424,7 @@ void LiveScenario::set_gait_params(const controllers::TorqueGaitParams& params) 
   if (!gait_) throw sim::InvalidArgument("walker parameters: the scenario does not walk");
   params.validate();
   record([params](LiveScenario& s) {
-    s.gait_params_ = params;
+    s.run_.gait_params = params;
     s.gait_->set_params(params);
   });
 }
@@ -469,7 +435,7 @@ void LiveScenario::set_speed(double m_s) {
     throw sim::InvalidArgument("speed: must be within [0, 3] m/s, got " + std::to_string(m_s));
   }
   record([m_s](LiveScenario& s) {
-    s.config_.speed_m_s = m_s;
+    s.run_.config.speed_m_s = m_s;
     s.gait_->set_speed(m_s);
   });
 }
@@ -481,14 +447,14 @@ void LiveScenario::set_heading_rate(double deg_s) {
                                std::to_string(deg_s));
   }
   record([deg_s](LiveScenario& s) {
-    s.config_.heading_rate_deg_s = deg_s;
+    s.run_.config.heading_rate_deg_s = deg_s;
     s.gait_->set_heading_rate(deg_s * kRadPerDeg);
   });
 }
 
 void LiveScenario::set_weld_mode(controllers::WeldMode mode) {
   record([mode](LiveScenario& s) {
-    s.config_.weld = mode;
+    s.run_.config.weld = mode;
     s.ctrl_->set_weld_mode(mode);
   });
 }
@@ -509,16 +475,16 @@ void LiveScenario::push(const std::string& body, const Eigen::Vector3d& force_W,
     p.start_s = std::ceil(s.time_s() / dt - 1e-9) * dt;
     p.duration_s = duration_s;
     s.sim_->schedule_push(p);
-    s.pushes_.push_back({body, force_W, p.start_s, duration_s});
+    s.run_.pushes.push_back({body, force_W, p.start_s, duration_s});
   });
 }
 
 void LiveScenario::restart() {
   log_.clear();
   pending_.clear();
-  controller_params_ = initial_controller_params_;
-  gait_params_ = initial_gait_params_;
-  config_ = initial_config_;
+  run_.controller_params = initial_controller_params_;
+  run_.gait_params = initial_gait_params_;
+  run_.config = initial_config_;
   build();
 }
 
@@ -530,8 +496,8 @@ void LiveScenario::reset() {
 }
 
 void LiveScenario::rewind_to(long step) {
-  if (step < 0 || step > steps_) {
-    throw sim::InvalidArgument("rewind: step must be within [0, " + std::to_string(steps_) +
+  if (step < 0 || step > run_.steps) {
+    throw sim::InvalidArgument("rewind: step must be within [0, " + std::to_string(run_.steps) +
                                "], got " + std::to_string(step));
   }
   // Every edit made so far (applied, and any still to be replayed), in step order.
@@ -553,16 +519,16 @@ void LiveScenario::rewind_to(long step) {
     future_ = std::move(all);
   }
   future_next_ = 0;
-  last_rewind_replayed_ = step - steps_;
-  while (steps_ < step) this->step();
+  last_rewind_replayed_ = step - run_.steps;
+  while (run_.steps < step) this->step();
 }
 
 std::string LiveScenario::controller_params_json() const {
-  return controllers::params_to_json(controller_params_, groups_).dump(2) + "\n";
+  return controllers::params_to_json(run_.controller_params, groups_).dump(2) + "\n";
 }
 
 std::string LiveScenario::gait_params_json() const {
-  return gait_ ? controllers::torque_gait_json(gait_params_) : std::string();
+  return gait_ ? controllers::torque_gait_json(run_.gait_params) : std::string();
 }
 
 }  // namespace biodyn::scenarios

@@ -102,7 +102,7 @@ class LiveScenario {
   /// Steps until simulation time reaches t_s (no-op if already there).
   void run_until(double t_s);
 
-  long step_index() const { return steps_; }
+  long step_index() const { return run_.steps; }
   double time_s() const;
   /// Fallen by the scenarios' rule (fall_watch.h): a body other than the feet touches the floor,
   /// or the pelvis is below 0.7 x its start height. Never for a kinematic playback.
@@ -132,21 +132,21 @@ class LiveScenario {
   std::size_t checkpoint_bytes() const;
 
   // --- Read-outs (for panels, overlays and plots). ---
-  const LiveConfig& config() const { return config_; }
+  const LiveConfig& config() const { return run_.config; }
   sim::Simulation& simulation() { return *sim_; }
   const sim::Simulation& simulation() const { return *sim_; }
   const controllers::CharacterController& controller() const { return *ctrl_; }
-  const controllers::ControllerParams& controller_params() const { return controller_params_; }
+  const controllers::ControllerParams& controller_params() const { return run_.controller_params; }
   /// The walker, or nullptr in the pose scenarios.
   const controllers::TorqueGait* gait() const { return gait_.get(); }
   const controllers::StepReport& last_report() const { return ctrl_->last_report(); }
-  const std::vector<LivePush>& pushes() const { return pushes_; }
+  const std::vector<LivePush>& pushes() const { return run_.pushes; }
   /// scenario "stones": the steps planned so far (empty before steps_start_s).
-  const std::vector<LiveStone>& stones() const { return stones_; }
+  const std::vector<LiveStone>& stones() const { return run_.stones; }
   /// Whether the scenario walks.
   bool walking() const { return gait_ != nullptr; }
   /// Whether the scenario plays a motion kinematically (scenario "mocap" without track).
-  bool playback() const { return playback_.rows() > 0 && !config_.track; }
+  bool playback() const { return playback_.rows() > 0 && !run_.config.track; }
   /// scenario "mocap" with track: the tracker (nullptr otherwise), its error now, and how far
   /// the start was raised so the lowest sole touched the floor (m; negative: lowered).
   const controllers::MotionTracker* tracker() const { return tracker_.get(); }
@@ -157,9 +157,9 @@ class LiveScenario {
     double joint_sum_sq_rad2 = 0, joint_max_rad = 0, root_max_m = 0;
     double joint_rms_rad() const { return samples > 0 ? std::sqrt(joint_sum_sq_rad2 / static_cast<double>(samples)) : 0.0; }
   };
-  const TrackingStats& tracking_stats() const { return tracking_stats_; }
+  const TrackingStats& tracking_stats() const { return run_.tracking_stats; }
   /// When the character first fell in this run (s), or -1.
-  double fell_at_s() const { return fell_at_s_; }
+  double fell_at_s() const { return run_.fell_at_s; }
   /// scenario mocap with track: everything the summaries report about the tracking.
   struct TrackingReport {
     bool tracked = false;
@@ -192,41 +192,48 @@ class LiveScenario {
   void restart();  // t = 0 with the initial parameters; the log is cleared, future_ kept
   void record(std::function<void(LiveScenario&)> apply);
 
-  LiveConfig config_;
+  // Everything about the run besides the simulation and the controllers' own state: what a
+  // checkpoint copies along with those (one struct, so a new field cannot be left out).
+  struct RunState {
+    LiveConfig config;  // speed, heading and weld as edited
+    controllers::ControllerParams controller_params;
+    controllers::TorqueGaitParams gait_params;
+    long steps = 0;
+    std::size_t pose_index = 0;  // pose scenarios: the current pose and when it began
+    double pose_start_s = 0;
+    double playback_time_s = 0;  // mocap, kinematic
+    std::vector<LivePush> pushes;
+    // scenario "stones": the stones so far, whether the plan was given, strikes seen, whether
+    // the new swing's stone is still to be placed.
+    std::vector<LiveStone> stones;
+    bool stones_planned = false, stone_pending = false;
+    int strikes_seen = 0;
+    TrackingStats tracking_stats;  // mocap, tracked
+    double fell_at_s = -1;
+  };
+  RunState run_;
+  LiveConfig initial_config_;
+  controllers::ControllerParams initial_controller_params_;
+  controllers::TorqueGaitParams initial_gait_params_;
+
   std::unique_ptr<sim::Simulation> sim_;
   std::vector<controllers::JointGroup> groups_;
-  controllers::ControllerParams controller_params_;
-  controllers::TorqueGaitParams gait_params_;
   std::unique_ptr<controllers::CharacterController> ctrl_;
   std::unique_ptr<controllers::TorqueGait> gait_;
   controllers::TrackedMotion tracked_;  // mocap + track
   std::unique_ptr<controllers::MotionTracker> tracker_;
   double track_lift_m_ = 0;
-  TrackingStats tracking_stats_;
-  double fell_at_s_ = -1;
   std::vector<controllers::Pose> poses_;
-  Eigen::MatrixXd playback_;          // mocap: qpos per frame
-  std::vector<double> playback_t_;    // mocap: s, per frame
-  double playback_time_s_ = 0;
-  std::size_t pose_index_ = 0;
-  double pose_start_s_ = 0;
+  Eigen::MatrixXd playback_;        // mocap: qpos per frame
+  std::vector<double> playback_t_;  // mocap: s, per frame
   std::unique_ptr<FallWatch> fall_;  // the scenarios' fall rule, from the start of each run
-  long steps_ = 0;
-  LiveConfig initial_config_;
-  controllers::ControllerParams initial_controller_params_;
-  controllers::TorqueGaitParams initial_gait_params_;
+  int foot_body_[2] = {-1, -1};      // foot_l, foot_r
+  void track_stones();
+
   std::vector<Edit> log_;      // every edit applied since t = 0, by step
   std::vector<Edit> pending_;  // edits for the next step
   std::vector<Edit> future_;   // after a rewind: the edits to replay at their steps
   std::size_t future_next_ = 0;
-  std::vector<LivePush> pushes_;
-  // scenario "stones": whether the plan was given, strikes seen, whether the new swing's stone
-  // is still to be placed.
-  std::vector<LiveStone> stones_;
-  bool stones_planned_ = false, stone_pending_ = false;
-  int strikes_seen_ = 0;
-  int foot_body_[2] = {-1, -1};  // foot_l, foot_r
-  void track_stones();
   std::vector<std::unique_ptr<Checkpoint>> checkpoints_;  // kCheckpoints slots, step -1 = free
   long checkpoint_every_ = 250;                           // steps
   long last_rewind_replayed_ = 0;
