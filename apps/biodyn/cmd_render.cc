@@ -82,8 +82,10 @@ std::string ViewOptions::assumption() const {
   if (scenario == "mocap" && track) {
     return "motion " + motion_path +
            " tracked by the joint controllers: physics, joint torques within tau_max, the root moved only by "
-           "muscles and contacts (no balance help; a motion this body cannot balance falls); foot contact " +
-           weld_assumption(weld);
+           "muscles and contacts (" +
+           std::string(track_open_loop ? "open loop, no balance feedback"
+                                       : "balance feedback through the hips and ankles' targets") +
+           "; a motion this body cannot balance falls); foot contact " + weld_assumption(weld);
   }
   if (scenario == "mocap") {
     return "kinematic playback of " + motion_path +
@@ -93,19 +95,17 @@ std::string ViewOptions::assumption() const {
   return weld_assumption(weld);
 }
 
-nlohmann::json stones_json(const std::vector<scenarios::LiveStone>& stones) {
-  nlohmann::json targets = nlohmann::json::array(), walked = nlohmann::json::array(),
-                 errors = nlohmann::json::array();
+nlohmann::json stones_json(const std::vector<double>& plan_m, const std::vector<scenarios::LiveStone>& stones) {
+  nlohmann::json walked = nlohmann::json::array(), errors = nlohmann::json::array();
   double sq = 0;
   for (const scenarios::LiveStone& st : stones) {
-    targets.push_back(st.target_m);
     if (std::isnan(st.walked_m)) continue;
     walked.push_back(st.walked_m);
     errors.push_back(st.walked_m - st.target_m);
     sq += (st.walked_m - st.target_m) * (st.walked_m - st.target_m);
   }
   const double rms = errors.empty() ? 0.0 : std::sqrt(sq / static_cast<double>(errors.size()));
-  return {{"targets_m", targets}, {"walked_m", walked}, {"errors_m", errors}, {"rms_error_m", rms},
+  return {{"targets_m", plan_m}, {"walked_m", walked}, {"errors_m", errors}, {"rms_error_m", rms},
           {"definition", "step length ankle to ankle along the heading at each strike, against the plan"}};
 }
 
@@ -140,11 +140,11 @@ std::string tracking_line(const scenarios::LiveScenario::TrackingReport& r) {
   return out.str();
 }
 
-std::string stones_line(const std::vector<scenarios::LiveStone>& stones) {
-  if (stones.empty()) return "";
-  const nlohmann::json j = stones_json(stones);
+std::string stones_line(const std::vector<double>& plan_m, const std::vector<scenarios::LiveStone>& stones) {
+  if (plan_m.empty()) return "";
+  const nlohmann::json j = stones_json(plan_m, stones);
   std::ostringstream out;
-  out << "stepping stones: " << j["walked_m"].size() << " of " << stones.size() << " planned steps walked, error RMS "
+  out << "stepping stones: " << j["walked_m"].size() << " of " << plan_m.size() << " planned steps walked, error RMS "
       << std::fixed << std::setprecision(1) << 100 * j["rms_error_m"].get<double>() << " cm";
   return out.str();
 }
@@ -175,8 +175,9 @@ Command add_render_command(CLI::App* app) {
             std::tie(o->render.width, o->render.height) = parse_size(o->size, "--size");
             o->render.validate();
             scenarios::LiveScenario scenario(o->view.to_config());
-            ProgressBar bar("render " + o->view.scenario + ": " +
-                            std::to_string(o->render.duration_s) + " s");
+            std::ostringstream label;
+            label << "render " << o->view.scenario << ": " << o->render.duration_s << " s";
+            ProgressBar bar(label.str());
             const viewer::RenderStats st =
                 viewer::render_scenario(&scenario, o->render, [&](double f) { bar.update(f); });
             bar.finish();
@@ -198,7 +199,7 @@ Command add_render_command(CLI::App* app) {
                 {"physics_realtime_factor", st.simulated_s / std::max(st.physics_s, 1e-9)},
                 {"video", o->render.video_path},
                 {"png", o->render.png_path}};
-            if (o->view.scenario == "stones") summary["stones"] = stones_json(scenario.stones());
+            if (o->view.scenario == "stones") summary["stones"] = stones_json(scenario.config().steps_m, scenario.stones());
             if (scenario.tracker() != nullptr) summary["tracking"] = tracking_json(scenario.tracking_report());
             if (!o->summary_path.empty()) {
               write_file_atomically(o->summary_path, summary.dump(1) + "\n");
@@ -208,7 +209,8 @@ Command add_render_command(CLI::App* app) {
                       << " frames " << o->size << "; physics " << summary["physics_realtime_factor"].get<double>()
                       << "x real time, rendering " << summary["render_frames_per_s"].get<double>()
                       << " frames/s\n  " << o->view.assumption() << "\n";
-            if (!stones_line(scenario.stones()).empty()) std::cout << "  " << stones_line(scenario.stones()) << "\n";
+            const std::string stones = stones_line(scenario.config().steps_m, scenario.stones());
+            if (!stones.empty()) std::cout << "  " << stones << "\n";
             const std::string tracking = tracking_line(scenario.tracking_report());
             if (!tracking.empty()) std::cout << "  " << tracking << "\n";
             if (!o->render.video_path.empty()) std::cout << "  video: " << o->render.video_path << "\n";

@@ -48,7 +48,8 @@ Command add_view_command(CLI::App* app) {
                       << " s, physics " << st.physics_steps_per_s << " steps/s ("
                       << st.realtime_factor << "x real time while running); "
                       << st.screenshots << " screenshots\n";
-            if (!stones_line(st.stones).empty()) std::cout << "  " << stones_line(st.stones) << "\n";
+            const std::string stones = stones_line(st.stones_plan_m, st.stones);
+            if (!stones.empty()) std::cout << "  " << stones << "\n";
             if (!tracking_line(st.tracking).empty()) std::cout << "  " << tracking_line(st.tracking) << "\n";
             if (!o->summary_path.empty()) {
               nlohmann::json j = {
@@ -58,7 +59,7 @@ Command add_view_command(CLI::App* app) {
                   {"realtime_factor", st.realtime_factor}, {"screenshots", st.screenshots},
                   {"com_x_m", st.com_x_m}, {"com_y_m", st.com_y_m}, {"fallen", st.fallen},
                   {"pushes", st.pushes}, {"assumption", o->view.assumption()}};
-              if (o->view.scenario == "stones") j["stones"] = stones_json(st.stones);
+              if (o->view.scenario == "stones") j["stones"] = stones_json(st.stones_plan_m, st.stones);
               if (st.tracking.tracked) j["tracking"] = tracking_json(st.tracking);
               write_file_atomically(o->summary_path, j.dump(1) + "\n");
             }

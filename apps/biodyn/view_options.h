@@ -40,9 +40,9 @@ struct ViewOptions {
 nlohmann::json tracking_json(const scenarios::LiveScenario::TrackingReport& r);
 std::string tracking_line(const scenarios::LiveScenario::TrackingReport& r);  ///< "" when not tracked
 
-/// scenario stones: the planned and walked lengths, their errors and RMS (JSON), and one line
-/// for the terminal ("" when no stone was planned).
-nlohmann::json stones_json(const std::vector<scenarios::LiveStone>& stones);
-std::string stones_line(const std::vector<scenarios::LiveStone>& stones);
+/// scenario stones: the plan, the lengths walked so far, their errors and RMS (JSON), and one
+/// line for the terminal ("" without a plan).
+nlohmann::json stones_json(const std::vector<double>& plan_m, const std::vector<scenarios::LiveStone>& stones);
+std::string stones_line(const std::vector<double>& plan_m, const std::vector<scenarios::LiveStone>& stones);
 
 }  // namespace biodyn::apps

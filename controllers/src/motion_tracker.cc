@@ -212,11 +212,10 @@ void MotionTracker::drive(CharacterController& c, const mjModel& m, const mjData
   for (int s = 0; s < 2; ++s) c.set_stance(s, on[static_cast<std::size_t>(s)]);
   if (!params_.balance) return;
 
-  // Stance hips carry the pelvis to the motion's world orientation: with the thigh where it is,
-  // the hip rotation that gives it (xquat_thigh = xquat_pelvis * body_quat_thigh * q_hip).
-  const int root_adr = m.jnt_qposadr[0];
-  const Eigen::Quaterniond pelvis_wanted =
-      quat_at(m.body_quat + 4 * pelvis_) * quat_at(pose_.data() + root_adr + 3);
+  // Stance hips carry the pelvis to the motion's world orientation (a free root's qpos
+  // quaternion is its body's world orientation): with the thigh where it is, the hip rotation
+  // that gives it (xquat_thigh = xquat_pelvis * body_quat_thigh * q_hip).
+  const Eigen::Quaterniond pelvis_wanted = quat_at(pose_.data() + m.jnt_qposadr[0] + 3);
   for (int s = 0; s < 2; ++s) {
     if (!on[static_cast<std::size_t>(s)]) continue;
     const Eigen::Quaterniond thigh = quat_at(d.xquat + 4 * thigh_[s]);

@@ -874,6 +874,7 @@ ViewerStats run_viewer(scenarios::LiveConfig config, const ViewerOptions& option
     stats.com_y_m = com.position_W.y();
     stats.fallen = scenario.fallen();
     stats.pushes = static_cast<int>(scenario.pushes().size());
+    stats.stones_plan_m = scenario.config().steps_m;
     stats.stones = scenario.stones();
     stats.tracking = scenario.tracking_report();
     stats.physics_steps_per_s = sh.running_wall_s > 0 ? static_cast<double>(sh.steps_run) / sh.running_wall_s : 0;

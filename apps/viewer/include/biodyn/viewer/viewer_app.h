@@ -46,7 +46,8 @@ struct ViewerStats {
   double com_x_m = 0, com_y_m = 0;
   bool fallen = false;
   int pushes = 0;
-  std::vector<scenarios::LiveStone> stones;  ///< scenario stones
+  std::vector<double> stones_plan_m;         ///< scenario stones: the plan
+  std::vector<scenarios::LiveStone> stones;  ///< and the stones stepped so far
   scenarios::LiveScenario::TrackingReport tracking;  ///< scenario mocap --track
 };
 
