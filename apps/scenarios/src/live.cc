@@ -100,6 +100,7 @@ LiveScenario::LiveScenario(LiveConfig config) {
   initial_config_ = run_.config;
   initial_controller_params_ = run_.controller_params;
   initial_gait_params_ = run_.gait_params;
+  stones_ = run_.config.scenario == "stones";
   foot_body_[0] = mj_name2id(&m, mjOBJ_BODY, "foot_l");
   foot_body_[1] = mj_name2id(&m, mjOBJ_BODY, "foot_r");
   checkpoint_every_ = std::max(1L, std::lround(kCheckpointInterval_s / m.opt.timestep));
@@ -302,7 +303,7 @@ void LiveScenario::step() {
   }
   ctrl_->step();
   ++run_.steps;
-  if (run_.config.scenario == "stones") track_stones();
+  if (stones_) track_stones();
   if (run_.fell_at_s < 0 && fallen()) run_.fell_at_s = time_s();
   if (tracker_ && run_.fell_at_s < 0 && run_.steps % 10 == 0) {
     const controllers::MotionTracker::Error e = tracker_->error(sim_->model(), sim_->data());

@@ -434,7 +434,8 @@ void simulation_panel(Shared& sh, UiState& ui, double fps, double sim_rate) {
     constexpr double kDeg = 180.0 / 3.14159265358979323846;
     const controllers::MotionTracker::Error e = s.tracking_error();
     ImGui::Separator();
-    ImGui::Text("Tracking (no balance feedback): joints %.1f deg off now, RMS %.1f deg", e.joint_rms_rad * kDeg,
+    ImGui::Text("Tracking (%s): joints %.1f deg off now, RMS %.1f deg",
+                s.config().tracker.balance ? "balance feedback" : "open loop", e.joint_rms_rad * kDeg,
                 s.tracking_stats().joint_rms_rad() * kDeg);
     ImGui::Text("pelvis %.2f m from the motion's", e.root_horizontal_m);
     if (s.fell_at_s() >= 0) ImGui::TextColored(ImVec4(1.0f, 0.5f, 0.3f, 1), "fell at %.2f s", s.fell_at_s());

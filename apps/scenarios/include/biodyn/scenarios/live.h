@@ -228,6 +228,7 @@ class LiveScenario {
   std::vector<double> playback_t_;  // mocap: s, per frame
   std::unique_ptr<FallWatch> fall_;  // the scenarios' fall rule, from the start of each run
   int foot_body_[2] = {-1, -1};      // foot_l, foot_r
+  bool stones_ = false;              // scenario "stones" (not a string compare per step)
   void track_stones();
 
   std::vector<Edit> log_;      // every edit applied since t = 0, by step
