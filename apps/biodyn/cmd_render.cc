@@ -32,22 +32,24 @@ void ViewOptions::add_to(CLI::App* cmd) {
   cmd->add_option("--controller-params", controller_params_path,
                   "Joint controller parameters (JSON, as biodyn pose --params)");
   cmd->add_option("--motion", motion_path,
-                  "scenario mocap: a motion played kinematically (qpos CSV from biodyn mocap "
-                  "ik/retarget for this character, or a BVH retargeted on the fly)");
+                  "scenario mocap: the motion to play, kinematically or with --track (qpos CSV from biodyn "
+                  "mocap ik/retarget for this character, or a BVH retargeted on the fly)");
   cmd->add_flag("--track", track,
                "scenario mocap: track the motion with the joint controllers (physics, muscles within tau_max, "
                "the root free; balance feedback through the hips and ankles: motion_tracker.h) instead of "
                "playing it kinematically");
-  cmd->add_flag("--track-open-loop", track_open_loop,
-                "scenario mocap --track: without the balance feedback (the joints only follow the motion)");
-  cmd->add_option("--track-lookahead", track_lookahead_s,
-                  "scenario mocap --track: each joint's target is the motion this far ahead, s")
-      ->capture_default_str();
-  cmd->add_option("--steps", steps,
-                  "scenario stones: step lengths, m (ankle to ankle along the heading), e.g. "
-                  "0.60,0.20,0.50 (default: the paper's 0.60,0.20,0.50,0.16,0.50,0.30)");
-  cmd->add_option("--steps-start", steps_start_s, "scenario stones: when the stones begin (steady walking first), s")
-      ->capture_default_str();
+  only_with_track.push_back(cmd->add_flag("--track-open-loop", track_open_loop,
+                "scenario mocap --track: without the balance feedback (the joints only follow the motion)"));
+  only_with_track.push_back(cmd->add_option("--track-lookahead", track_lookahead_s,
+                                            "scenario mocap --track: each joint's target is the motion this far "
+                                            "ahead, s")
+                                ->capture_default_str());
+  only_with_stones.push_back(cmd->add_option("--steps", steps,
+                                             "scenario stones: step lengths, m (ankle to ankle along the heading), "
+                                             "e.g. 0.60,0.20,0.50 (default: the paper's 0.60,0.20,0.50,0.16,0.50,0.30)"));
+  only_with_stones.push_back(cmd->add_option("--steps-start", steps_start_s,
+                                             "scenario stones: when the stones begin (steady walking first), s")
+                                 ->capture_default_str());
 }
 
 scenarios::LiveConfig ViewOptions::to_config() const {
@@ -56,9 +58,18 @@ scenarios::LiveConfig ViewOptions::to_config() const {
   c.character = character.to_spec();
   const bool speed_given = speed_option != nullptr && speed_option->count() > 0;
   c.speed_m_s = speed_given ? speed_m_s : scenario == "stones" ? 0.7 : 1.0;
-  if (!steps.empty()) {
-    if (scenario != "stones") throw sim::InvalidArgument("--steps: only --scenario stones walks planned steps");
+  // Options of one scenario or mode are refused elsewhere, not silently ignored.
+  for (const CLI::Option* o : only_with_stones) {
+    if (o->count() > 0 && scenario != "stones") {
+      throw sim::InvalidArgument(o->get_name() + ": only --scenario stones walks planned steps");
+    }
+  }
+  for (const CLI::Option* o : only_with_track) {
+    if (o->count() > 0 && !track) throw sim::InvalidArgument(o->get_name() + ": only with --track");
+  }
+  if (scenario == "stones" && !only_with_stones.empty() && only_with_stones.front()->count() > 0) {
     c.steps_m = parse_number_list(steps, "--steps", "step lengths in m separated by commas");
+    if (c.steps_m.empty()) throw sim::InvalidArgument("--steps: give at least one step length, got '" + steps + "'");
   }
   c.steps_start_s = steps_start_s;
   c.heading_rate_deg_s = heading_rate_deg_s;
@@ -104,7 +115,9 @@ nlohmann::json stones_json(const std::vector<double>& plan_m, const std::vector<
     errors.push_back(st.walked_m - st.target_m);
     sq += (st.walked_m - st.target_m) * (st.walked_m - st.target_m);
   }
-  const double rms = errors.empty() ? 0.0 : std::sqrt(sq / static_cast<double>(errors.size()));
+  // No step walked yet: no error to report (null, "n/a"), rather than a perfect 0.
+  const nlohmann::json rms =
+      errors.empty() ? nlohmann::json(nullptr) : nlohmann::json(std::sqrt(sq / static_cast<double>(errors.size())));
   return {{"targets_m", plan_m}, {"walked_m", walked}, {"errors_m", errors}, {"rms_error_m", rms},
           {"definition", "step length ankle to ankle along the heading at each strike, against the plan"}};
 }
@@ -144,8 +157,10 @@ std::string stones_line(const std::vector<double>& plan_m, const std::vector<sce
   if (plan_m.empty()) return "";
   const nlohmann::json j = stones_json(plan_m, stones);
   std::ostringstream out;
-  out << "stepping stones: " << j["walked_m"].size() << " of " << plan_m.size() << " planned steps walked, error RMS "
-      << std::fixed << std::setprecision(1) << 100 * j["rms_error_m"].get<double>() << " cm";
+  out << "stepping stones: " << j["walked_m"].size() << " of " << plan_m.size() << " planned steps walked";
+  if (j["rms_error_m"].is_number()) {
+    out << ", error RMS " << std::fixed << std::setprecision(1) << 100 * j["rms_error_m"].get<double>() << " cm";
+  }
   return out.str();
 }
 

@@ -4,6 +4,7 @@
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 #include <string>
+#include <vector>
 
 #include "biodyn/scenarios/live.h"
 #include "cli_common.h"
@@ -25,6 +26,7 @@ struct ViewOptions {
   std::string steps;                   ///< scenario stones: lengths, m, comma-separated
   double steps_start_s = 5.0;
   CLI::Option* speed_option = nullptr;  ///< to tell a given --speed from the default
+  std::vector<CLI::Option*> only_with_stones, only_with_track;  ///< refused outside their scenario
 
   /// Adds --scenario, the character options, --speed, --heading-rate, --weld, --params,
   /// --controller-params, --motion, --steps, --steps-start.

@@ -67,24 +67,37 @@ TrackedMotion make_tracked_motion(const mjModel& m, const std::vector<double>& t
   }
   sim::Data scratch(m);
   mjData& d = *scratch;
+  const auto lowest_sole = [&](int s) {
+    double lowest = 1e9;
+    for (int g : sole_geoms[s]) {
+      // The box's lowest corner: centre minus the half sizes along its axes' vertical parts.
+      const mjtNum* R = d.geom_xmat + 9 * g;
+      const mjtNum* size = m.geom_size + 3 * g;
+      lowest = std::min(lowest, d.geom_xpos[3 * g + 2] - std::abs(R[6]) * size[0] - std::abs(R[7]) * size[1] -
+                                    std::abs(R[8]) * size[2]);
+    }
+    return lowest;
+  };
+  // Captured roots are rarely at the simulated floor's height: the whole motion is raised or
+  // lowered so the first frame's lowest sole point touches the floor, before the feet's
+  // contacts are read from it.
+  if (m.njnt > 0 && m.jnt_type[0] == mjJNT_FREE) {
+    for (int k = 0; k < m.nq; ++k) d.qpos[k] = qpos(0, k);
+    mj_kinematics(&m, &d);
+    motion.start_lift_m = -std::min(lowest_sole(0), lowest_sole(1));
+    motion.qpos.col(m.jnt_qposadr[0] + 2).array() += motion.start_lift_m;
+  }
   std::vector<Eigen::Vector2d> previous(2, Eigen::Vector2d::Zero());
   motion.stance.resize(times_s.size());
   motion.com_W.resize(times_s.size());
   motion.ankle_W.resize(times_s.size());
   for (std::size_t f = 0; f < times_s.size(); ++f) {
-    for (int k = 0; k < m.nq; ++k) d.qpos[k] = qpos(static_cast<Eigen::Index>(f), k);
+    for (int k = 0; k < m.nq; ++k) d.qpos[k] = motion.qpos(static_cast<Eigen::Index>(f), k);
     mj_kinematics(&m, &d);
     mj_comPos(&m, &d);
     motion.com_W[f] = Eigen::Vector3d(d.subtree_com[3], d.subtree_com[4], d.subtree_com[5]);  // body 1: the root's tree
     for (int s = 0; s < 2; ++s) {
-      double lowest = 1e9;
-      for (int g : sole_geoms[s]) {
-        // The box's lowest corner: centre minus the half sizes along its axes' vertical parts.
-        const mjtNum* R = d.geom_xmat + 9 * g;
-        const mjtNum* size = m.geom_size + 3 * g;
-        lowest = std::min(lowest, d.geom_xpos[3 * g + 2] - std::abs(R[6]) * size[0] - std::abs(R[7]) * size[1] -
-                                      std::abs(R[8]) * size[2]);
-      }
+      const double lowest = lowest_sole(s);
       const Eigen::Vector2d at(d.xpos[3 * foot_body[s]], d.xpos[3 * foot_body[s] + 1]);
       const std::size_t from = f > 0 ? f - 1 : 0;
       const double speed = f > 0 ? (at - previous[static_cast<std::size_t>(s)]).norm() / (times_s[f] - times_s[from]) : 0.0;

@@ -7,6 +7,8 @@
 #include <iterator>
 #include <string_view>
 
+#include "biodyn/sim/errors.h"
+
 namespace biodyn::sim {
 namespace {
 std::size_t n(int count) { return static_cast<std::size_t>(count); }
@@ -86,6 +88,7 @@ void DataCheckpoint::save(const mjModel& m, const mjData& d) {
 }
 
 void DataCheckpoint::restore(mjModel& m, mjData& d) const {
+  if (!saved_) throw Error("DataCheckpoint::restore: nothing was saved");
   // The counters first: they size the arrays in use.
 #define X(type, name) d.name = counters_.name;
   X(int, pstack)

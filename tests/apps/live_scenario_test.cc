@@ -69,6 +69,14 @@ TEST_CASE("Live walk: rewinding and resuming gives the same future, edits includ
   CHECK_FALSE(bit_identical(state_of(walk), original));
 
   CHECK_THROWS_AS(walk.rewind_to(walk.step_index() + 1), sim::InvalidArgument);
+
+  // An edit made but not applied before a rewind (a panel edit while scrubbed back) takes
+  // effect at the point rewound to, and the old future after it is gone.
+  walk.set_speed(1.5);
+  walk.rewind_to(1000);
+  walk.run_until(2.5);
+  CHECK(walk.config().speed_m_s == 1.5);
+  CHECK(walk.gait()->speed_command() == 1.5);
 }
 
 TEST_CASE("Live walk: rewinding restores a checkpoint (at most 0.5 s replayed), exact after 30 s of edits",
@@ -377,6 +385,19 @@ TEST_CASE("Live mocap --track: the controllers follow a motion this body can do;
        << " deg, root off by up to " << track.tracking_stats().root_max_m << " m, fell at " << track.fell_at_s() << " s");
   CHECK(root_force == 0.0);
   CHECK_FALSE(bit_identical(state_of(track), state_of(open)));
+
+  // The same walk captured 5 cm higher: floored first, so its feet's contacts are read as
+  // before and it is tracked the same way.
+  mocap_io::Motion raised = motion;
+  raised.qpos.col(2).array() += 0.05;  // pelvis_z
+  const std::string raised_path = dir + "/own_walk_raised.csv";
+  sim::write_file_atomically(raised_path, mocap_io::format_motion_csv(raised));
+  LiveConfig raised_config = config;
+  raised_config.motion_path = raised_path;
+  LiveScenario raised_track(raised_config);
+  raised_track.run_until(3.0);
+  CHECK(raised_track.track_start_lift_m() == Approx(-0.05).margin(1e-9));
+  CHECK(raised_track.fell_at_s() == Approx(track.fell_at_s()).margin(0.05));
 
   // Rewinding a tracked run is exact as well.
   const std::vector<double> end = state_of(track);

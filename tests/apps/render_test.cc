@@ -75,10 +75,16 @@ TEST_CASE("biodyn render --scenario stones walks the paper's stones and draws th
   CHECK(green > green_before + 200);
 
   // --steps belongs to the stones scenario.
-  const auto bad = run_biodyn("render --scenario walk --steps 0.5 --png x.png", dir);
-  CHECK(bad.exit_code == 2);
-  CHECK(bad.err.find("--steps") != std::string::npos);
-  CHECK_FALSE(fs::exists(dir / "x.png"));
+  // The stones' options belong to the stones scenario; an empty plan is refused.
+  for (const char* args : {"render --scenario walk --steps 0.5 --png x.png",
+                           "render --scenario walk --steps-start 3 --png x.png",
+                           "render --scenario stones --steps \"\" --png x.png"}) {
+    const auto bad = run_biodyn(args, dir);
+    INFO(args << ": " << bad.err);
+    CHECK(bad.exit_code == 2);
+    CHECK(bad.err.find("--steps") != std::string::npos);
+    CHECK_FALSE(fs::exists(dir / "x.png"));
+  }
 }
 
 TEST_CASE("biodyn render --track films a captured motion tracked by the controllers and reports the fall",
@@ -104,6 +110,9 @@ TEST_CASE("biodyn render --track films a captured motion tracked by the controll
   const auto bad = run_biodyn("render --scenario walk --track --png x.png", dir);
   CHECK(bad.exit_code == 2);
   CHECK(bad.err.find("only the mocap scenario") != std::string::npos);
+  const auto loose = run_biodyn("render --scenario mocap --motion " + bvh + " --track-open-loop --png x.png", dir);
+  CHECK(loose.exit_code == 2);
+  CHECK(loose.err.find("only with --track") != std::string::npos);
   CHECK_FALSE(fs::exists(dir / "x.png"));
 }
 

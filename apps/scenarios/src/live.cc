@@ -214,8 +214,7 @@ void LiveScenario::build() {
 }
 
 void LiveScenario::start_tracking() {
-  // The first frame, moving as the motion does, raised or lowered so the lowest sole point
-  // touches the floor (captured roots are rarely at the simulated floor's height).
+  // The first frame (floored: make_tracked_motion), moving as the motion does.
   const mjModel& m = sim_->model();
   mjData& d = sim_->data();
   // The velocity over the first kVelocityWindow_s (frame-to-frame differences carry the
@@ -228,18 +227,7 @@ void LiveScenario::start_tracking() {
   }
   std::copy(q0.begin(), q0.end(), d.qpos);
   mj_differentiatePos(&m, d.qvel, tracked_.times_s[f1] - tracked_.times_s[0], q0.data(), q1.data());
-  mj_kinematics(&m, &d);
-  double lowest = 1e9;
-  for (int g = 0; g < m.ngeom; ++g) {
-    const char* body = mj_id2name(&m, mjOBJ_BODY, m.geom_bodyid[g]);
-    if (body == nullptr || m.geom_type[g] != mjGEOM_BOX || !FallWatch::is_foot_body(body)) continue;
-    const mjtNum* R = d.geom_xmat + 9 * g;
-    const mjtNum* size = m.geom_size + 3 * g;
-    lowest = std::min(lowest, d.geom_xpos[3 * g + 2] - std::abs(R[6]) * size[0] - std::abs(R[7]) * size[1] -
-                                  std::abs(R[8]) * size[2]);
-  }
-  track_lift_m_ = -lowest;
-  d.qpos[m.jnt_qposadr[0] + 2] += track_lift_m_;
+  track_lift_m_ = tracked_.start_lift_m;
   mj_forward(&m, &d);
   ctrl_->reset();
   tracker_ = std::make_unique<controllers::MotionTracker>(m, groups_, &tracked_, run_.config.tracker);
@@ -328,6 +316,7 @@ void LiveScenario::track_stones() {
     }
     if (!run_.stones_planned && time_s() >= run_.config.steps_start_s) {
       gait_->plan_steps(run_.config.steps_m);  // from the swing that starts now
+      run_.stones.reserve(run_.config.steps_m.size());
       run_.stones_planned = true;
     }
     run_.stone_pending = run_.stones_planned;
@@ -501,6 +490,10 @@ void LiveScenario::rewind_to(long step) {
     throw sim::InvalidArgument("rewind: step must be within [0, " + std::to_string(run_.steps) +
                                "], got " + std::to_string(step));
   }
+  // Edits made but not applied yet (say, in a panel while scrubbed back) belong to the point
+  // rewound to: they take effect there and start a new future.
+  std::vector<Edit> held = std::move(pending_);
+  pending_.clear();
   // Every edit made so far (applied, and any still to be replayed), in step order.
   std::vector<Edit> all = log_;
   all.insert(all.end(), future_.begin() + static_cast<long>(future_next_), future_.end());
@@ -510,7 +503,6 @@ void LiveScenario::rewind_to(long step) {
   }
   if (from != nullptr) {
     // The checkpoint's state has the edits made before its step; the rest are replayed.
-    pending_.clear();
     restore_checkpoint(*from);
     log_.clear();
     future_.clear();
@@ -522,6 +514,14 @@ void LiveScenario::rewind_to(long step) {
   future_next_ = 0;
   last_rewind_replayed_ = step - run_.steps;
   while (run_.steps < step) this->step();
+  if (!held.empty()) {
+    future_.clear();
+    future_next_ = 0;
+    for (const std::unique_ptr<Checkpoint>& c : checkpoints_) {
+      if (c->step > run_.steps) c->step = -1;
+    }
+    pending_ = std::move(held);  // applied at the next step, as any new edit
+  }
 }
 
 std::string LiveScenario::controller_params_json() const {

@@ -31,7 +31,10 @@ namespace biodyn::controllers {
 /// A motion to track: qpos per frame for this model, and where each foot is on the floor.
 struct TrackedMotion {
   std::vector<double> times_s;  ///< from 0, increasing
-  Eigen::MatrixXd qpos;         ///< frames x nq
+  Eigen::MatrixXd qpos;         ///< frames x nq, raised by start_lift_m
+  /// m the motion was raised (negative: lowered) so the first frame's lowest sole point
+  /// touches the floor.
+  double start_lift_m = 0;
   /// Per frame: left and right foot on the floor (lowest sole point below
   /// kStanceHeight_m and the foot slower than kStanceSpeed_m_s horizontally).
   std::vector<std::array<bool, 2>> stance;
@@ -47,7 +50,7 @@ struct TrackedMotion {
 };
 
 /// Builds a TrackedMotion from qpos frames (forward kinematics on `m`; bodies foot_l/_r and
-/// toes_l/_r with box geoms). Throws sim::InvalidArgument for fewer than 2 frames, times not
+/// toes_l/_r with box geoms), floored at its first frame (start_lift_m). Throws sim::InvalidArgument for fewer than 2 frames, times not
 /// increasing or a qpos row of the wrong size.
 TrackedMotion make_tracked_motion(const mjModel& m, const std::vector<double>& times_s, const Eigen::MatrixXd& qpos);
 

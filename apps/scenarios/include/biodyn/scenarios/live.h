@@ -96,8 +96,9 @@ class LiveScenario {
   explicit LiveScenario(LiveConfig config);
   ~LiveScenario();
 
-  /// One physics step: pending edits first, then the controllers and mj_step. No allocation
-  /// unless an edit is pending.
+  /// One physics step: pending edits first, then the controllers and mj_step. Allocates only
+  /// when an edit is pending, when the stones plan starts or a stone is added, and when a
+  /// checkpoint slot is first filled or its arrays grow (the first 16 s; rarely after).
   void step();
   /// Steps until simulation time reaches t_s (no-op if already there).
   void run_until(double t_s);
@@ -121,6 +122,7 @@ class LiveScenario {
   void reset();
   /// Back to step `step` (0 <= step <= step_index()) from the newest checkpoint at or before it
   /// (or from t = 0), replaying the log: the state equals the one the run had at that step.
+  /// Edits made but not yet applied take effect at `step` and start a new future there.
   void rewind_to(long step);
 
   /// Simulated time between checkpoints, and how many the ring keeps (16 s).
@@ -128,7 +130,8 @@ class LiveScenario {
   static constexpr int kCheckpoints = 32;
   /// Steps the last rewind_to replayed (from its checkpoint, or from t = 0).
   long last_rewind_replayed_steps() const { return last_rewind_replayed_; }
-  /// Memory the checkpoints hold, bytes.
+  /// MuJoCo data the checkpoints hold, bytes (each also holds a copy of the controllers,
+  /// ~0.44 MB for the full character).
   std::size_t checkpoint_bytes() const;
 
   // --- Read-outs (for panels, overlays and plots). ---
