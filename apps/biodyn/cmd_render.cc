@@ -1,11 +1,9 @@
 // biodyn render: a scenario filmed headless (issue 6): MP4 through ffmpeg, a PNG frame, and the
 // run summary.
-#include <cmath>
-#include <iomanip>
 #include <iostream>
+#include <memory>
 #include <sstream>
 #include <tuple>
-#include <memory>
 #include <nlohmann/json.hpp>
 
 #include "biodyn/sim/errors.h"
@@ -13,156 +11,8 @@
 #include "cli_common.h"
 #include "commands.h"
 #include "view_options.h"
-#include "walk_options.h"
 
 namespace biodyn::apps {
-
-void ViewOptions::add_to(CLI::App* cmd) {
-  std::string names;
-  for (const std::string& n : scenarios::live_scenario_names()) names += (names.empty() ? "" : " | ") + n;
-  cmd->add_option("--scenario", scenario, "Scenario: " + names)->capture_default_str();
-  character.add_to(cmd);
-  speed_option = cmd->add_option("--speed", speed_m_s,
-                                 "walk: commanded speed, m/s (default 1.0; stones 0.7, the plan's mean step "
-                                 "at the gait's cadence)");
-  cmd->add_option("--heading-rate", heading_rate_deg_s, "walk: turning rate, deg/s (+ left)")
-      ->capture_default_str();
-  cmd->add_option("--weld", weld, "Foot-contact mode: off | honest | glue")->capture_default_str();
-  cmd->add_option("--params", params_path, "Walker parameters (JSON, as biodyn walk --params)");
-  cmd->add_option("--controller-params", controller_params_path,
-                  "Joint controller parameters (JSON, as biodyn pose --params)");
-  cmd->add_option("--motion", motion_path,
-                  "scenario mocap: the motion to play, kinematically or with --track (qpos CSV from biodyn "
-                  "mocap ik/retarget for this character, or a BVH retargeted on the fly)");
-  cmd->add_flag("--track", track,
-               "scenario mocap: track the motion with the joint controllers (physics, muscles within tau_max, "
-               "the root free; balance feedback through the hips and ankles: motion_tracker.h) instead of "
-               "playing it kinematically");
-  only_with_track.push_back(cmd->add_flag("--track-open-loop", track_open_loop,
-                "scenario mocap --track: without the balance feedback (the joints only follow the motion)"));
-  only_with_track.push_back(cmd->add_option("--track-lookahead", track_lookahead_s,
-                                            "scenario mocap --track: each joint's target is the motion this far "
-                                            "ahead, s")
-                                ->capture_default_str());
-  only_with_stones.push_back(cmd->add_option("--steps", steps,
-                                             "scenario stones: step lengths, m (ankle to ankle along the heading), "
-                                             "e.g. 0.60,0.20,0.50 (default: the paper's 0.60,0.20,0.50,0.16,0.50,0.30)"));
-  only_with_stones.push_back(cmd->add_option("--steps-start", steps_start_s,
-                                             "scenario stones: when the stones begin (steady walking first), s")
-                                 ->capture_default_str());
-}
-
-scenarios::LiveConfig ViewOptions::to_config() const {
-  scenarios::LiveConfig c;
-  c.scenario = scenario;
-  c.character = character.to_spec();
-  const bool speed_given = speed_option != nullptr && speed_option->count() > 0;
-  c.speed_m_s = speed_given ? speed_m_s : scenario == "stones" ? 0.7 : 1.0;
-  // Options of one scenario or mode are refused elsewhere, not silently ignored.
-  for (const CLI::Option* o : only_with_stones) {
-    if (o->count() > 0 && scenario != "stones") {
-      throw sim::InvalidArgument(o->get_name() + ": only --scenario stones walks planned steps");
-    }
-  }
-  for (const CLI::Option* o : only_with_track) {
-    if (o->count() > 0 && !track) throw sim::InvalidArgument(o->get_name() + ": only with --track");
-  }
-  if (scenario == "stones" && !only_with_stones.empty() && only_with_stones.front()->count() > 0) {
-    c.steps_m = parse_number_list(steps, "--steps", "step lengths in m separated by commas");
-    if (c.steps_m.empty()) throw sim::InvalidArgument("--steps: give at least one step length, got '" + steps + "'");
-  }
-  c.steps_start_s = steps_start_s;
-  c.heading_rate_deg_s = heading_rate_deg_s;
-  c.weld = controllers::parse_weld_mode(weld, "--weld");
-  if (!params_path.empty()) {
-    c.gait_json = read_file(params_path);
-    c.gait_source = params_path;
-  }
-  c.motion_path = motion_path;
-  c.track = track;
-  c.tracker.lookahead_s = track_lookahead_s;
-  c.tracker.balance = !track_open_loop;
-  if (!controller_params_path.empty()) {
-    c.controller_json = read_file(controller_params_path);
-    c.controller_source = controller_params_path;
-  }
-  return c;
-}
-
-std::string ViewOptions::assumption() const {
-  if (scenario == "mocap" && track) {
-    return "motion " + motion_path +
-           " tracked by the joint controllers: physics, joint torques within tau_max, the root moved only by "
-           "muscles and contacts (" +
-           std::string(track_open_loop ? "open loop, no balance feedback"
-                                       : "balance feedback through the hips and ankles' targets") +
-           "; a motion this body cannot balance falls); foot contact " + weld_assumption(weld);
-  }
-  if (scenario == "mocap") {
-    return "kinematic playback of " + motion_path +
-           ": joint angles as captured, no physics and no controllers (biodyn mocap id gives the "
-           "forces it needs)";
-  }
-  return weld_assumption(weld);
-}
-
-nlohmann::json stones_json(const std::vector<double>& plan_m, const std::vector<scenarios::LiveStone>& stones) {
-  nlohmann::json walked = nlohmann::json::array(), errors = nlohmann::json::array();
-  double sq = 0;
-  for (const scenarios::LiveStone& st : stones) {
-    if (std::isnan(st.walked_m)) continue;
-    walked.push_back(st.walked_m);
-    errors.push_back(st.walked_m - st.target_m);
-    sq += (st.walked_m - st.target_m) * (st.walked_m - st.target_m);
-  }
-  // No step walked yet: no error to report (null, "n/a"), rather than a perfect 0.
-  const nlohmann::json rms =
-      errors.empty() ? nlohmann::json(nullptr) : nlohmann::json(std::sqrt(sq / static_cast<double>(errors.size())));
-  return {{"targets_m", plan_m}, {"walked_m", walked}, {"errors_m", errors}, {"rms_error_m", rms},
-          {"definition", "step length ankle to ankle along the heading at each strike, against the plan"}};
-}
-
-nlohmann::json tracking_json(const scenarios::LiveScenario::TrackingReport& r) {
-  constexpr double kDeg = 180.0 / 3.14159265358979323846;
-  return {{"motion_length_s", r.motion_length_s},
-          {"lookahead_s", r.lookahead_s},
-          {"balance_feedback", r.balance},
-          {"start_lift_m", r.start_lift_m},
-          {"fell_at_s", r.fell_at_s >= 0 ? nlohmann::json(r.fell_at_s) : nlohmann::json(nullptr)},
-          {"joint_error_rms_deg", r.stats.joint_rms_rad() * kDeg},
-          {"joint_error_max_deg", r.stats.joint_max_rad * kDeg},
-          {"root_horizontal_error_max_m", r.stats.root_max_m},
-          {"definition", "joint error: RMS over the joint groups of the rotation from the body's joint orientation "
-                         "to the motion's, sampled every 20 ms until a fall; root: the pelvis's horizontal "
-                         "distance from the motion's"}};
-}
-
-std::string tracking_line(const scenarios::LiveScenario::TrackingReport& r) {
-  if (!r.tracked) return "";
-  constexpr double kDeg = 180.0 / 3.14159265358979323846;
-  std::ostringstream out;
-  out << std::fixed << std::setprecision(1) << "tracking" << (r.balance ? "" : " (open loop)") << ": joint error RMS "
-      << r.stats.joint_rms_rad() * kDeg << " deg (max " << r.stats.joint_max_rad * kDeg << "), root off by up to "
-      << std::setprecision(2) << r.stats.root_max_m << " m; ";
-  if (r.fell_at_s >= 0) {
-    out << "fell at " << r.fell_at_s << " s";
-  } else {
-    out << "did not fall";
-  }
-  out << " (motion " << r.motion_length_s << " s)";
-  return out.str();
-}
-
-std::string stones_line(const std::vector<double>& plan_m, const std::vector<scenarios::LiveStone>& stones) {
-  if (plan_m.empty()) return "";
-  const nlohmann::json j = stones_json(plan_m, stones);
-  std::ostringstream out;
-  out << "stepping stones: " << j["walked_m"].size() << " of " << plan_m.size() << " planned steps walked";
-  if (j["rms_error_m"].is_number()) {
-    out << ", error RMS " << std::fixed << std::setprecision(1) << 100 * j["rms_error_m"].get<double>() << " cm";
-  }
-  return out.str();
-}
 
 Command add_render_command(CLI::App* app) {
   struct Options {

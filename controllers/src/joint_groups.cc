@@ -132,6 +132,12 @@ Quaterniond orientation_from_angles(const JointGroup& g, const Vector3d& angles)
   return q.normalized();
 }
 
+Vector3d hinge_angles(const mjModel& m, const JointGroup& g, const double* qpos) {
+  Vector3d angles = Vector3d::Zero();
+  for (int k = 0; k < g.dof_count; ++k) angles[k] = qpos[m.jnt_qposadr[m.dof_jntid[g.dof_begin + k]]];
+  return angles;
+}
+
 Vector3d angles_from_orientation(const JointGroup& g, const Quaterniond& q) {
   const Eigen::Matrix3d R = q.normalized().toRotationMatrix();
   Vector3d out = Vector3d::Zero();

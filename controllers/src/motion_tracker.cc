@@ -195,9 +195,7 @@ MotionTracker::MotionTracker(const mjModel& m, std::vector<JointGroup> groups, c
 
 Eigen::Quaterniond MotionTracker::group_orientation(const mjModel& m, const JointGroup& g, const double* qpos) const {
   if (g.ball) return quat_at(qpos + m.jnt_qposadr[m.dof_jntid[g.dof_begin]]);
-  Eigen::Vector3d angles = Eigen::Vector3d::Zero();
-  for (int k = 0; k < g.dof_count; ++k) angles[k] = qpos[m.jnt_qposadr[m.dof_jntid[g.dof_begin + k]]];
-  return orientation_from_angles(g, angles);
+  return orientation_from_angles(g, hinge_angles(m, g, qpos));
 }
 
 void MotionTracker::drive(CharacterController& c, const mjModel& m, const mjData& d) {
@@ -211,9 +209,7 @@ void MotionTracker::drive(CharacterController& c, const mjModel& m, const mjData
     if (g.ball) {
       c.set_joint_target(group, group_orientation(m, g, pose_.data()), due);
     } else {
-      Eigen::Vector3d angles = Eigen::Vector3d::Zero();
-      for (int k = 0; k < g.dof_count; ++k) angles[k] = pose_[static_cast<std::size_t>(m.jnt_qposadr[m.dof_jntid[g.dof_begin + k]])];
-      c.set_joint_angles(group, angles, due);
+      c.set_joint_angles(group, hinge_angles(m, g, pose_.data()), due);
     }
   }
   // Feet: in stance while the motion has them on the floor now.
@@ -262,8 +258,7 @@ void MotionTracker::drive(CharacterController& c, const mjModel& m, const mjData
     const double lean = -(params_.ankle_cd * dd.dot(along) + params_.ankle_cv * dv.dot(along));
     for (int s = 0; s < 2; ++s) {
       const JointGroup& g = groups_[static_cast<std::size_t>(ankle_[s])];
-      Eigen::Vector3d angles = Eigen::Vector3d::Zero();
-      for (int k = 0; k < g.dof_count; ++k) angles[k] = pose_[static_cast<std::size_t>(m.jnt_qposadr[m.dof_jntid[g.dof_begin + k]])];
+      Eigen::Vector3d angles = hinge_angles(m, g, pose_.data());
       angles[0] += lean;  // dorsiflexion leans the shank forward
       c.set_joint_angles(ankle_[s], angles, due);
     }

@@ -456,7 +456,7 @@ void LiveScenario::push(const std::string& body, const Eigen::Vector3d& force_W,
   if (!(duration_s > 0) || !std::isfinite(duration_s) || !force_W.allFinite()) {
     throw sim::InvalidArgument("push: needs a finite force and a duration > 0 s");
   }
-  record([id, body, force_W, duration_s](LiveScenario& s) {
+  record([id, force_W, duration_s](LiveScenario& s) {
     const double dt = s.sim_->model().opt.timestep;
     sim::Push p;
     p.body = id;
@@ -465,7 +465,7 @@ void LiveScenario::push(const std::string& body, const Eigen::Vector3d& force_W,
     p.start_s = std::ceil(s.time_s() / dt - 1e-9) * dt;
     p.duration_s = duration_s;
     s.sim_->schedule_push(p);
-    s.run_.pushes.push_back({body, force_W, p.start_s, duration_s});
+    s.run_.pushes.push_back({id, force_W, p.start_s, duration_s});
   });
 }
 

@@ -93,8 +93,7 @@ void build_overlays(const scenarios::LiveScenario& s, const OverlayOptions& o, O
   if (o.pushes) {
     for (const scenarios::LivePush& p : s.pushes()) {
       if (d.time < p.start_s || d.time >= p.start_s + p.duration_s) continue;
-      const int body = mj_name2id(&m, mjOBJ_BODY, p.body.c_str());
-      const Eigen::Vector3d at(d.xipos + 3 * body);
+      const Eigen::Vector3d at(d.xipos + 3 * p.body);
       // The arrow ends at the body: it shows where the push comes from.
       sim::OverlayGeom g;
       g.kind = sim::OverlayGeom::Kind::kArrow;
@@ -131,10 +130,9 @@ void build_overlays(const scenarios::LiveScenario& s, const OverlayOptions& o, O
   }
   if (o.welds) {
     const controllers::StepReport& r = s.last_report();
-    const char* feet[2] = {"foot_l", "foot_r"};
     for (int side = 0; side < 2; ++side) {
       if (!r.weld_active[static_cast<std::size_t>(side)]) continue;
-      const int body = mj_name2id(&m, mjOBJ_BODY, feet[side]);
+      const int body = b->feet[static_cast<std::size_t>(side)];  // foot_l, foot_r (resolved once)
       sim::OverlayGeom g;
       g.kind = sim::OverlayGeom::Kind::kSphere;
       g.from_W = Eigen::Vector3d(d.xpos[3 * body], d.xpos[3 * body + 1], d.xpos[3 * body + 2] + 0.06);

@@ -58,6 +58,10 @@ int find_group(const std::vector<JointGroup>& groups, const std::string& name);
 /// DOF in model order, rad; ball: flexion, abduction, internal rotation, rad).
 Eigen::Quaterniond orientation_from_angles(const JointGroup& group, const Eigen::Vector3d& angles);
 
+/// A hinge group's angles in `qpos` (one per DOF in model order, rad; the rest 0). Ball groups:
+/// use the joint's quaternion instead.
+Eigen::Vector3d hinge_angles(const mjModel& m, const JointGroup& group, const double* qpos);
+
 /// The anatomical angles of a relative orientation (inverse of orientation_from_angles for
 /// hinge groups up to the projection on their axes; for a ball joint the intrinsic
 /// flexion-abduction-rotation decomposition).

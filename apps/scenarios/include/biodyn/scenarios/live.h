@@ -84,7 +84,7 @@ struct LiveStone {
 
 /// A push being applied or drawn.
 struct LivePush {
-  std::string body;
+  int body = -1;  ///< body id
   Eigen::Vector3d force_W = Eigen::Vector3d::Zero();  ///< N
   double start_s = 0, duration_s = 0;
 };
