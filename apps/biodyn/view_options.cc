@@ -123,12 +123,14 @@ nlohmann::json tracking_json(const scenarios::LiveScenario::TrackingReport& r) {
           {"balance_feedback", r.balance},
           {"start_lift_m", r.start_lift_m},
           {"fell_at_s", r.fell_at_s >= 0 ? nlohmann::json(r.fell_at_s) : nlohmann::json(nullptr)},
+          {"kept_up_through_motion", r.kept_up()},
           {"joint_error_rms_deg", r.stats.joint_rms_rad() * kDeg},
           {"joint_error_max_deg", r.stats.joint_max_rad * kDeg},
           {"root_horizontal_error_max_m", r.stats.root_max_m},
           {"definition", "joint error: RMS over the joint groups of the rotation from the body's joint orientation "
-                         "to the motion's, sampled every 20 ms until a fall; root: the pelvis's horizontal "
-                         "distance from the motion's"}};
+                         "to the motion's, sampled every 20 ms while the motion lasts, until a fall; root: the pelvis's "
+                         "horizontal distance from the motion's; kept up: no fall before the motion's end (after "
+                         "it the targets hold its last frame)"}};
 }
 
 std::string tracking_line(const scenarios::LiveScenario::TrackingReport& r) {
@@ -138,12 +140,14 @@ std::string tracking_line(const scenarios::LiveScenario::TrackingReport& r) {
   out << std::fixed << std::setprecision(1) << "tracking" << (r.balance ? "" : " (open loop)") << ": joint error RMS "
       << r.stats.joint_rms_rad() * kDeg << " deg (max " << r.stats.joint_max_rad * kDeg << "), root off by up to "
       << std::setprecision(2) << r.stats.root_max_m << " m; ";
-  if (r.fell_at_s >= 0) {
-    out << "fell at " << r.fell_at_s << " s";
+  if (!r.kept_up()) {
+    out << "fell at " << r.fell_at_s << " s (motion " << r.motion_length_s << " s)";
+  } else if (r.fell_at_s >= 0) {
+    out << "kept up through the whole " << r.motion_length_s << " s motion; fell at " << r.fell_at_s
+        << " s, after its end, holding its last frame";
   } else {
-    out << "did not fall";
+    out << "kept up, did not fall (motion " << r.motion_length_s << " s)";
   }
-  out << " (motion " << r.motion_length_s << " s)";
   return out.str();
 }
 

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "biodyn/controllers/ankle_window.h"
 #include "biodyn/controllers/foot_contact.h"
 #include "biodyn/controllers/support_polygon.h"
 #include "biodyn/sim/errors.h"
@@ -428,42 +429,8 @@ void GaitController::limit_ankles(CharacterController& c, const mjModel& m, cons
     // the load it creates would launch the body (positive feedback through the push-off).
     const double load = std::clamp(c.last_report().weld[static_cast<std::size_t>(s)].ground_force_W.z(), 0.0,
                                    1.5 * weight_);
-    const JointGroup& g = groups_[static_cast<std::size_t>(ankle_[s])];
-    const Vector3d foot_x = quat_at(d.xquat + 4 * foot_[s]) * Vector3d::UnitX();
-    for (int k = 0; k < g.dof_count; ++k) {
-      const int dof = g.dof_begin + k;
-      const int j = m.dof_jntid[dof];
-      const Vector3d p = vec_at(d.xanchor + 3 * j), a = vec_at(d.xaxis + 3 * j);
-      // Lever of a unit vertical ground force at each contact point about the DOF's axis.
-      double lo = 1e9, hi = -1e9;
-      for (const sim::FloorContact& fc : contacts_) {
-        if (fc.distance > 0 || (fc.body != foot_[s] && fc.body != toes_[s])) continue;
-        const Vector3d r = fc.position_W - p;
-        const double arm = a.x() * r.y() - a.y() * r.x();  // a . (r x z)
-        lo = std::min(lo, arm);
-        hi = std::max(hi, arm);
-      }
-      if (lo > hi) break;  // foot in the air
-      // The lever grows heel to toe when the axis points along -y of the foot
-      // (dorsiflexion); sideways the CoP is held central.
-      double f = 0.5;
-      const bool sagittal = std::abs(a.dot(foot_x)) < 0.5;
-      if (sagittal) {
-        const Vector3d probe = foot_x.cross(Vector3d::UnitZ());  // lever change per metre forward
-        f = a.dot(probe) > 0 ? cop_fraction : 1.0 - cop_fraction;
-      }
-      const double mid = (lo + hi) / 2, half = (hi - lo) / 2 * margin;
-      if (params_.posture.cop_torque) {
-        // The CoP follows the state's profile: tau + F arm_cop = 0 for a foot at rest.
-        const double tau = -load * (mid + (2 * f - 1) * half);
-        c.limit_torque_once(dof, tau, tau);
-      } else {
-        // The ankle follows its target within what the CoP inside the contacts can give.
-        // Zero torque is always allowed: a foot already rolled onto its toes (or heel) has
-        // every CoP-consistent torque on one side, and forcing it would push the body up.
-        c.limit_torque_once(dof, std::min(-load * (mid + half), 0.0), std::max(-load * (mid - half), 0.0));
-      }
-    }
+    limit_ankle_to_contacts(c, m, d, groups_[static_cast<std::size_t>(ankle_[s])], foot_[s], toes_[s], contacts_, load,
+                            margin, params_.posture.cop_torque ? cop_fraction : -1.0);
   }
 }
 

@@ -6,6 +6,7 @@
 #include <string>
 #include <utility>
 
+#include "biodyn/controllers/ankle_window.h"
 #include "biodyn/sim/errors.h"
 #include "biodyn/sim/model.h"
 #include "biodyn/sim/queries.h"
@@ -87,35 +88,33 @@ TrackedMotion make_tracked_motion(const mjModel& m, const std::vector<double>& t
     motion.start_lift_m = -std::min(lowest_sole(0), lowest_sole(1));
     motion.qpos.col(m.jnt_qposadr[0] + 2).array() += motion.start_lift_m;
   }
-  std::vector<Eigen::Vector2d> previous(2, Eigen::Vector2d::Zero());
-  motion.stance.resize(times_s.size());
   motion.com_W.resize(times_s.size());
   motion.ankle_W.resize(times_s.size());
+  std::vector<std::array<double, 2>> lowest(times_s.size());
   for (std::size_t f = 0; f < times_s.size(); ++f) {
     for (int k = 0; k < m.nq; ++k) d.qpos[k] = motion.qpos(static_cast<Eigen::Index>(f), k);
     mj_kinematics(&m, &d);
     mj_comPos(&m, &d);
     motion.com_W[f] = Eigen::Vector3d(d.subtree_com[3], d.subtree_com[4], d.subtree_com[5]);  // body 1: the root's tree
     for (int s = 0; s < 2; ++s) {
-      const double lowest = lowest_sole(s);
-      const Eigen::Vector2d at(d.xpos[3 * foot_body[s]], d.xpos[3 * foot_body[s] + 1]);
-      const std::size_t from = f > 0 ? f - 1 : 0;
-      const double speed = f > 0 ? (at - previous[static_cast<std::size_t>(s)]).norm() / (times_s[f] - times_s[from]) : 0.0;
-      previous[static_cast<std::size_t>(s)] = at;
-      motion.stance[f][static_cast<std::size_t>(s)] =
-          lowest < TrackedMotion::kStanceHeight_m && speed < TrackedMotion::kStanceSpeed_m_s;
-      motion.ankle_W[f][static_cast<std::size_t>(s)] = at;
+      lowest[f][static_cast<std::size_t>(s)] = lowest_sole(s);
+      motion.ankle_W[f][static_cast<std::size_t>(s)] = Eigen::Vector2d(d.xpos[3 * foot_body[s]], d.xpos[3 * foot_body[s] + 1]);
     }
   }
-  // Velocities over +-kVelocityWindow_s: captured and retargeted frames jitter by millimetres,
-  // which frame-to-frame differences at 120 Hz turn into tenths of a metre per second.
+  // Velocities over +-kVelocityWindow_s: captured and retargeted frames jitter by millimetres
+  // to centimetres, which frame-to-frame differences at 120 Hz turn into metres per second.
   const std::size_t n = times_s.size();
   motion.com_velocity_W.resize(n);
+  motion.stance.resize(n);
   for (std::size_t f = 0; f < n; ++f) {
     const std::size_t a = motion.frame_at(times_s[f] - TrackedMotion::kVelocityWindow_s);
     const std::size_t b = motion.frame_at(times_s[f] + TrackedMotion::kVelocityWindow_s);
-    motion.com_velocity_W[f] = b > a ? Eigen::Vector3d((motion.com_W[b] - motion.com_W[a]) / (times_s[b] - times_s[a]))
-                                     : Eigen::Vector3d::Zero();
+    const double span = b > a ? times_s[b] - times_s[a] : 1.0;
+    motion.com_velocity_W[f] = b > a ? Eigen::Vector3d((motion.com_W[b] - motion.com_W[a]) / span) : Eigen::Vector3d::Zero();
+    for (std::size_t s = 0; s < 2; ++s) {
+      const double speed = b > a ? (motion.ankle_W[b][s] - motion.ankle_W[a][s]).norm() / span : 0.0;
+      motion.stance[f][s] = lowest[f][s] < TrackedMotion::kStanceHeight_m && speed < TrackedMotion::kStanceSpeed_m_s;
+    }
   }
   return motion;
 }
@@ -164,6 +163,7 @@ void MotionTrackerParams::validate() const {
     if (!ok) throw sim::InvalidArgument(std::string("tracker ") + field + ": out of range, got " + std::to_string(value));
   };
   check(lookahead_s > 0 && lookahead_s <= 1, "lookahead_s (0, 1] s", lookahead_s);
+  check(ankle_cop_margin >= 0 && ankle_cop_margin <= 1, "ankle_cop_margin [0, 1]", ankle_cop_margin);
   for (const auto& [name, v] : {std::pair<const char*, double>{"sagittal_cd", sagittal_cd},
                                 {"sagittal_cv", sagittal_cv},
                                 {"frontal_cd", frontal_cd},
@@ -191,6 +191,17 @@ MotionTracker::MotionTracker(const mjModel& m, std::vector<JointGroup> groups, c
     }
   }
   pelvis_ = m.body_parentid[thigh_[0]];
+  floor_geom_ = mj_name2id(&m, mjOBJ_GEOM, "floor");
+  for (int s = 0; s < 2; ++s) toes_[s] = mj_name2id(&m, mjOBJ_BODY, (std::string("toes") + sides[s]).c_str());
+  for (int b = 1; b < m.nbody; ++b) weight_ += m.body_mass[b];
+  weight_ *= -m.opt.gravity[2];
+  contacts_.reserve(64);
+}
+
+bool MotionTracker::touching(const mjModel& m, const mjData& d, int side) const {
+  if (floor_geom_ < 0) return false;
+  return sim::floor_contact_count(m, d, floor_geom_, foot_[side]) > 0 ||
+         (toes_[side] >= 0 && sim::floor_contact_count(m, d, floor_geom_, toes_[side]) > 0);
 }
 
 Eigen::Quaterniond MotionTracker::group_orientation(const mjModel& m, const JointGroup& g, const double* qpos) const {
@@ -219,6 +230,20 @@ void MotionTracker::drive(CharacterController& c, const mjModel& m, const mjData
   const std::size_t now = a < 1 ? f0 : f0 + 1;
   const std::array<bool, 2>& on = motion_->stance[now];
   for (int s = 0; s < 2; ++s) c.set_stance(s, on[static_cast<std::size_t>(s)]);
+  // Every foot on the floor: its ankle torque within what the ground can return with the
+  // centre of pressure inside its contacts (ankle_window.h), so a loaded foot stays flat and
+  // the body rolls over it rather than the foot rocking on an edge (which it did from 0.2 s,
+  // and no weld could engage). The load is the foot's ground force in the last step, capped
+  // at 1.5 body weights as the walker does.
+  if (params_.ankle_cop_margin > 0 && floor_geom_ >= 0) {
+    sim::floor_contacts(m, d, floor_geom_, &contacts_);
+    for (int s = 0; s < 2; ++s) {
+      const double load =
+          std::clamp(c.last_report().weld[static_cast<std::size_t>(s)].ground_force_W.z(), 0.0, 1.5 * weight_);
+      limit_ankle_to_contacts(c, m, d, groups_[static_cast<std::size_t>(ankle_[s])], foot_[s], toes_[s], contacts_,
+                              load, params_.ankle_cop_margin);
+    }
+  }
   if (!params_.balance) return;
 
   // Stance hips carry the pelvis to the motion's world orientation (a free root's qpos
@@ -230,6 +255,20 @@ void MotionTracker::drive(CharacterController& c, const mjModel& m, const mjData
     const Eigen::Quaterniond thigh = quat_at(d.xquat + 4 * thigh_[s]);
     const Eigen::Quaterniond hip = quat_at(m.body_quat + 4 * thigh_[s]).conjugate() * pelvis_wanted.conjugate() * thigh;
     c.set_joint_target(hip_[s], hip.normalized(), due);
+    if (touching(m, d, s)) {
+      // As the walker's stance hip (gait_controller.cc): the pelvis's world angular velocity
+      // goes to e/lookahead (e its world orientation error to the motion's, due then), the
+      // thigh's own rotation fed forward: the hip's velocity (thigh frame) is what turns the
+      // pelvis so with the thigh turning as it does. Without it the hip only follows a
+      // relative target computed for the thigh where it is, the pelvis lags the body's own
+      // rotation over the stance foot, and the trunk yaws off the motion (measured: 37 deg
+      // in 1 s on the body's own walk). Only with the foot on the floor: a thigh in the
+      // air turns with the hip instead, and feeding its rotation forward would spin it up.
+      const Eigen::Quaterniond pelvis = quat_at(d.xquat + 4 * pelvis_);
+      const Eigen::Vector3d w_wanted = rotation_vector(pelvis_wanted * pelvis.conjugate()) / params_.lookahead_s;
+      const Eigen::Vector3d w_thigh(d.cvel[6 * thigh_[s]], d.cvel[6 * thigh_[s] + 1], d.cvel[6 * thigh_[s] + 2]);
+      c.set_velocity_once(hip_[s], thigh.conjugate() * (w_thigh - w_wanted));
+    }
   }
   if (!on[0] && !on[1]) return;  // flight: nothing to push against
   // The CoM relative to the stance ankle(s), and the same in the motion, in the pelvis's

@@ -293,7 +293,8 @@ void LiveScenario::step() {
   ++run_.steps;
   if (stones_) track_stones();
   if (run_.fell_at_s < 0 && fallen()) run_.fell_at_s = time_s();
-  if (tracker_ && run_.fell_at_s < 0 && run_.steps % 10 == 0) {
+  // Tracking error while the motion lasts (after it, the targets hold its last frame).
+  if (tracker_ && run_.fell_at_s < 0 && run_.steps % 10 == 0 && time_s() <= motion_length_s() + 1e-9) {
     const controllers::MotionTracker::Error e = tracker_->error(sim_->model(), sim_->data());
     TrackingStats& t = run_.tracking_stats;
     ++t.samples;

@@ -438,6 +438,7 @@ void simulation_panel(Shared& sh, UiState& ui, double fps, double sim_rate) {
                 s.config().tracker.balance ? "balance feedback" : "open loop", e.joint_rms_rad * kDeg,
                 s.tracking_stats().joint_rms_rad() * kDeg);
     ImGui::Text("pelvis %.2f m from the motion's", e.root_horizontal_m);
+    if (s.time_s() > s.motion_length_s()) ImGui::Text("motion over at %.2f s: holding its last frame", s.motion_length_s());
     if (s.fell_at_s() >= 0) ImGui::TextColored(ImVec4(1.0f, 0.5f, 0.3f, 1), "fell at %.2f s", s.fell_at_s());
   }
   if (s.config().scenario == "stones") {

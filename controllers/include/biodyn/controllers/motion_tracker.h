@@ -9,13 +9,17 @@
 /// reference motion as in Lee et al. 2010, "Data-driven biped control"), both through joint
 /// targets only:
 ///  - a stance hip's target is the one that turns the pelvis to the motion's world orientation
-///    with the thigh where it is (the stance leg carries the trunk; SIMBICON's torso control);
+///    with the thigh where it is (the stance leg carries the trunk; SIMBICON's torso control),
+///    and with the foot on the floor the thigh's own rotation is fed forward, as the walker's
+///    stance hip does (gait_controller.h step 3);
 ///  - in double support both ankles lean the body (dorsiflexion) by
 ///    -(a_d * (d - d_ref) + a_v * (v - v_ref)), d the CoM relative to the midpoint of the
 ///    ankles (the ankle strategy of standing balance, on the deviation from the motion);
 ///  - in single support the swing hip's flexion and abduction targets are moved by
 ///    c_d * (d - d_ref) + c_v * (v - v_ref): d the CoM relative to the stance ankle, v the CoM
 ///    velocity, in the pelvis's heading frame, the ref values the motion's own.
+/// Open loop or not, the ankle of every foot on the floor is held to the torque its contacts
+/// can return (ankle_window.h): a foot stays flat rather than rocking on an edge.
 /// The root is not driven: only the muscles (within tau_max) and the contacts move the body, so
 /// a motion this body cannot keep up with still ends in a fall; that is reported, not hidden.
 
@@ -25,6 +29,7 @@
 
 #include "biodyn/controllers/character_controller.h"
 #include "biodyn/controllers/joint_groups.h"
+#include "biodyn/sim/queries.h"
 
 namespace biodyn::controllers {
 
@@ -36,7 +41,8 @@ struct TrackedMotion {
   /// touches the floor.
   double start_lift_m = 0;
   /// Per frame: left and right foot on the floor (lowest sole point below
-  /// kStanceHeight_m and the foot slower than kStanceSpeed_m_s horizontally).
+  /// kStanceHeight_m and the foot slower than kStanceSpeed_m_s horizontally, its speed over
+  /// +-kVelocityWindow_s: a retargeted stance foot jitters by centimetres between frames).
   std::vector<std::array<bool, 2>> stance;
   /// Per frame: the whole-body CoM and its velocity (central differences over
   /// +-kVelocityWindow_s), and each foot's origin (the ankle), world, for the balance feedback.
@@ -67,6 +73,9 @@ struct MotionTrackerParams {
   double frontal_cv = 0.3;   ///< rad per m/s
   double ankle_cd = 1.0;     ///< double support: rad of ankle plantarflexion per m of CoM ahead of the motion's
   double ankle_cv = 0.3;     ///< rad per m/s
+  /// Feet on the floor (open loop too): ankle torques held to what the ground returns with the
+  /// centre of pressure inside this fraction of the contacts' extent (ankle_window.h; 0: off).
+  double ankle_cop_margin = 0.8;
   void validate() const;     ///< throws sim::InvalidArgument naming the field
 };
 
@@ -88,12 +97,16 @@ class MotionTracker : public TargetDriver {
   const MotionTrackerParams& params() const { return params_; }
 
  private:
+  bool touching(const mjModel& m, const mjData& d, int side) const;
   Eigen::Quaterniond group_orientation(const mjModel& m, const JointGroup& g, const double* qpos) const;
 
   std::vector<JointGroup> groups_;
   const TrackedMotion* motion_;
   MotionTrackerParams params_;
-  int hip_[2] = {-1, -1}, ankle_[2] = {-1, -1}, thigh_[2] = {-1, -1}, foot_[2] = {-1, -1}, pelvis_ = -1;
+  int hip_[2] = {-1, -1}, ankle_[2] = {-1, -1}, thigh_[2] = {-1, -1}, foot_[2] = {-1, -1}, toes_[2] = {-1, -1};
+  int pelvis_ = -1, floor_geom_ = -1;
+  double weight_ = 0;  // N
+  std::vector<sim::FloorContact> contacts_;
   mutable std::vector<double> pose_;  // nq scratch (drive and error: one thread)
 };
 

@@ -169,6 +169,8 @@ class LiveScenario {
     bool balance = false;
     double motion_length_s = 0, lookahead_s = 0, start_lift_m = 0, fell_at_s = -1;
     TrackingStats stats;
+    /// Did not fall while the motion lasted (after its end the targets hold its last frame).
+    bool kept_up() const { return tracked && (fell_at_s < 0 || fell_at_s > motion_length_s); }
   };
   TrackingReport tracking_report() const;
   double track_start_lift_m() const { return track_lift_m_; }
