@@ -28,6 +28,13 @@ void ViewOptions::add_to(CLI::App* cmd) {
   cmd->add_option("--motion", motion_path,
                   "scenario mocap: the motion to play, kinematically or with --track (qpos CSV from biodyn "
                   "mocap ik/retarget for this character, or a BVH retargeted on the fly)");
+  only_with_mocap.push_back(cmd->add_option("--motion-from", motion_from_s,
+                                            "scenario mocap: play the motion from this time of its own, s (e.g. "
+                                            "where a capture's walk begins)")
+                                ->capture_default_str());
+  only_with_mocap.push_back(cmd->add_option("--motion-to", motion_to_s,
+                                            "scenario mocap: play the motion up to this time of its own, s "
+                                            "(default: its end)"));
   cmd->add_flag("--track", track,
                "scenario mocap: track the motion with the joint controllers (physics, muscles within tau_max, "
                "the root free; balance feedback through the hips and ankles: motion_tracker.h) instead of "
@@ -58,6 +65,9 @@ scenarios::LiveConfig ViewOptions::to_config() const {
       throw sim::InvalidArgument(o->get_name() + ": only --scenario stones walks planned steps");
     }
   }
+  for (const CLI::Option* o : only_with_mocap) {
+    if (o->count() > 0 && scenario != "mocap") throw sim::InvalidArgument(o->get_name() + ": only --scenario mocap plays a motion");
+  }
   for (const CLI::Option* o : only_with_track) {
     if (o->count() > 0 && !track) throw sim::InvalidArgument(o->get_name() + ": only with --track");
   }
@@ -73,6 +83,8 @@ scenarios::LiveConfig ViewOptions::to_config() const {
     c.gait_source = params_path;
   }
   c.motion_path = motion_path;
+  c.motion_from_s = motion_from_s;
+  c.motion_to_s = motion_to_s;
   c.track = track;
   c.tracker.lookahead_s = track_lookahead_s;
   c.tracker.balance = !track_open_loop;
@@ -84,8 +96,16 @@ scenarios::LiveConfig ViewOptions::to_config() const {
 }
 
 std::string ViewOptions::assumption() const {
+  std::string part;
+  if (motion_from_s != 0 || motion_to_s >= 0) {
+    std::ostringstream o;
+    o << " (its part from " << motion_from_s << " s to ";
+    if (motion_to_s >= 0) o << motion_to_s << " s)";
+    else o << "the end)";
+    part = o.str();
+  }
   if (scenario == "mocap" && track) {
-    return "motion " + motion_path +
+    return "motion " + motion_path + part +
            " tracked by the joint controllers: physics, joint torques within tau_max, the root moved only by "
            "muscles and contacts (" +
            std::string(track_open_loop ? "open loop, no balance feedback"
@@ -93,7 +113,7 @@ std::string ViewOptions::assumption() const {
            "; a motion this body cannot balance falls); foot contact " + weld_assumption(weld);
   }
   if (scenario == "mocap") {
-    return "kinematic playback of " + motion_path +
+    return "kinematic playback of " + motion_path + part +
            ": joint angles as captured, no physics and no controllers (biodyn mocap id gives the "
            "forces it needs)";
   }

@@ -20,13 +20,14 @@ struct ViewOptions {
   std::string params_path;             ///< walker parameters (biodyn walk --params)
   std::string controller_params_path;  ///< controller parameters (biodyn pose --params)
   std::string motion_path;             ///< scenario mocap: qpos CSV or BVH
+  double motion_from_s = 0, motion_to_s = -1;  ///< scenario mocap: the part played
   bool track = false;                  ///< scenario mocap: tracked by the controllers
   double track_lookahead_s = 0.1;
   bool track_open_loop = false;
   std::string steps;                   ///< scenario stones: lengths, m, comma-separated
   double steps_start_s = 5.0;
   CLI::Option* speed_option = nullptr;  ///< to tell a given --speed from the default
-  std::vector<CLI::Option*> only_with_stones, only_with_track;  ///< refused outside their scenario
+  std::vector<CLI::Option*> only_with_stones, only_with_track, only_with_mocap;  ///< refused outside their scenario
 
   /// Adds --scenario, the character options, --speed, --heading-rate, --weld, --params,
   /// --controller-params, --motion, --steps, --steps-start.

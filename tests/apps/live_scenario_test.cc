@@ -322,6 +322,32 @@ TEST_CASE("Live mocap: a retargeted BVH plays kinematically on the character, lo
   LiveConfig no_motion;
   no_motion.scenario = "mocap";
   CHECK_THROWS_WITH(LiveScenario(no_motion), Catch::Matchers::Contains("--motion"));
+
+  // A part of the motion (--motion-from/--motion-to): replayed from 0; from frame 480 on, its
+  // frame at 0.504 s (between frames) is the whole motion's at frame 480's time + 0.504 s.
+  LiveConfig part = from_csv;
+  const double t480 = r.motion.times_s[480] - r.motion.times_s[0];
+  part.motion_from_s = t480;
+  part.motion_to_s = t480 + 2.0;
+  LiveScenario play_part(part);
+  CHECK(play_part.motion_length_s() == Approx(2.0).margin(1.0 / 120));
+  play_part.run_until(0.504);
+  play_csv.run_until(t480 + 0.504);
+  const std::vector<double> part_at = state_of(play_part), whole_at = state_of(play_csv);
+  for (int k = 0; k < m.nq; ++k) CHECK(part_at[static_cast<std::size_t>(k)] == Approx(whole_at[static_cast<std::size_t>(k)]).margin(1e-12));
+  part.motion_from_s = 20.0;
+  part.motion_to_s = -1;
+  CHECK_THROWS_WITH(LiveScenario(part), Catch::Matchers::Contains("fewer than 2 solved frames to play from 20") &&
+                                            Catch::Matchers::Contains("long"));
+  part.motion_from_s = 3.0;
+  part.motion_to_s = 2.0;
+  CHECK_THROWS_WITH(LiveScenario(part), Catch::Matchers::Contains("motion to: must be after motion from"));
+  part.motion_from_s = -1.0;
+  part.motion_to_s = -1;
+  CHECK_THROWS_WITH(LiveScenario(part), Catch::Matchers::Contains("motion from: must be a time >= 0"));
+  LiveConfig walk_from;
+  walk_from.motion_from_s = 1.0;
+  CHECK_THROWS_WITH(LiveScenario(walk_from), Catch::Matchers::Contains("only the mocap scenario"));
 }
 
 TEST_CASE("Live mocap --track: the controllers follow a motion this body can do; the root is never pushed",

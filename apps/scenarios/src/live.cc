@@ -60,6 +60,16 @@ void LiveConfig::validate() const {
                                    ? "scenario mocap: give the motion (--motion motion.csv or file.bvh)"
                                    : "--motion: only the mocap scenario plays a motion");
   }
+  if ((motion_from_s != 0 || motion_to_s >= 0) && scenario != "mocap") {
+    throw sim::InvalidArgument("motion from/to: only the mocap scenario plays a motion");
+  }
+  if (!std::isfinite(motion_from_s) || motion_from_s < 0) {
+    throw sim::InvalidArgument("motion from: must be a time >= 0 s, got " + std::to_string(motion_from_s));
+  }
+  if (!std::isfinite(motion_to_s) || (motion_to_s >= 0 && motion_to_s <= motion_from_s)) {
+    throw sim::InvalidArgument("motion to: must be after motion from (" + std::to_string(motion_from_s) + " s), got " +
+                               std::to_string(motion_to_s) + " s");
+  }
   if (!steps_m.empty() && scenario != "stones") {
     throw sim::InvalidArgument("steps: only the stones scenario walks planned steps");
   }
@@ -139,12 +149,26 @@ void LiveScenario::load_motion(const mjModel& m) {
     motion = mocap_io::read_motion_csv(path);
     mocap_io::check_motion_matches(motion, m, path);
   }
-  // Unsolved frames (NaN rows) are left out.
+  // The part asked for (motion_from_s..motion_to_s of the motion's own time); unsolved
+  // frames (NaN rows) are left out.
+  const double t0 = motion.frame_count() > 0 ? motion.times_s.front() : 0.0;
+  const double from = t0 + run_.config.motion_from_s;
+  const double to = run_.config.motion_to_s < 0 ? 1e300 : t0 + run_.config.motion_to_s;
   std::vector<int> rows;
   for (int f = 0; f < motion.frame_count(); ++f) {
-    if (motion.qpos.row(f).allFinite()) rows.push_back(f);
+    const double t = motion.times_s[static_cast<std::size_t>(f)];
+    if (t >= from - 1e-9 && t <= to + 1e-9 && motion.qpos.row(f).allFinite()) rows.push_back(f);
   }
-  if (rows.size() < 2) throw sim::InvalidArgument(path + ": fewer than 2 solved frames to play");
+  if (rows.size() < 2) {
+    const double length = motion.frame_count() > 0 ? motion.times_s.back() - t0 : 0.0;
+    throw sim::InvalidArgument(path + ": fewer than 2 solved frames to play" +
+                               (run_.config.motion_from_s != 0 || run_.config.motion_to_s >= 0
+                                    ? " from " + std::to_string(run_.config.motion_from_s) + " s to " +
+                                          (run_.config.motion_to_s < 0 ? std::string("the end")
+                                                                       : std::to_string(run_.config.motion_to_s) + " s") +
+                                          " (the motion is " + std::to_string(length) + " s long)"
+                                    : std::string()));
+  }
   if (run_.config.track) {
     // Tracking needs a motion without gaps in time: solved frames must be consecutive.
     if (rows.back() - rows.front() + 1 != static_cast<int>(rows.size())) {

@@ -52,6 +52,9 @@ struct LiveConfig {
   /// joint controllers (controllers/motion_tracker.h: physics, muscles within tau_max, the root
   /// free; once through, then holding the last frame's targets).
   std::string motion_path;
+  /// The part of the motion played, s of its own time (to < 0: to its end); replayed from 0.
+  /// A capture that stands, fidgets, walks and stops can be tracked from the walk on.
+  double motion_from_s = 0, motion_to_s = -1;
   bool track = false;
   controllers::MotionTrackerParams tracker;  ///< lookahead, balance feedback and its gains
   /// scenario "stones" (paper §4.2): step lengths, m, ankle to ankle along the heading, walked
