@@ -30,7 +30,8 @@ struct ViewOptions {
   std::vector<CLI::Option*> only_with_stones, only_with_track, only_with_mocap;  ///< refused outside their scenario
 
   /// Adds --scenario, the character options, --speed, --heading-rate, --weld, --params,
-  /// --controller-params, --motion, --steps, --steps-start.
+  /// --controller-params, --motion, --motion-from, --motion-to, --track (and its options), --steps,
+  /// --steps-start.
   void add_to(CLI::App* cmd);
   /// Reads the files; throws sim::InvalidArgument naming the option or file.
   scenarios::LiveConfig to_config() const;
