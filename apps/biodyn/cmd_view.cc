@@ -50,7 +50,8 @@ Command add_view_command(CLI::App* app) {
                       << st.screenshots << " screenshots\n";
             const std::string stones = stones_line(st.stones_plan_m, st.stones);
             if (!stones.empty()) std::cout << "  " << stones << "\n";
-            if (!tracking_line(st.tracking).empty()) std::cout << "  " << tracking_line(st.tracking) << "\n";
+            const std::string tracking = tracking_line(st.tracking);
+            if (!tracking.empty()) std::cout << "  " << tracking << "\n";
             if (!o->summary_path.empty()) {
               nlohmann::json j = {
                   {"scenario", o->view.scenario}, {"frames", st.frames}, {"wall_s", st.wall_s},

@@ -183,11 +183,6 @@ Quaterniond GaitController::heading_rotation() const {
   return Quaterniond(Eigen::AngleAxisd(heading_, Vector3d::UnitZ()));
 }
 
-bool GaitController::foot_touches(const mjModel& m, const mjData& d, int side) const {
-  if (sim::floor_contact_count(m, d, floor_geom_, foot_[side]) > 0) return true;
-  return toes_[side] >= 0 && sim::floor_contact_count(m, d, floor_geom_, toes_[side]) > 0;
-}
-
 void GaitController::reset(const mjModel& m, const mjData& d) {
   // From standing the first step starts with the lift: a push-off from a foot beside the
   // other would only push the body back.
@@ -455,7 +450,7 @@ void GaitController::apply_compliance(CharacterController& c) const {
 }
 
 void GaitController::drive(CharacterController& c, const mjModel& m, const mjData& d) {
-  for (int s = 0; s < 2; ++s) foot_touches_now_[s] = foot_touches(m, d, s);
+  for (int s = 0; s < 2; ++s) foot_touches_now_[s] = sim::foot_touches_floor(m, d, floor_geom_, foot_[s], toes_[s]);
   if (d.time > last_time_s_ + 1e-12) {
     advance(d);
     last_time_s_ = d.time;

@@ -198,12 +198,6 @@ MotionTracker::MotionTracker(const mjModel& m, std::vector<JointGroup> groups, c
   contacts_.reserve(64);
 }
 
-bool MotionTracker::touching(const mjModel& m, const mjData& d, int side) const {
-  if (floor_geom_ < 0) return false;
-  return sim::floor_contact_count(m, d, floor_geom_, foot_[side]) > 0 ||
-         (toes_[side] >= 0 && sim::floor_contact_count(m, d, floor_geom_, toes_[side]) > 0);
-}
-
 Eigen::Quaterniond MotionTracker::group_orientation(const mjModel& m, const JointGroup& g, const double* qpos) const {
   if (g.ball) return quat_at(qpos + m.jnt_qposadr[m.dof_jntid[g.dof_begin]]);
   return orientation_from_angles(g, hinge_angles(m, g, qpos));
@@ -255,7 +249,7 @@ void MotionTracker::drive(CharacterController& c, const mjModel& m, const mjData
     const Eigen::Quaterniond thigh = quat_at(d.xquat + 4 * thigh_[s]);
     const Eigen::Quaterniond hip = quat_at(m.body_quat + 4 * thigh_[s]).conjugate() * pelvis_wanted.conjugate() * thigh;
     c.set_joint_target(hip_[s], hip.normalized(), due);
-    if (touching(m, d, s)) {
+    if (floor_geom_ >= 0 && sim::foot_touches_floor(m, d, floor_geom_, foot_[s], toes_[s])) {
       // As the walker's stance hip (gait_controller.cc): the pelvis's world angular velocity
       // goes to e/lookahead (e its world orientation error to the motion's, due then), the
       // thigh's own rotation fed forward: the hip's velocity (thigh frame) is what turns the

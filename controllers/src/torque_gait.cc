@@ -360,8 +360,7 @@ void TorqueGait::drive(CharacterController& c, const mjModel& m, const mjData& d
   // State machine (params.states): time states in order, then the last state until the swing
   // foot touches the floor after having left it.
   int swing = 1 - stance_;
-  const bool touches = sim::floor_contact_count(m, d, floor_geom_, foot_[swing]) > 0 ||
-                       (toes_[swing] >= 0 && sim::floor_contact_count(m, d, floor_geom_, toes_[swing]) > 0);
+  const bool touches = sim::foot_touches_floor(m, d, floor_geom_, foot_[swing], toes_[swing]);
   if (!touches) lifted_ = true;
   if (!p.states[static_cast<std::size_t>(state_)].ends_at_strike) {
     bool done = d.time - state_start_s_ >= state_duration_s(state_);

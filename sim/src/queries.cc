@@ -75,6 +75,10 @@ int floor_contact_count(const mjModel& m, const mjData& d, int floor_geom, int b
   return count;
 }
 
+bool foot_touches_floor(const mjModel& m, const mjData& d, int floor_geom, int foot, int toes) {
+  return floor_contact_count(m, d, floor_geom, foot) > 0 || (toes >= 0 && floor_contact_count(m, d, floor_geom, toes) > 0);
+}
+
 Pose body_pose(const mjModel& m, const mjData& d, int body) {
   if (body < 0 || body >= m.nbody) {
     throw InvalidArgument("body_pose: body id " + std::to_string(body) + " out of range");

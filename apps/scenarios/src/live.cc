@@ -21,6 +21,19 @@ namespace biodyn::scenarios {
 namespace {
 
 constexpr double kRadPerDeg = 3.14159265358979323846 / 180.0;
+
+// The walker's command ranges, for the config and for live edits alike.
+void check_speed(double m_s) {
+  if (!std::isfinite(m_s) || m_s < 0 || m_s > 3) {
+    throw sim::InvalidArgument("speed: must be within [0, 3] m/s, got " + std::to_string(m_s));
+  }
+}
+
+void check_heading_rate(double deg_s) {
+  if (!std::isfinite(deg_s) || std::abs(deg_s) > 90) {
+    throw sim::InvalidArgument("heading rate: must be within [-90, 90] deg/s, got " + std::to_string(deg_s));
+  }
+}
 /// references.md: upright = pelvis >= 0.7 x its standing height (and only the feet touch the
 /// floor: FallWatch).
 constexpr double kFallenPelvisFraction = 0.7;
@@ -77,13 +90,8 @@ void LiveConfig::validate() const {
   if (!(steps_start_s >= 0) || !std::isfinite(steps_start_s)) {
     throw sim::InvalidArgument("steps start: must be a time >= 0 s, got " + std::to_string(steps_start_s));
   }
-  if (!std::isfinite(speed_m_s) || speed_m_s < 0 || speed_m_s > 3) {
-    throw sim::InvalidArgument("speed: must be within [0, 3] m/s, got " + std::to_string(speed_m_s));
-  }
-  if (!std::isfinite(heading_rate_deg_s) || std::abs(heading_rate_deg_s) > 90) {
-    throw sim::InvalidArgument("heading rate: must be within [-90, 90] deg/s, got " +
-                               std::to_string(heading_rate_deg_s));
-  }
+  check_speed(speed_m_s);
+  check_heading_rate(heading_rate_deg_s);
 }
 
 LiveScenario::LiveScenario(LiveConfig config) {
@@ -228,7 +236,6 @@ void LiveScenario::build() {
   run_.pose_index = 0;
   run_.pose_start_s = 0;
   run_.steps = 0;
-  run_.pushes.clear();
   run_.stones.clear();
   run_.stones_planned = run_.stone_pending = false;
   run_.strikes_seen = 0;
@@ -251,7 +258,6 @@ void LiveScenario::start_tracking() {
   }
   std::copy(q0.begin(), q0.end(), d.qpos);
   mj_differentiatePos(&m, d.qvel, tracked_.times_s[f1] - tracked_.times_s[0], q0.data(), q1.data());
-  track_lift_m_ = tracked_.start_lift_m;
   mj_forward(&m, &d);
   ctrl_->reset();
   tracker_ = std::make_unique<controllers::MotionTracker>(m, groups_, &tracked_, run_.config.tracker);
@@ -270,7 +276,7 @@ LiveScenario::TrackingReport LiveScenario::tracking_report() const {
   r.balance = run_.config.tracker.balance;
   r.motion_length_s = motion_length_s();
   r.lookahead_s = run_.config.tracker.lookahead_s;
-  r.start_lift_m = track_lift_m_;
+  r.start_lift_m = tracked_.start_lift_m;
   r.fell_at_s = run_.fell_at_s;
   r.stats = run_.tracking_stats;
   return r;
@@ -417,13 +423,17 @@ void LiveScenario::run_until(double t_s) {
   while (time_s() < t_s - 0.5 * dt) step();
 }
 
-void LiveScenario::record(std::function<void(LiveScenario&)> apply) {
-  // A new edit starts a new future: the edits a rewound run would have replayed are dropped.
+void LiveScenario::drop_future() {
   future_.clear();
   future_next_ = 0;
   for (const std::unique_ptr<Checkpoint>& c : checkpoints_) {
     if (c->step > run_.steps) c->step = -1;  // states of the dropped future
   }
+}
+
+void LiveScenario::record(std::function<void(LiveScenario&)> apply) {
+  // A new edit starts a new future: the edits a rewound run would have replayed are dropped.
+  drop_future();
   pending_.push_back({run_.steps, std::move(apply)});
 }
 
@@ -446,9 +456,7 @@ void LiveScenario::set_gait_params(const controllers::TorqueGaitParams& params) 
 
 void LiveScenario::set_speed(double m_s) {
   if (!gait_) throw sim::InvalidArgument("speed: the scenario does not walk");
-  if (!std::isfinite(m_s) || m_s < 0 || m_s > 3) {
-    throw sim::InvalidArgument("speed: must be within [0, 3] m/s, got " + std::to_string(m_s));
-  }
+  check_speed(m_s);
   record([m_s](LiveScenario& s) {
     s.run_.config.speed_m_s = m_s;
     s.gait_->set_speed(m_s);
@@ -457,10 +465,7 @@ void LiveScenario::set_speed(double m_s) {
 
 void LiveScenario::set_heading_rate(double deg_s) {
   if (!gait_) throw sim::InvalidArgument("heading rate: the scenario does not walk");
-  if (!std::isfinite(deg_s) || std::abs(deg_s) > 90) {
-    throw sim::InvalidArgument("heading rate: must be within [-90, 90] deg/s, got " +
-                               std::to_string(deg_s));
-  }
+  check_heading_rate(deg_s);
   record([deg_s](LiveScenario& s) {
     s.run_.config.heading_rate_deg_s = deg_s;
     s.gait_->set_heading_rate(deg_s * kRadPerDeg);
@@ -490,7 +495,6 @@ void LiveScenario::push(const std::string& body, const Eigen::Vector3d& force_W,
     p.start_s = std::ceil(s.time_s() / dt - 1e-9) * dt;
     p.duration_s = duration_s;
     s.sim_->schedule_push(p);
-    s.run_.pushes.push_back({id, force_W, p.start_s, duration_s});
   });
 }
 
@@ -540,11 +544,7 @@ void LiveScenario::rewind_to(long step) {
   last_rewind_replayed_ = step - run_.steps;
   while (run_.steps < step) this->step();
   if (!held.empty()) {
-    future_.clear();
-    future_next_ = 0;
-    for (const std::unique_ptr<Checkpoint>& c : checkpoints_) {
-      if (c->step > run_.steps) c->step = -1;
-    }
+    drop_future();
     pending_ = std::move(held);  // applied at the next step, as any new edit
   }
 }

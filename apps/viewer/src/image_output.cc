@@ -90,7 +90,6 @@ void VideoWriter::add_frame(const std::vector<std::uint8_t>& rgb) {
   if (std::fwrite(rgb.data(), 1, size, pipe_) != size) {
     throw sim::Error(path_ + ": ffmpeg stopped taking frames: " + slurp(log_));
   }
-  ++frames_;
 }
 
 void VideoWriter::finish() {

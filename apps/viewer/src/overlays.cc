@@ -91,7 +91,7 @@ void build_overlays(const scenarios::LiveScenario& s, const OverlayOptions& o, O
     }
   }
   if (o.pushes) {
-    for (const scenarios::LivePush& p : s.pushes()) {
+    for (const sim::Push& p : s.pushes()) {
       if (d.time < p.start_s || d.time >= p.start_s + p.duration_s) continue;
       const Eigen::Vector3d at(d.xipos + 3 * p.body);
       // The arrow ends at the body: it shows where the push comes from.

@@ -171,7 +171,6 @@ struct Shared {
   double speed_factor = 1.0;  // simulated seconds per wall second
   double scrub_s = 0.0;       // <= 0: how far back the display is (paused)
   bool quit = false;
-  bool rewinding = false;
   std::string message;        // one line shown in the status bar
   History history;
   Plots plots;
@@ -271,13 +270,11 @@ void physics_loop(Shared& sh) {
       const bool scrubbed = sh.scrub_s < 0;
       if ((!sh.paused || sh.single_steps > 0) && scrubbed) {
         // Resuming from a point in the past: the scenario replays to it (exact, live.h).
-        sh.rewinding = true;
         const int back = std::clamp(static_cast<int>(std::lround(-sh.scrub_s / sh.history.entry_s)), 0, sh.history.count - 1);
         const long to = sh.history.step[static_cast<std::size_t>(sh.history.at(back))];
         s.rewind_to(to);
         sh.history.truncate_after(to);
         sh.scrub_s = 0;
-        sh.rewinding = false;
         target = -1;
       }
       if (sh.single_steps > 0) {

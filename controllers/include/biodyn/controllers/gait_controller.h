@@ -153,7 +153,6 @@ class GaitController : public TargetDriver {
   void set_targets(CharacterController& c, const mjData& d);
   void limit_ankles(CharacterController& c, const mjModel& m, const mjData& d);
   Eigen::Quaterniond heading_rotation() const;
-  bool foot_touches(const mjModel& m, const mjData& d, int side) const;
 
   GaitParams params_;
   GaitCommand command_;

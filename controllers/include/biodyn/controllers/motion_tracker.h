@@ -97,7 +97,6 @@ class MotionTracker : public TargetDriver {
   const MotionTrackerParams& params() const { return params_; }
 
  private:
-  bool touching(const mjModel& m, const mjData& d, int side) const;
   Eigen::Quaterniond group_orientation(const mjModel& m, const JointGroup& g, const double* qpos) const;
 
   std::vector<JointGroup> groups_;

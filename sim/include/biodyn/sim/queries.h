@@ -46,6 +46,10 @@ void floor_contacts(const mjModel& m, const mjData& d, int floor_geom,
 int floor_contact_count(const mjModel& m, const mjData& d, int floor_geom, int body,
                         double max_distance_m = 0.0);
 
+/// Whether a foot touches `floor_geom`: `foot` or its `toes` body (-1: none) has a contact at
+/// distance <= 0. No allocation.
+bool foot_touches_floor(const mjModel& m, const mjData& d, int floor_geom, int foot, int toes);
+
 /// Pose of a body frame in the world.
 struct Pose {
   Eigen::Vector3d position_W = Eigen::Vector3d::Zero();  ///< m

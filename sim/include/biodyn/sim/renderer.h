@@ -49,7 +49,6 @@ class SceneRenderer {
   CameraView& view() { return view_; }
   /// The camera's look-at point follows body `body` (its CoM subtree position) when >= 0.
   void follow(int body) { follow_body_ = body; }
-  int followed() const { return follow_body_; }
   mjvOption& options() { return options_; }
 
   /// Copies the drawable state of `data` into the scene (mjv_updateScene) and adds the
@@ -67,7 +66,6 @@ class SceneRenderer {
   void read_window(int width, int height, std::vector<std::uint8_t>* rgb);
 
   const mjvScene& scene() const { return scene_; }
-  mjvCamera& camera() { return camera_; }
 
  private:
   void add_overlays(const std::vector<OverlayGeom>& overlays);

@@ -85,13 +85,6 @@ struct LiveStone {
   double walked_m = std::numeric_limits<double>::quiet_NaN();  ///< length at the strike; NaN: in swing
 };
 
-/// A push being applied or drawn.
-struct LivePush {
-  int body = -1;  ///< body id
-  Eigen::Vector3d force_W = Eigen::Vector3d::Zero();  ///< N
-  double start_s = 0, duration_s = 0;
-};
-
 class LiveScenario {
  public:
   /// Builds the character, controllers and scenario at t = 0. Throws sim::InvalidArgument for a
@@ -146,7 +139,7 @@ class LiveScenario {
   /// The walker, or nullptr in the pose scenarios.
   const controllers::TorqueGait* gait() const { return gait_.get(); }
   const controllers::StepReport& last_report() const { return ctrl_->last_report(); }
-  const std::vector<LivePush>& pushes() const { return run_.pushes; }
+  const std::vector<sim::Push>& pushes() const { return sim_->pushes(); }
   /// scenario "stones": the steps planned so far (empty before steps_start_s).
   const std::vector<LiveStone>& stones() const { return run_.stones; }
   /// Whether the scenario walks.
@@ -176,7 +169,7 @@ class LiveScenario {
     bool kept_up() const { return tracked && (fell_at_s < 0 || fell_at_s > motion_length_s); }
   };
   TrackingReport tracking_report() const;
-  double track_start_lift_m() const { return track_lift_m_; }
+  double track_start_lift_m() const { return tracked_.start_lift_m; }
   /// The motion's length, s (scenario "mocap").
   double motion_length_s() const { return playback_t_.empty() ? 0.0 : playback_t_.back(); }
 
@@ -199,6 +192,8 @@ class LiveScenario {
   void start_tracking();
   void restart();  // t = 0 with the initial parameters; the log is cleared, future_ kept
   void record(std::function<void(LiveScenario&)> apply);
+  /// Drops the edits a rewound run would replay and the checkpoints after now.
+  void drop_future();
 
   // Everything about the run besides the simulation and the controllers' own state: what a
   // checkpoint copies along with those (one struct, so a new field cannot be left out).
@@ -210,7 +205,6 @@ class LiveScenario {
     std::size_t pose_index = 0;  // pose scenarios: the current pose and when it began
     double pose_start_s = 0;
     double playback_time_s = 0;  // mocap, kinematic
-    std::vector<LivePush> pushes;
     // scenario "stones": the stones so far, whether the plan was given, strikes seen, whether
     // the new swing's stone is still to be placed.
     std::vector<LiveStone> stones;
@@ -230,7 +224,6 @@ class LiveScenario {
   std::unique_ptr<controllers::TorqueGait> gait_;
   controllers::TrackedMotion tracked_;  // mocap + track
   std::unique_ptr<controllers::MotionTracker> tracker_;
-  double track_lift_m_ = 0;
   std::vector<controllers::Pose> poses_;
   Eigen::MatrixXd playback_;        // mocap: qpos per frame
   std::vector<double> playback_t_;  // mocap: s, per frame

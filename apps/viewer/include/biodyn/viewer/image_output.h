@@ -27,11 +27,10 @@ class VideoWriter {
   /// Closes ffmpeg and renames the file into place. Throws sim::Error with ffmpeg's log if it
   /// failed.
   void finish();
-  int frames() const { return frames_; }
 
  private:
   std::string path_, partial_, log_;
-  int width_, height_, frames_ = 0;
+  int width_, height_;
   std::FILE* pipe_ = nullptr;
 };
 
