@@ -70,4 +70,13 @@ void write_file_atomically(const std::string& path, const std::string& bytes,
   }
 }
 
+std::vector<std::string> split_fields(const std::string& line, char separator) {
+  std::vector<std::string> out;
+  std::string field;
+  std::istringstream in(line);
+  while (std::getline(in, field, separator)) out.push_back(field);
+  if (!line.empty() && line.back() == separator) out.emplace_back();
+  return out;
+}
+
 }  // namespace biodyn::sim

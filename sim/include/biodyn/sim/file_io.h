@@ -4,6 +4,7 @@
 /// and renamed over it, so it is whole or absent.
 
 #include <string>
+#include <vector>
 
 namespace biodyn::sim {
 
@@ -25,5 +26,10 @@ enum class MissingDirectories {
 /// (/dev/stdout) is written directly. Throws sim::Error naming the path.
 void write_file_atomically(const std::string& path, const std::string& bytes,
                            MissingDirectories missing = MissingDirectories::kError);
+
+/// The fields of one line of a CSV file (or a comma-separated option) split at `separator`, as
+/// written: no quoting, no trimming; a trailing separator gives a last empty field ("a,b," has
+/// three fields), an empty line none.
+std::vector<std::string> split_fields(const std::string& line, char separator = ',');
 
 }  // namespace biodyn::sim
