@@ -7,7 +7,8 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
-#include "biodyn/controllers/character_controller.h"
+#include "biodyn/controllers/control_pipeline.h"
+#include "biodyn/models/rig.h"
 #include "biodyn/models/mjcf.h"
 #include "biodyn/sim/model.h"
 #include "biodyn/sim/errors.h"
@@ -43,12 +44,12 @@ Command add_bench_command(CLI::App* app) {
             const models::Character character = models::generate_character(spec);
             sim::Simulation sim(sim::Model::from_string(models::to_mjcf(character), "<character>"));
             const mjModel& m = sim.model();
-            controllers::CharacterControllerConfig config;
+            controllers::ControlPipelineConfig config;
             config.kind = controllers::parse_controller_kind(o->controller, "--controller");
             config.weld.mode = controllers::parse_weld_mode(o->weld, "--weld");
-            const auto groups = controllers::find_joint_groups(m);
-            controllers::CharacterController ctrl(&sim, controllers::default_params(m, groups),
-                                                  config);
+            const models::Rig rig(m);
+            const auto& groups = rig.groups();
+            controllers::ControlPipeline ctrl(&sim, rig, controllers::default_params(m, groups), config);
             ctrl.reset_in_pose(controllers::pose_scenario("stand", groups, 0).front());
             const int steps = static_cast<int>(o->duration_s / m.opt.timestep);
 

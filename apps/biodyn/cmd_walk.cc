@@ -7,7 +7,7 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
-#include "biodyn/controllers/torque_gait.h"
+#include "biodyn/controllers/torque_walker.h"
 #include "biodyn/models/mjcf.h"
 #include "biodyn/scenarios/walk.h"
 #include "biodyn/sim/errors.h"
@@ -253,9 +253,9 @@ Command add_walk_command(CLI::App* app) {
             scenarios::WalkRunParams p = o->walk.to_params();
             p.duration_s = o->duration_s;
             if (o->print_params) {
-              controllers::TorqueGaitParams gp;
-              if (!p.gait_json.empty()) controllers::apply_torque_gait_json(p.gait_json, p.gait_source, &gp);
-              std::cout << controllers::torque_gait_json(gp);
+              controllers::TorqueWalkerParams gp;
+              if (!p.gait_json.empty()) controllers::apply_torque_walker_json(p.gait_json, p.gait_source, &gp);
+              std::cout << controllers::torque_walker_json(gp);
               return kExitOk;
             }
             if (!o->steps.empty()) {

@@ -7,7 +7,7 @@
 
 namespace biodyn::controllers {
 
-void limit_ankle_to_contacts(CharacterController& c, const mjModel& m, const mjData& d, const JointGroup& ankle,
+void limit_ankle_to_contacts(ControlFrame* frame, const mjModel& m, const mjData& d, const JointGroup& ankle,
                              int foot, int toes, const std::vector<sim::FloorContact>& contacts, double load_N,
                              double margin, double cop_fraction) {
   const mjtNum* q = d.xquat + 4 * foot;
@@ -39,9 +39,9 @@ void limit_ankle_to_contacts(CharacterController& c, const mjModel& m, const mjD
       }
       // The CoP at f: tau + F arm_cop = 0 for a foot at rest.
       const double tau = -load_N * (mid + (2 * f - 1) * half);
-      c.limit_torque_once(dof, tau, tau);
+      frame->set_torque(dof, tau);
     } else {
-      c.limit_torque_once(dof, std::min(-load_N * (mid + half), 0.0), std::max(-load_N * (mid - half), 0.0));
+      frame->limit_torque(dof, std::min(-load_N * (mid + half), 0.0), std::max(-load_N * (mid - half), 0.0));
     }
   }
 }

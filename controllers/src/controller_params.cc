@@ -5,6 +5,7 @@
 #include <sstream>
 
 #include "biodyn/sim/errors.h"
+#include "biodyn/sim/units.h"
 #include "json_fields.h"
 
 namespace biodyn::controllers {
@@ -13,7 +14,6 @@ namespace {
 using sim::InvalidArgument;
 using Json = nlohmann::json;
 
-constexpr double kDeg = M_PI / 180.0;
 
 // Paper §3.2 / §5.1: every muscle group reacts in 20 ms.
 constexpr double kPaperReactionTime_s = 0.02;
@@ -34,10 +34,10 @@ constexpr double kMaxHorizon_s = 1.0;
 // adduction 30, internal 45, external 45; shoulder flexion 180 (limited to 170 here to stay
 // clear of the swing singularity), extension 60, abduction 170, adduction 30 (across the
 // body), internal 70, external 90.
-const SwingTwistLimits kHipLimits{120 * kDeg, 30 * kDeg, 45 * kDeg,
-                                  30 * kDeg,  45 * kDeg, 45 * kDeg};
-const SwingTwistLimits kShoulderLimits{170 * kDeg, 60 * kDeg, 170 * kDeg,
-                                       30 * kDeg,  70 * kDeg, 90 * kDeg};
+const SwingTwistLimits kHipLimits{120 * kRadPerDeg, 30 * kRadPerDeg, 45 * kRadPerDeg,
+                                  30 * kRadPerDeg,  45 * kRadPerDeg, 45 * kRadPerDeg};
+const SwingTwistLimits kShoulderLimits{170 * kRadPerDeg, 60 * kRadPerDeg, 170 * kRadPerDeg,
+                                       30 * kRadPerDeg,  70 * kRadPerDeg, 90 * kRadPerDeg};
 
 bool starts_with(const std::string& s, const char* prefix) { return s.rfind(prefix, 0) == 0; }
 
@@ -112,7 +112,7 @@ void apply_joint(const Json& j, const std::string& where, const JointGroup& grou
           if (sit.key() == name) {
             const double deg = read_number(sit.value(), at + "." + name);
             check_range(deg, 1, 179, at + "." + name, "deg");
-            *field = deg * kDeg;
+            *field = deg * kRadPerDeg;
             known = true;
           }
         }
@@ -276,12 +276,12 @@ Json params_to_json(const ControllerParams& params, const std::vector<JointGroup
                 {"damping_ratio", p.pd_damping_ratio}}}};
     if (p.swing_twist) {
       const SwingTwistLimits& s = *p.swing_twist;
-      j["swing_twist_deg"] = {{"flexion", s.flexion_rad / kDeg},
-                              {"extension", s.extension_rad / kDeg},
-                              {"abduction", s.abduction_rad / kDeg},
-                              {"adduction", s.adduction_rad / kDeg},
-                              {"internal_rotation", s.internal_rotation_rad / kDeg},
-                              {"external_rotation", s.external_rotation_rad / kDeg}};
+      j["swing_twist_deg"] = {{"flexion", s.flexion_rad / kRadPerDeg},
+                              {"extension", s.extension_rad / kRadPerDeg},
+                              {"abduction", s.abduction_rad / kRadPerDeg},
+                              {"adduction", s.adduction_rad / kRadPerDeg},
+                              {"internal_rotation", s.internal_rotation_rad / kRadPerDeg},
+                              {"external_rotation", s.external_rotation_rad / kRadPerDeg}};
     }
     joints[groups[g].name] = j;
   }

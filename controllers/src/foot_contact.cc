@@ -5,7 +5,6 @@
 #include <cmath>
 #include <limits>
 
-#include "biodyn/models/mjcf.h"
 #include "biodyn/sim/errors.h"
 #include "biodyn/sim/queries.h"
 
@@ -29,32 +28,6 @@ Vector3d vec_at(const mjtNum* v) { return Vector3d(v[0], v[1], v[2]); }
 constexpr double kTensionTolerance = 1e-6;
 
 }  // namespace
-
-Sole find_sole(const mjModel& m, int foot_body) {
-  Sole s;
-  s.x_min = s.y_min = s.z = std::numeric_limits<double>::max();
-  s.x_max = s.y_max = -std::numeric_limits<double>::max();
-  for (int b = 0; b < m.nbody; ++b) {
-    if (b != foot_body && m.body_parentid[b] != foot_body) continue;
-    const Vector3d offset = b == foot_body ? Vector3d::Zero() : vec_at(m.body_pos + 3 * b);
-    for (int g = m.body_geomadr[b]; g < m.body_geomadr[b] + m.body_geomnum[b]; ++g) {
-      if (m.geom_type[g] != mjGEOM_BOX) continue;
-      const Vector3d c = offset + vec_at(m.geom_pos + 3 * g);
-      const Vector3d h = vec_at(m.geom_size + 3 * g);
-      s.x_min = std::min(s.x_min, c.x() - h.x());
-      s.x_max = std::max(s.x_max, c.x() + h.x());
-      s.y_min = std::min(s.y_min, c.y() - h.y());
-      s.y_max = std::max(s.y_max, c.y() + h.y());
-      s.z = std::min(s.z, c.z() - h.z());
-    }
-  }
-  if (s.x_max < s.x_min) {
-    const char* name = mj_id2name(&m, mjOBJ_BODY, foot_body);
-    throw sim::InvalidArgument(std::string("sole: body '") + (name ? name : "?") +
-                               "' and its children have no box geom");
-  }
-  return s;
-}
 
 const char* to_string(WeldMode mode) {
   switch (mode) {
@@ -90,30 +63,30 @@ void FootWeldParams::validate() const {
     fail("engage_margin", "must be in (release_margin, 1]", engage_margin);
 }
 
-FootWelds::FootWelds(const mjModel& m, FootWeldParams params)
-    : params_(params), qfrc_(static_cast<std::size_t>(m.nv)), jacobian_row_(static_cast<std::size_t>(m.nv)) {
+FootWelds::FootWelds(const mjModel& m, const models::Rig& rig, FootWeldParams params)
+    : params_(params),
+      floor_geom_(rig.floor_geom()),
+      qfrc_(static_cast<std::size_t>(m.nv)),
+      jacobian_row_(static_cast<std::size_t>(m.nv)) {
   contacts_.reserve(static_cast<std::size_t>(m.nconmax));
-  for (int b = 0; b < m.nbody; ++b) weight_ += m.body_mass[b];
-  weight_ *= std::abs(m.opt.gravity[2]);
+  weight_ = rig.mass_kg() * std::abs(m.opt.gravity[2]);
+  root_body_ = std::max(rig.pelvis(), 1);
   root_dof_ = m.body_dofadr[root_body_];
   params_.validate();
-  floor_geom_ = mj_name2id(&m, mjOBJ_GEOM, "floor");
-  const char* sides[2] = {"l", "r"};
+  if (params_.mode != WeldMode::kOff) {
+    const std::string user = "foot welds (use a generated character, or --weld off)";
+    rig.require_legs(user);
+    rig.require_foot_welds(user);
+  }
   for (int s = 0; s < 2; ++s) {
+    const models::RigLeg& leg = rig.leg(s);
     Foot& f = feet_[static_cast<std::size_t>(s)];
-    f.eq = mj_name2id(&m, mjOBJ_EQUALITY, (std::string(models::kFootWeldPrefix) + sides[s]).c_str());
-    f.body = mj_name2id(&m, mjOBJ_BODY, (std::string("foot_") + sides[s]).c_str());
-    if (f.eq < 0 || f.body < 0 || floor_geom_ < 0) {
-      if (params_.mode == WeldMode::kOff) continue;
-      throw sim::InvalidArgument(std::string("foot welds: the model has no equality '") +
-                                 models::kFootWeldPrefix + sides[s] +
-                                 "', body 'foot_" + sides[s] +
-                                 "' or geom 'floor' (use a generated character, or --weld off)");
-    }
-    f.sole = find_sole(m, f.body);
+    if (leg.foot_weld < 0 || leg.foot < 0 || floor_geom_ < 0 || !leg.has_sole) continue;  // off mode
+    f.eq = leg.foot_weld;
+    f.body = leg.foot;
+    f.sole = leg.sole;
     for (int g = 0; g < m.ngeom; ++g) {
-      if (m.geom_bodyid[g] == f.body)
-        f.mu = std::max(m.geom_friction[3 * g], m.geom_friction[3 * floor_geom_]);
+      if (m.geom_bodyid[g] == f.body) f.mu = std::max(m.geom_friction[3 * g], m.geom_friction[3 * floor_geom_]);
     }
   }
 }
@@ -127,12 +100,9 @@ void FootWelds::set_mode(mjModel& m, WeldMode mode) {
 }
 
 void FootWelds::reset(mjModel& m) {
-  for (Foot& f : feet_) {
+  for (const Foot& f : feet_)
     if (f.eq >= 0) m.eq_active[f.eq] = 0;
-    f.stance = true;
-    f.released_at = -1e9;
-  }
-  wrench_ = {};
+  state_ = FootWeldState{};
 }
 
 bool FootWelds::active(const mjModel& m, int side) const {
@@ -141,12 +111,12 @@ bool FootWelds::active(const mjModel& m, int side) const {
 }
 
 void FootWelds::set_stance(mjModel& m, int side, bool stance) {
-  Foot& f = feet_[static_cast<std::size_t>(side)];
-  f.stance = stance;
+  const Foot& f = feet_[static_cast<std::size_t>(side)];
+  state_.stance[static_cast<std::size_t>(side)] = stance;
   if (!stance && f.eq >= 0) m.eq_active[f.eq] = 0;  // lift-off
 }
 
-void FootWelds::engage(mjModel& m, const mjData& d, Foot& f) {
+void FootWelds::engage(mjModel& m, const mjData& d, const Foot& f) {
   // Anchor: the sole centre. eq_data (2.2.2): [0:3] anchor in body2 (world) frame, [3:6] the
   // same point in body1 (foot) frame, [6:10] neg(q_foot) * q_world, [10] torque scale.
   const Vector3d p_B = f.sole.centre_B();
@@ -164,14 +134,14 @@ void FootWelds::engage(mjModel& m, const mjData& d, Foot& f) {
 
 void FootWelds::engage_at_strikes(mjModel& m, const mjData& d) {
   if (params_.mode == WeldMode::kOff) return;
-  for (Foot& f : feet_) {
-    if (f.eq < 0 || !f.stance || m.eq_active[f.eq]) continue;
-    if (d.time < f.released_at + params_.reengage_delay_s) continue;
+  for (std::size_t side = 0; side < 2; ++side) {
+    const Foot& f = feet_[side];
+    if (f.eq < 0 || !state_.stance[side] || m.eq_active[f.eq]) continue;
+    if (d.time < state_.released_at_s[side] + params_.reengage_delay_s) continue;
     if (sim::floor_contact_count(m, d, floor_geom_, f.body) < params_.engage_min_contacts) continue;
     // Honest: only weld a foot whose contacts alone already hold it well inside the cone, so
     // the weld shares load the contacts could carry and switching it on changes nothing.
-    const std::size_t side = static_cast<std::size_t>(&f - feet_.data());
-    if (params_.mode == WeldMode::kHonest && wrench_[side].margin < params_.engage_margin) continue;
+    if (params_.mode == WeldMode::kHonest && state_.wrench[side].margin < params_.engage_margin) continue;
     mjtNum vel[6];  // [angular, linear] in world frame
     mj_objectVelocity(&m, &d, mjOBJ_BODY, f.body, vel, 0);
     const double w = std::sqrt(vel[0] * vel[0] + vel[1] * vel[1] + vel[2] * vel[2]);
@@ -186,7 +156,7 @@ int FootWelds::measure(const mjModel& m, const mjData& d) {
   sim::floor_contacts(m, d, floor_geom_, &contacts_);
   for (int s = 0; s < 2; ++s) {
     const Foot& f = feet_[static_cast<std::size_t>(s)];
-    WeldWrench& out = wrench_[static_cast<std::size_t>(s)];
+    WeldWrench& out = state_.wrench[static_cast<std::size_t>(s)];
     out = WeldWrench{};
     if (f.eq < 0) continue;
     const Matrix3d R_f = rotation_at(d.xmat + 9 * f.body);
@@ -248,19 +218,18 @@ int FootWelds::measure(const mjModel& m, const mjData& d) {
 void FootWelds::release_near_edges(mjModel& m, double t) {
   if (params_.mode != WeldMode::kHonest) return;
   for (int s = 0; s < 2; ++s) {
-    Foot& f = feet_[static_cast<std::size_t>(s)];
-    if (f.eq >= 0 && m.eq_active[f.eq] &&
-        wrench_[static_cast<std::size_t>(s)].margin < params_.release_margin) {
+    const Foot& f = feet_[static_cast<std::size_t>(s)];
+    if (f.eq >= 0 && m.eq_active[f.eq] && state_.wrench[static_cast<std::size_t>(s)].margin < params_.release_margin) {
       m.eq_active[f.eq] = 0;
-      f.released_at = t;
+      state_.released_at_s[static_cast<std::size_t>(s)] = t;
     }
   }
 }
 
 void FootWelds::release_for_tension(mjModel& m, int side, double t) {
-  Foot& f = feet_[static_cast<std::size_t>(side)];
+  const Foot& f = feet_[static_cast<std::size_t>(side)];
   if (f.eq >= 0) m.eq_active[f.eq] = 0;
-  f.released_at = t;
+  state_.released_at_s[static_cast<std::size_t>(side)] = t;
 }
 
 }  // namespace biodyn::controllers

@@ -54,6 +54,28 @@ double pd_inertia(const mjModel& m, const mjData& d, int joint_body, int dof,
   return inertia + m.dof_armature[dof];
 }
 
+// The bounds of one DOF for this step: the muscle limits (|tau| <= tau_max, rate limit from
+// tau_prev), narrowed by the command's window (or, if the window misses the muscle's reachable
+// range, the end of that range nearest to it), then a spring's torque or kFree's zero.
+void apply_command(const DofCommand& c, mjtNum error, mjtNum qvel, mjtNum* lo, mjtNum* hi) {
+  const mjtNum w_lo = c.torque_min_Nm, w_hi = c.torque_max_Nm;
+  if (w_lo > *lo || w_hi < *hi) {
+    if (w_lo > *hi) {
+      *lo = *hi;
+    } else if (w_hi < *lo) {
+      *hi = *lo;
+    } else {
+      *lo = std::max(*lo, w_lo);
+      *hi = std::min(*hi, w_hi);
+    }
+  }
+  if (c.mode == DofMode::kSpring && (c.stiffness_Nm_per_rad > 0 || c.damping_Nm_s_per_rad > 0)) {
+    const mjtNum tau = std::clamp(c.stiffness_Nm_per_rad * error - c.damping_Nm_s_per_rad * qvel, *lo, *hi);
+    *lo = *hi = tau;
+  }
+  if (c.mode == DofMode::kFree) *lo = *hi = 0;
+}
+
 }  // namespace
 
 const char* to_string(ControllerKind kind) {
@@ -66,53 +88,47 @@ ControllerKind parse_controller_kind(const std::string& text, const std::string&
   throw sim::InvalidArgument(field + ": must be 'velocity' or 'pd', got '" + text + "'");
 }
 
-JointController::JointController(const mjModel& m, std::vector<JointGroup> groups,
-                                 ControllerParams params, ControllerKind kind)
-    : groups_(std::move(groups)),
-      params_(std::move(params)),
-      kind_(kind),
-      targets_(groups_.size()),
-      solver_(m),
-      nv_(m.nv),
-      timestep_(m.opt.timestep) {
-  if (params_.joints.size() != groups_.size()) {
+JointController::JointController(const mjModel& m, const models::Rig& rig, ControllerParams params,
+                                 ControllerKind kind)
+    : rig_(&rig), params_(std::move(params)), kind_(kind), solver_(m), nv_(m.nv), timestep_(m.opt.timestep) {
+  if (params_.joints.size() != groups().size()) {
     throw sim::InvalidArgument("joint controller: parameters for " +
                                std::to_string(params_.joints.size()) + " joints, model has " +
-                               std::to_string(groups_.size()));
+                               std::to_string(groups().size()));
   }
   params_.validate(m.opt.timestep);
   const auto nv = idx(m.nv);
   actuated_.assign(nv, 0);
-  for (auto* v : {&tau_max_, &rate_, &tau_prev_, &tau_, &lo_, &hi_, &qacc_des_, &qacc_pred_,
+  for (auto* v : {&state_.tau_prev, &state_.tau, &tau_max_, &rate_, &lo_, &hi_, &qacc_des_, &qacc_pred_,
                   &error_dof_, &vel_dof_, &kp_, &kd_, &zero_})
     v->assign(nv, 0.0);
-  window_lo_.assign(nv, -std::numeric_limits<double>::infinity());
-  window_hi_.assign(nv, std::numeric_limits<double>::infinity());
-  compliant_kp_.assign(nv, 0.0);
-  compliant_kd_.assign(nv, 0.0);
-  velocity_once_.assign(nv, 0.0);
-  has_velocity_once_.assign(nv, 0);
-  for (const JointGroup& g : groups_)
+  for (const JointGroup& g : groups())
     for (int k = 0; k < g.dof_count; ++k) actuated_[idx(g.dof_begin + k)] = 1;
   refresh_limits(m.opt.timestep);
 }
 
 void JointController::set_params(const ControllerParams& params) {
-  if (params.joints.size() != groups_.size()) {
+  if (params.joints.size() != groups().size()) {
     throw sim::InvalidArgument("joint controller: parameters for " +
                                std::to_string(params.joints.size()) + " joints, expected " +
-                               std::to_string(groups_.size()));
+                               std::to_string(groups().size()));
   }
   params.validate(timestep_);
   params_ = params;
   refresh_limits(timestep_);
 }
 
+void JointController::restore(const JointControlState& state) {
+  std::copy(state.tau_prev.begin(), state.tau_prev.end(), state_.tau_prev.begin());
+  std::copy(state.tau.begin(), state.tau.end(), state_.tau.begin());
+}
+
 void JointController::refresh_limits(double timestep) {
-  for (std::size_t g = 0; g < groups_.size(); ++g) {
+  const std::vector<JointGroup>& gs = groups();
+  for (std::size_t g = 0; g < gs.size(); ++g) {
     const JointParams& p = params_.joints[g];
-    for (int k = 0; k < groups_[g].dof_count; ++k) {
-      const auto i = idx(groups_[g].dof_begin + k);
+    for (int k = 0; k < gs[g].dof_count; ++k) {
+      const auto i = idx(gs[g].dof_begin + k);
       tau_max_[i] = p.tau_max_Nm[k];
       // Paper §3.2: the torque may change by at most tau_max * dt / t_r per step.
       rate_[i] = p.tau_max_Nm[k] * timestep / p.reaction_time_s;
@@ -120,46 +136,20 @@ void JointController::refresh_limits(double timestep) {
   }
 }
 
-void JointController::set_target(int group, const Quaterniond& orientation, double reach_at_s) {
-  JointTarget& t = targets_[idx(group)];
-  t.orientation = orientation.normalized();
-  t.reach_at_s = reach_at_s;
+double orientation_error(const mjModel& m, const mjData& d, const JointGroup& group, const JointTarget& target) {
+  const Quaterniond q_c = sim::relative_orientation(m, d, group.body);
+  return rotation_angle(q_c.conjugate() * target.orientation);
 }
 
-void JointController::limit_torque_once(int dof, double lo, double hi) {
-  window_lo_[idx(dof)] = std::max(window_lo_[idx(dof)], lo);
-  window_hi_[idx(dof)] = std::min(window_hi_[idx(dof)], hi);
-}
-
-void JointController::set_compliant_once(int group, double stiffness, double damping) {
-  const JointGroup& g = groups_[idx(group)];
-  for (int k = 0; k < g.dof_count; ++k) {
-    compliant_kp_[idx(g.dof_begin + k)] = std::max(stiffness, 0.0);
-    compliant_kd_[idx(g.dof_begin + k)] = std::max(damping, 0.0);
-  }
-}
-
-void JointController::set_velocity_once(int group, const Vector3d& w_body) {
-  const JointGroup& g = groups_[idx(group)];
-  if (!g.ball) return;
-  for (int k = 0; k < 3; ++k) {
-    velocity_once_[idx(g.dof_begin + k)] = w_body[k];
-    has_velocity_once_[idx(g.dof_begin + k)] = 1;
-  }
-}
-
-double JointController::orientation_error(const mjModel& m, const mjData& d, int group) const {
-  const Quaterniond q_c = sim::relative_orientation(m, d, groups_[idx(group)].body);
-  return rotation_angle(q_c.conjugate() * targets_[idx(group)].orientation);
-}
-
-void JointController::desired_motion(const mjModel& m, const mjData& d) {
-  for (std::size_t gi = 0; gi < groups_.size(); ++gi) {
-    const JointGroup& g = groups_[gi];
+void JointController::desired_motion(const mjModel& m, const mjData& d, const ControlFrame& frame) {
+  const std::vector<JointGroup>& gs = groups();
+  for (std::size_t gi = 0; gi < gs.size(); ++gi) {
+    const JointGroup& g = gs[gi];
+    const JointTarget& target = frame.target(static_cast<int>(gi));
     const Quaterniond q_c = sim::relative_orientation(m, d, g.body);
     // Paper §3.2: q_t = conj(q_c) * q_d; theta v is its rotation vector (body frame).
-    const Vector3d e_B = rotation_vector(q_c.conjugate() * targets_[gi].orientation);
-    const double t_go = std::max(targets_[gi].reach_at_s - d.time, params_.min_time_to_go_s);
+    const Vector3d e_B = rotation_vector(q_c.conjugate() * target.orientation);
+    const double t_go = std::max(target.reach_at_s - d.time, params_.min_time_to_go_s);
     const Vector3d w_B = e_B / t_go;  // w = theta v / t
     if (g.ball) {
       for (int k = 0; k < 3; ++k) {
@@ -192,8 +182,9 @@ void JointController::desired_motion(const mjModel& m, const mjData& d) {
 void JointController::update_pd_gains(const mjModel& m, const mjData& d, const int* support_bodies,
                                       int n_supports) {
   // PD gains from natural frequency and damping ratio with the inertia each DOF moves now.
-  for (std::size_t gi = 0; gi < groups_.size(); ++gi) {
-    const JointGroup& g = groups_[gi];
+  const std::vector<JointGroup>& gs = groups();
+  for (std::size_t gi = 0; gi < gs.size(); ++gi) {
+    const JointGroup& g = gs[gi];
     const JointParams& p = params_.joints[gi];
     const double wn = 2 * M_PI * p.pd_natural_frequency_hz;
     for (int k = 0; k < g.dof_count; ++k) {
@@ -205,10 +196,10 @@ void JointController::update_pd_gains(const mjModel& m, const mjData& d, const i
   }
 }
 
-void JointController::reset(const mjModel& m, mjData& d, const std::vector<int>& support_bodies) {
-  for (std::size_t gi = 0; gi < groups_.size(); ++gi) {
-    targets_[gi].orientation = sim::relative_orientation(m, d, groups_[gi].body);
-    targets_[gi].reach_at_s = d.time;
+void JointController::reset(const mjModel& m, mjData& d, ControlFrame* frame, const std::vector<int>& support_bodies) {
+  const std::vector<JointGroup>& gs = groups();
+  for (std::size_t gi = 0; gi < gs.size(); ++gi) {
+    frame->set_target(static_cast<int>(gi), sim::relative_orientation(m, d, gs[gi].body), d.time);
   }
   update_pd_gains(m, d, support_bodies.data(), static_cast<int>(support_bodies.size()));
   // Holding torques: the whole-body solve for zero acceleration, without the rate limit.
@@ -218,50 +209,34 @@ void JointController::reset(const mjModel& m, mjData& d, const std::vector<int>&
     hi_[idx(i)] = tau_max_[idx(i)];
   }
   solver_.solve(m, d, actuated_.data(), qacc_des_.data(), lo_.data(), hi_.data(), zero_.data(),
-                tau_prev_.data(), qacc_pred_.data());
-  tau_ = tau_prev_;
+                state_.tau_prev.data(), qacc_pred_.data());
+  state_.tau = state_.tau_prev;
 }
 
-JointControlStatus JointController::compute(const mjModel& m, mjData& d,
+JointControlStatus JointController::compute(const mjModel& m, mjData& d, const ControlFrame& frame,
                                             const mjtNum* qfrc_other, mjtNum* torque) {
-  desired_motion(m, d);
+  desired_motion(m, d, frame);
+  std::vector<mjtNum>& tau_prev = state_.tau_prev;
+  std::vector<mjtNum>& tau = state_.tau;
   for (int i = 0; i < nv_; ++i) {
     const auto k = idx(i);
-    lo_[k] = std::max(-tau_max_[k], tau_prev_[k] - rate_[k]);
-    hi_[k] = std::min(tau_max_[k], tau_prev_[k] + rate_[k]);
+    lo_[k] = std::max(-tau_max_[k], tau_prev[k] - rate_[k]);
+    hi_[k] = std::min(tau_max_[k], tau_prev[k] + rate_[k]);
     qacc_des_[k] = 0;
-    // A window from limit_torque_once: intersect, or the muscle's nearest reachable torque.
-    const mjtNum w_lo = window_lo_[k], w_hi = window_hi_[k];
-    if (w_lo > lo_[k] || w_hi < hi_[k]) {
-      if (w_lo > hi_[k]) {
-        lo_[k] = hi_[k];
-      } else if (w_hi < lo_[k]) {
-        hi_[k] = lo_[k];
-      } else {
-        lo_[k] = std::max(lo_[k], w_lo);
-        hi_[k] = std::min(hi_[k], w_hi);
-      }
-    }
-    window_lo_[k] = -std::numeric_limits<double>::infinity();
-    window_hi_[k] = std::numeric_limits<double>::infinity();
-    // A compliant DOF: its spring-damper torque, held to the bounds, is given to the solve.
-    if (compliant_kp_[k] > 0 || compliant_kd_[k] > 0) {
-      const mjtNum tau = std::clamp(compliant_kp_[k] * error_dof_[k] - compliant_kd_[k] * d.qvel[i], lo_[k], hi_[k]);
-      lo_[k] = hi_[k] = tau;
-      compliant_kp_[k] = compliant_kd_[k] = 0;
-    }
+    apply_command(frame.command(i), error_dof_[k], d.qvel[i], &lo_[k], &hi_[k]);
   }
   JointControlStatus status;
   if (kind_ == ControllerKind::kVelocity) {
-    for (const JointGroup& g : groups_) {
+    for (const JointGroup& g : groups()) {
       for (int k = 0; k < g.dof_count; ++k) {
         const auto i = idx(g.dof_begin + k);
-        const mjtNum w = has_velocity_once_[i] ? velocity_once_[i] : vel_dof_[i];
+        const DofCommand& c = frame.command(static_cast<int>(i));
+        const mjtNum w = c.has_velocity ? c.velocity_rad_s : vel_dof_[i];
         qacc_des_[i] = (w - d.qvel[i]) / params_.velocity_horizon_s;
       }
     }
-    // Every actuated DOF torque-specified (a torque driver such as TorqueGait): the solve's
-    // answer is its bounds, so skip it (it is most of the step's cost).
+    // Every actuated DOF torque-specified (a torque driver such as the torque walker): the
+    // solve's answer is its bounds, so skip it (it is most of the step's cost).
     bool all_specified = true;
     for (int i = 0; i < nv_ && all_specified; ++i) {
       const auto k = idx(i);
@@ -270,34 +245,32 @@ JointControlStatus JointController::compute(const mjModel& m, mjData& d,
     if (all_specified) {
       for (int i = 0; i < nv_; ++i) {
         const auto k = idx(i);
-        tau_[k] = actuated_[k] ? lo_[k] : 0.0;
+        tau[k] = actuated_[k] ? lo_[k] : 0.0;
       }
       std::fill(qacc_pred_.begin(), qacc_pred_.end(), std::numeric_limits<double>::quiet_NaN());
     } else {
       const sim::HybridDynamicsResult r =
           solver_.solve(m, d, actuated_.data(), qacc_des_.data(), lo_.data(), hi_.data(),
-                        qfrc_other, tau_.data(), qacc_pred_.data());
+                        qfrc_other, tau.data(), qacc_pred_.data());
       status.solver_iterations = r.newton_iterations;
       status.converged = r.converged;
     }
   } else {
     for (int i = 0; i < nv_; ++i) {
       const auto k = idx(i);
-      tau_[k] = actuated_[k] ? std::clamp(kp_[k] * error_dof_[k] - kd_[k] * d.qvel[i], lo_[k], hi_[k])
-                             : 0.0;
+      tau[k] = actuated_[k] ? std::clamp(kp_[k] * error_dof_[k] - kd_[k] * d.qvel[i], lo_[k], hi_[k]) : 0.0;
     }
   }
-  std::fill(has_velocity_once_.begin(), has_velocity_once_.end(), 0);
   for (int i = 0; i < nv_; ++i) {
     const auto k = idx(i);
-    torque[i] = tau_[k];
+    torque[i] = tau[k];
     if (!actuated_[k]) continue;
-    if (tau_max_[k] > 0) status.max_torque_ratio = std::max(status.max_torque_ratio, std::abs(tau_[k]) / tau_max_[k]);
-    if (tau_[k] <= lo_[k] || tau_[k] >= hi_[k]) ++status.saturated_dofs;
+    if (tau_max_[k] > 0) status.max_torque_ratio = std::max(status.max_torque_ratio, std::abs(tau[k]) / tau_max_[k]);
+    if (tau[k] <= lo_[k] || tau[k] >= hi_[k]) ++status.saturated_dofs;
   }
   return status;
 }
 
-void JointController::commit() { tau_prev_ = tau_; }
+void JointController::commit() { state_.tau_prev = state_.tau; }
 
 }  // namespace biodyn::controllers

@@ -13,13 +13,6 @@ namespace {
 using Eigen::Quaterniond;
 using Eigen::Vector3d;
 
-// Body-name stem -> anatomical joint name (models/src/character.cc builds these bodies).
-const std::pair<const char*, const char*> kJointNames[] = {
-    {"trunk", "trunk"},   {"lumbar", "lumbar"},   {"thorax", "thorax"},      {"neck", "neck"},
-    {"head", "head"},     {"clavicle", "clavicle"}, {"upper_arm", "shoulder"}, {"forearm", "elbow"},
-    {"hand", "wrist"},    {"thigh", "hip"},       {"shank", "knee"},         {"foot", "ankle"},
-    {"toes", "toe"}};
-
 Quaterniond axis_angle(double angle, const Vector3d& axis) {
   return Quaterniond(Eigen::AngleAxisd(angle, axis));
 }
@@ -27,86 +20,6 @@ Quaterniond axis_angle(double angle, const Vector3d& axis) {
 Vector3d unit(int index) { return Vector3d::Unit(index); }
 
 }  // namespace
-
-std::string joint_name_for_body(const std::string& body_name) {
-  std::string stem = body_name, suffix;
-  if (stem.size() > 2 && (stem.substr(stem.size() - 2) == "_l" || stem.substr(stem.size() - 2) == "_r")) {
-    suffix = stem.substr(stem.size() - 2);
-    stem = stem.substr(0, stem.size() - 2);
-  }
-  for (const auto& [body, joint] : kJointNames) {
-    if (stem == body) return joint + suffix;
-  }
-  return body_name;  // not a generated character's body: keep its own name
-}
-
-std::vector<JointGroup> find_joint_groups(const mjModel& m) {
-  std::vector<JointGroup> groups;
-  for (int b = 1; b < m.nbody; ++b) {
-    if (m.body_jntnum[b] == 0) continue;
-    const int first_joint = m.body_jntadr[b];
-    if (m.jnt_type[first_joint] == mjJNT_FREE) continue;  // the root
-    const char* body_name = mj_id2name(&m, mjOBJ_BODY, b);
-    JointGroup g;
-    g.body_name = body_name ? body_name : "body" + std::to_string(b);
-    g.name = joint_name_for_body(g.body_name);
-    g.body = b;
-    g.dof_begin = m.body_dofadr[b];
-    g.dof_count = m.body_dofnum[b];
-    const std::size_t n = g.name.size();
-    g.side = (n > 2 && g.name.compare(n - 2, 2, "_l") == 0)   ? 1
-             : (n > 2 && g.name.compare(n - 2, 2, "_r") == 0) ? -1
-                                                              : 0;
-    for (int j = first_joint; j < first_joint + m.body_jntnum[b]; ++j) {
-      const char* jn = mj_id2name(&m, mjOBJ_JOINT, j);
-      const std::string joint_name = jn ? jn : "joint" + std::to_string(j);
-      if (m.jnt_type[j] == mjJNT_BALL) {
-        if (m.body_jntnum[b] != 1) {
-          throw sim::InvalidArgument("joint groups: body '" + g.body_name +
-                                     "' mixes a ball joint with other joints");
-        }
-        g.ball = true;
-        for (int k = 0; k < 3; ++k) {
-          g.dof_names.push_back(joint_name + "_" + "xyz"[k]);
-          g.axes_B.push_back(unit(k));
-        }
-      } else if (m.jnt_type[j] == mjJNT_HINGE) {
-        g.dof_names.push_back(joint_name);
-        const double inf = std::numeric_limits<double>::infinity();
-        g.range_rad.push_back(m.jnt_limited[j] ? Eigen::Vector2d(m.jnt_range[2 * j], m.jnt_range[2 * j + 1])
-                                               : Eigen::Vector2d(-inf, inf));
-        g.axes_B.push_back(Vector3d(m.jnt_axis[3 * j], m.jnt_axis[3 * j + 1],
-                                    m.jnt_axis[3 * j + 2]).normalized());
-      } else {
-        throw sim::InvalidArgument("joint groups: joint '" + joint_name +
-                                   "' is neither a hinge nor a ball joint");
-      }
-    }
-    if (!g.ball && g.dof_count > 2) {
-      throw sim::InvalidArgument("joint groups: body '" + g.body_name + "' has " +
-                                 std::to_string(g.dof_count) +
-                                 " hinges (at most 2; use a ball joint for 3 DOF)");
-    }
-    if (g.ball) {
-      // Limbs hang down (thigh, upper arm): flexion moves them forward = rotation about -y,
-      // abduction away from the midline = about +x on the left, internal rotation = about
-      // -z on the left. The head points up: flexion about +y, bending left about -x,
-      // rotation left about +z.
-      const bool points_up = g.body_name.rfind("head", 0) == 0;
-      const double s = g.side == 0 ? 1.0 : g.side;
-      g.ball_signs = points_up ? Vector3d(1, -1, 1) : Vector3d(-1, s, -s);
-    }
-    groups.push_back(std::move(g));
-  }
-  return groups;
-}
-
-int find_group(const std::vector<JointGroup>& groups, const std::string& name) {
-  for (std::size_t i = 0; i < groups.size(); ++i) {
-    if (groups[i].name == name) return static_cast<int>(i);
-  }
-  return -1;
-}
 
 Vector3d clamp_to_range(const JointGroup& g, Vector3d angles, double margin_rad) {
   if (g.ball) return angles;

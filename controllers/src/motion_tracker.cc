@@ -7,6 +7,7 @@
 #include <utility>
 
 #include "biodyn/controllers/ankle_window.h"
+#include "biodyn/controllers/gait_core.h"
 #include "biodyn/sim/errors.h"
 #include "biodyn/sim/model.h"
 #include "biodyn/sim/queries.h"
@@ -35,7 +36,8 @@ Eigen::Quaterniond quat_at(const double* q) { return Eigen::Quaterniond(q[0], q[
 
 }  // namespace
 
-TrackedMotion make_tracked_motion(const mjModel& m, const std::vector<double>& times_s, const Eigen::MatrixXd& qpos) {
+TrackedMotion make_tracked_motion(const mjModel& m, const models::Rig& rig, const std::vector<double>& times_s,
+                                  const Eigen::MatrixXd& qpos) {
   if (times_s.size() < 2 || static_cast<Eigen::Index>(times_s.size()) != qpos.rows()) {
     throw sim::InvalidArgument("tracked motion: needs at least 2 frames with a time each, got " +
                                std::to_string(times_s.size()) + " times for " + std::to_string(qpos.rows()) + " frames");
@@ -53,13 +55,12 @@ TrackedMotion make_tracked_motion(const mjModel& m, const std::vector<double>& t
   TrackedMotion motion;
   motion.times_s = times_s;
   motion.qpos = qpos;
-  const char* feet[2][2] = {{"foot_l", "toes_l"}, {"foot_r", "toes_r"}};
+  rig.require_legs("tracked motion");
   int foot_body[2];
   std::vector<int> sole_geoms[2];
   for (int s = 0; s < 2; ++s) {
-    foot_body[s] = mj_name2id(&m, mjOBJ_BODY, feet[s][0]);
-    const int toes = mj_name2id(&m, mjOBJ_BODY, feet[s][1]);
-    if (foot_body[s] < 0) throw sim::InvalidArgument(std::string("tracked motion: the model has no body ") + feet[s][0]);
+    foot_body[s] = rig.leg(s).foot;
+    const int toes = rig.leg(s).toes;
     for (int g = 0; g < m.ngeom; ++g) {
       if ((m.geom_bodyid[g] == foot_body[s] || m.geom_bodyid[g] == toes) && m.geom_type[g] == mjGEOM_BOX) {
         sole_geoms[s].push_back(g);
@@ -174,27 +175,17 @@ void MotionTrackerParams::validate() const {
   }
 }
 
-MotionTracker::MotionTracker(const mjModel& m, std::vector<JointGroup> groups, const TrackedMotion* motion,
+MotionTracker::MotionTracker(const mjModel& m, const models::Rig& rig, const TrackedMotion* motion,
                              MotionTrackerParams params)
-    : groups_(std::move(groups)), motion_(motion), params_(params), pose_(static_cast<std::size_t>(m.nq)) {
+    : rig_(&rig), motion_(motion), params_(params), pose_(static_cast<std::size_t>(m.nq)) {
   params_.validate();
-  const char* sides[2] = {"_l", "_r"};
+  rig.require_legs("motion tracker");
   for (int s = 0; s < 2; ++s) {
-    hip_[s] = find_group(groups_, std::string("hip") + sides[s]);
-    ankle_[s] = find_group(groups_, std::string("ankle") + sides[s]);
-    thigh_[s] = mj_name2id(&m, mjOBJ_BODY, (std::string("thigh") + sides[s]).c_str());
-    foot_[s] = mj_name2id(&m, mjOBJ_BODY, (std::string("foot") + sides[s]).c_str());
-    if (hip_[s] < 0 || ankle_[s] < 0 || thigh_[s] < 0 || foot_[s] < 0 ||
-        !groups_[static_cast<std::size_t>(hip_[s])].ball) {
-      throw sim::InvalidArgument(std::string("motion tracker: the model needs a ball hip") + sides[s] +
-                                 ", an ankle, thigh and foot bodies");
+    if (!rig.groups()[static_cast<std::size_t>(rig.leg(s).hip)].ball) {
+      throw models::RigError(std::string("motion tracker: the model needs a ball hip") + models::kSideSuffix[s]);
     }
   }
-  pelvis_ = m.body_parentid[thigh_[0]];
-  floor_geom_ = mj_name2id(&m, mjOBJ_GEOM, "floor");
-  for (int s = 0; s < 2; ++s) toes_[s] = mj_name2id(&m, mjOBJ_BODY, (std::string("toes") + sides[s]).c_str());
-  for (int b = 1; b < m.nbody; ++b) weight_ += m.body_mass[b];
-  weight_ *= -m.opt.gravity[2];
+  weight_ = rig.mass_kg() * -m.opt.gravity[2];
   contacts_.reserve(64);
 }
 
@@ -203,18 +194,21 @@ Eigen::Quaterniond MotionTracker::group_orientation(const mjModel& m, const Join
   return orientation_from_angles(g, hinge_angles(m, g, qpos));
 }
 
-void MotionTracker::drive(CharacterController& c, const mjModel& m, const mjData& d) {
+void MotionTracker::drive(const ControlInput& in, ControlFrame* frame) {
+  const mjModel& m = in.m;
+  const mjData& d = in.d;
+  const std::vector<JointGroup>& groups = rig_->groups();
   // Targets: the motion lookahead_s from now, due then (the same at a redone step: drive()
   // depends on the state at the step's start only).
   const double due = d.time + params_.lookahead_s;
   motion_pose_at(m, *motion_, due, pose_.data());
-  for (std::size_t i = 0; i < groups_.size(); ++i) {
-    const JointGroup& g = groups_[i];
+  for (std::size_t i = 0; i < groups.size(); ++i) {
+    const JointGroup& g = groups[i];
     const int group = static_cast<int>(i);
     if (g.ball) {
-      c.set_joint_target(group, group_orientation(m, g, pose_.data()), due);
+      frame->set_target(group, group_orientation(m, g, pose_.data()), due);
     } else {
-      c.set_joint_angles(group, hinge_angles(m, g, pose_.data()), due);
+      frame->set_joint_angles(group, hinge_angles(m, g, pose_.data()), due);
     }
   }
   // Feet: in stance while the motion has them on the floor now.
@@ -223,18 +217,19 @@ void MotionTracker::drive(CharacterController& c, const mjModel& m, const mjData
   bracket(motion_->times_s, d.time, &f0, &a);
   const std::size_t now = a < 1 ? f0 : f0 + 1;
   const std::array<bool, 2>& on = motion_->stance[now];
-  for (int s = 0; s < 2; ++s) c.set_stance(s, on[static_cast<std::size_t>(s)]);
+  for (int s = 0; s < 2; ++s) frame->set_stance(s, on[static_cast<std::size_t>(s)]);
   // Every foot on the floor: its ankle torque within what the ground can return with the
   // centre of pressure inside its contacts (ankle_window.h), so a loaded foot stays flat and
   // the body rolls over it rather than the foot rocking on an edge (which it did from 0.2 s,
   // and no weld could engage). The load is the foot's ground force in the last step, capped
   // at 1.5 body weights as the walker does.
-  if (params_.ankle_cop_margin > 0 && floor_geom_ >= 0) {
-    sim::floor_contacts(m, d, floor_geom_, &contacts_);
+  if (params_.ankle_cop_margin > 0) {
+    sim::floor_contacts(m, d, rig_->floor_geom(), &contacts_);
     for (int s = 0; s < 2; ++s) {
+      const models::RigLeg& leg = rig_->leg(s);
       const double load =
-          std::clamp(c.last_report().weld[static_cast<std::size_t>(s)].ground_force_W.z(), 0.0, 1.5 * weight_);
-      limit_ankle_to_contacts(c, m, d, groups_[static_cast<std::size_t>(ankle_[s])], foot_[s], toes_[s], contacts_,
+          std::clamp(in.last_report.weld[static_cast<std::size_t>(s)].ground_force_W.z(), 0.0, 1.5 * weight_);
+      limit_ankle_to_contacts(frame, m, d, groups[static_cast<std::size_t>(leg.ankle)], leg.foot, leg.toes, contacts_,
                               load, params_.ankle_cop_margin);
     }
   }
@@ -246,10 +241,11 @@ void MotionTracker::drive(CharacterController& c, const mjModel& m, const mjData
   const Eigen::Quaterniond pelvis_wanted = quat_at(pose_.data() + m.jnt_qposadr[0] + 3);
   for (int s = 0; s < 2; ++s) {
     if (!on[static_cast<std::size_t>(s)]) continue;
-    const Eigen::Quaterniond thigh = quat_at(d.xquat + 4 * thigh_[s]);
-    const Eigen::Quaterniond hip = quat_at(m.body_quat + 4 * thigh_[s]).conjugate() * pelvis_wanted.conjugate() * thigh;
-    c.set_joint_target(hip_[s], hip.normalized(), due);
-    if (floor_geom_ >= 0 && sim::foot_touches_floor(m, d, floor_geom_, foot_[s], toes_[s])) {
+    const models::RigLeg& leg = rig_->leg(s);
+    const Eigen::Quaterniond thigh = quat_at(d.xquat + 4 * leg.thigh);
+    const Eigen::Quaterniond hip = quat_at(m.body_quat + 4 * leg.thigh).conjugate() * pelvis_wanted.conjugate() * thigh;
+    frame->set_target(leg.hip, hip.normalized(), due);
+    if (foot_touches_floor(m, d, *rig_, s)) {
       // As the walker's stance hip (gait_controller.cc): the pelvis's world angular velocity
       // goes to e/lookahead (e its world orientation error to the motion's, due then), the
       // thigh's own rotation fed forward: the hip's velocity (thigh frame) is what turns the
@@ -258,10 +254,10 @@ void MotionTracker::drive(CharacterController& c, const mjModel& m, const mjData
       // rotation over the stance foot, and the trunk yaws off the motion (measured: 37 deg
       // in 1 s on the body's own walk). Only with the foot on the floor: a thigh in the
       // air turns with the hip instead, and feeding its rotation forward would spin it up.
-      const Eigen::Quaterniond pelvis = quat_at(d.xquat + 4 * pelvis_);
+      const Eigen::Quaterniond pelvis = quat_at(d.xquat + 4 * rig_->pelvis());
       const Eigen::Vector3d w_wanted = rotation_vector(pelvis_wanted * pelvis.conjugate()) / params_.lookahead_s;
-      const Eigen::Vector3d w_thigh(d.cvel[6 * thigh_[s]], d.cvel[6 * thigh_[s] + 1], d.cvel[6 * thigh_[s] + 2]);
-      c.set_velocity_once(hip_[s], thigh.conjugate() * (w_thigh - w_wanted));
+      const Eigen::Vector3d w_thigh(d.cvel[6 * leg.thigh], d.cvel[6 * leg.thigh + 1], d.cvel[6 * leg.thigh + 2]);
+      frame->set_velocity(leg.hip, thigh.conjugate() * (w_thigh - w_wanted));
     }
   }
   if (!on[0] && !on[1]) return;  // flight: nothing to push against
@@ -272,7 +268,7 @@ void MotionTracker::drive(CharacterController& c, const mjModel& m, const mjData
   int stance_feet = 0;
   for (int s = 0; s < 2; ++s) {
     if (!on[static_cast<std::size_t>(s)]) continue;
-    ankle += Eigen::Vector2d(d.xpos[3 * foot_[s]], d.xpos[3 * foot_[s] + 1]);
+    ankle += Eigen::Vector2d(d.xpos[3 * rig_->leg(s).foot], d.xpos[3 * rig_->leg(s).foot + 1]);
     ankle_ref += motion_->ankle_W[now][static_cast<std::size_t>(s)];
     ++stance_feet;
   }
@@ -281,7 +277,7 @@ void MotionTracker::drive(CharacterController& c, const mjModel& m, const mjData
   const Eigen::Vector2d dd =
       (com.position_W.head<2>() - ankle) - (motion_->com_W[now].head<2>() - ankle_ref);
   const Eigen::Vector2d dv = com.velocity_W.head<2>() - motion_->com_velocity_W[now].head<2>();
-  const mjtNum* R = d.xmat + 9 * pelvis_;
+  const mjtNum* R = d.xmat + 9 * rig_->pelvis();
   Eigen::Vector2d along(R[0], R[3]);
   if (along.norm() < 1e-6) return;
   along.normalize();
@@ -290,10 +286,10 @@ void MotionTracker::drive(CharacterController& c, const mjModel& m, const mjData
     // Double support: the ankles lean the body back towards the motion's CoM.
     const double lean = -(params_.ankle_cd * dd.dot(along) + params_.ankle_cv * dv.dot(along));
     for (int s = 0; s < 2; ++s) {
-      const JointGroup& g = groups_[static_cast<std::size_t>(ankle_[s])];
-      Eigen::Vector3d angles = hinge_angles(m, g, pose_.data());
+      const int ankle_group = rig_->leg(s).ankle;
+      Eigen::Vector3d angles = hinge_angles(m, groups[static_cast<std::size_t>(ankle_group)], pose_.data());
       angles[0] += lean;  // dorsiflexion leans the shank forward
-      c.set_joint_angles(ankle_[s], angles, due);
+      frame->set_joint_angles(ankle_group, angles, due);
     }
     return;
   }
@@ -302,11 +298,12 @@ void MotionTracker::drive(CharacterController& c, const mjModel& m, const mjData
   const int stance = on[0] ? 0 : 1, swing = 1 - stance;
   const double sagittal = params_.sagittal_cd * dd.dot(along) + params_.sagittal_cv * dv.dot(along);
   const double frontal = params_.frontal_cd * dd.dot(left) + params_.frontal_cv * dv.dot(left);
-  const JointGroup& hip = groups_[static_cast<std::size_t>(hip_[swing])];
+  const int hip_group = rig_->leg(swing).hip;
+  const JointGroup& hip = groups[static_cast<std::size_t>(hip_group)];
   Eigen::Vector3d angles = angles_from_orientation(hip, group_orientation(m, hip, pose_.data()));
   angles[0] += sagittal;                             // flexion: the thigh forward
   angles[1] += (swing == 0 ? 1.0 : -1.0) * frontal;  // abduction: left leg to the left
-  c.set_joint_target(hip_[swing], orientation_from_angles(hip, angles), due);
+  frame->set_target(hip_group, orientation_from_angles(hip, angles), due);
 }
 
 MotionTracker::Error MotionTracker::error(const mjModel& m, const mjData& d) const {
@@ -314,13 +311,14 @@ MotionTracker::Error MotionTracker::error(const mjModel& m, const mjData& d) con
   motion_pose_at(m, *motion_, d.time, pose.data());
   Error e;
   double sq = 0;
-  for (const JointGroup& g : groups_) {
+  const std::vector<JointGroup>& groups = rig_->groups();
+  for (const JointGroup& g : groups) {
     const Eigen::Quaterniond want = group_orientation(m, g, pose.data());
     const Eigen::Quaterniond have = group_orientation(m, g, d.qpos);
     const double angle = rotation_angle(have.conjugate() * want);
     sq += angle * angle;
   }
-  e.joint_rms_rad = groups_.empty() ? 0.0 : std::sqrt(sq / static_cast<double>(groups_.size()));
+  e.joint_rms_rad = groups.empty() ? 0.0 : std::sqrt(sq / static_cast<double>(groups.size()));
   // The root: the free joint's position (the first joint of a generated character).
   const int adr = m.jnt_qposadr[0];
   e.root_horizontal_m = std::hypot(d.qpos[adr] - pose[static_cast<std::size_t>(adr)],

@@ -5,6 +5,7 @@
 
 #include "biodyn/controllers/foot_contact.h"
 #include "biodyn/sim/errors.h"
+#include "biodyn/sim/units.h"
 #include "biodyn/sim/queries.h"
 
 namespace biodyn::controllers {
@@ -13,7 +14,6 @@ namespace {
 using Eigen::Vector2d;
 using Eigen::Vector3d;
 
-constexpr double kDeg = M_PI / 180.0;
 
 // Quiet standing: knees slightly unlocked (a straight knee sits on its limit), the shank and
 // thigh angles split so the trunk stays upright.
@@ -23,7 +23,7 @@ constexpr double kStandKnee_deg = 4, kStandAnkle_deg = 2, kStandHip_deg = 2;
 void set_angles(Pose* p, const std::vector<JointGroup>& groups, const std::string& joint,
                 const Vector3d& deg) {
   for (const std::string& name : {joint, joint + "_l", joint + "_r"}) {
-    if (find_group(groups, name) >= 0) p->angles_rad[name] = deg * kDeg;
+    if (find_group(groups, name) >= 0) p->angles_rad[name] = deg * kRadPerDeg;
   }
 }
 
@@ -129,7 +129,7 @@ void write_pose_angles(const mjModel& m, mjData& d, const std::vector<JointGroup
 
 // The balance's support point on a sole, foot frame: `fraction` of the way from heel to toe
 // tip, on the sole's centre line and plane.
-Vector3d balance_point_B(const Sole& sole, double fraction) {
+Vector3d balance_point_B(const models::Sole& sole, double fraction) {
   Vector3d p = sole.centre_B();
   p.x() = sole.x_min + fraction * (sole.x_max - sole.x_min);
   return p;
@@ -142,19 +142,16 @@ Vector3d sole_point_W(const mjData& d, int foot, const Vector3d& point_B) {
 
 }  // namespace
 
-double place_in_pose(const mjModel& m, mjData& d, const std::vector<JointGroup>& groups,
-                     const Pose& pose, const BalanceParams& balance) {
+double place_in_pose(const mjModel& m, mjData& d, const models::Rig& rig, const Pose& pose,
+                     const BalanceParams& balance) {
   balance.validate();
-  const int foot[2] = {mj_name2id(&m, mjOBJ_BODY, "foot_l"), mj_name2id(&m, mjOBJ_BODY, "foot_r")};
-  const int root_joint = m.body_jntadr[mj_name2id(&m, mjOBJ_BODY, "pelvis")];
-  if (foot[0] < 0 || foot[1] < 0 || root_joint < 0 || m.jnt_type[root_joint] != mjJNT_FREE) {
-    throw sim::InvalidArgument(
-        "place_in_pose: the model needs a free-floating 'pelvis' and bodies 'foot_l', 'foot_r'");
-  }
-  mjtNum* root = d.qpos + m.jnt_qposadr[root_joint];
+  rig.require_legs("place_in_pose");
+  const std::vector<JointGroup>& groups = rig.groups();
+  const int foot[2] = {rig.leg(models::kLeft).foot, rig.leg(models::kRight).foot};
+  mjtNum* root = d.qpos + m.jnt_qposadr[rig.root_joint()];
   const double x0 = root[0], y0 = root[1];
   Vector3d point_B[2];
-  for (int s = 0; s < 2; ++s) point_B[s] = balance_point_B(find_sole(m, foot[s]), balance.support_point_fraction);
+  for (int s = 0; s < 2; ++s) point_B[s] = balance_point_B(rig.leg(s).sole, balance.support_point_fraction);
   // Rest height of the soles (the model's own standing state).
   mju_copy(d.qpos, m.qpos0, m.nq);
   mj_kinematics(&m, &d);
@@ -219,21 +216,18 @@ void BalanceParams::validate() const {
     fail("support_point_fraction", "must be in [0, 1] (heel to toe tip)", support_point_fraction);
 }
 
-StandingBalance::StandingBalance(const mjModel& m, BalanceParams params) : params_(params) {
+StandingBalance::StandingBalance(const mjModel& m, const models::Rig& rig, BalanceParams params)
+    : params_(params) {
   params_.validate();
-  pelvis_ = mj_name2id(&m, mjOBJ_BODY, "pelvis");
-  foot_[0] = mj_name2id(&m, mjOBJ_BODY, "foot_l");
-  foot_[1] = mj_name2id(&m, mjOBJ_BODY, "foot_r");
-  if (pelvis_ < 0 || foot_[0] < 0 || foot_[1] < 0) {
-    throw sim::InvalidArgument(
-        "standing balance: the model needs bodies 'pelvis', 'foot_l' and 'foot_r'");
-  }
+  rig.require_legs("standing balance");
+  pelvis_ = rig.pelvis();
+  leg_length_ = m.qpos0[m.jnt_qposadr[rig.root_joint()] + 2];  // pelvis (hip-centre) height when standing
   for (int s = 0; s < 2; ++s) {
-    const Sole sole = find_sole(m, foot_[s]);
+    foot_[s] = rig.leg(s).foot;
+    const models::Sole& sole = rig.leg(s).sole;
     support_point_B_[s] = balance_point_B(sole, params_.support_point_fraction);
     foot_half_length_ = (sole.x_max - sole.x_min) / 2;
   }
-  leg_length_ = m.qpos0[2];  // pelvis (hip-centre) height when standing
 }
 
 void StandingBalance::set_params(const BalanceParams& params) {
@@ -242,13 +236,15 @@ void StandingBalance::set_params(const BalanceParams& params) {
 }
 
 void StandingBalance::preset_sagittal_tilt(double tilt_rad) {
-  integral_.setZero();
-  if (params_.integral_per_s > 0) integral_.x() = -tilt_rad * leg_length_ / params_.integral_per_s;
+  state_.integral.setZero();
+  if (params_.integral_per_s > 0) state_.integral.x() = -tilt_rad * leg_length_ / params_.integral_per_s;
+  state_.last_update_s = std::numeric_limits<double>::quiet_NaN();
 }
 
 void StandingBalance::reset() {
-  integral_.setZero();
-  error_.setZero();
+  state_.integral.setZero();
+  state_.error.setZero();
+  state_.last_update_s = std::numeric_limits<double>::quiet_NaN();
 }
 
 BalanceOffsets StandingBalance::update(const mjModel& m, const mjData& d, Support support,
@@ -257,6 +253,8 @@ BalanceOffsets StandingBalance::update(const mjModel& m, const mjData& d, Suppor
   // Support centre (world, horizontal).
   Vector2d feet[2];
   for (int s = 0; s < 2; ++s) feet[s] = sole_point_W(d, foot_[s], support_point_B_[s]).head<2>();
+  Vector2d& centre_ = state_.centre;
+  Vector2d& error_ = state_.error;
   centre_ = support == Support::kBoth ? Vector2d(0.5 * (feet[0] + feet[1]))
             : support == Support::kLeft ? feet[0]
                                         : feet[1];
@@ -274,9 +272,14 @@ BalanceOffsets StandingBalance::update(const mjModel& m, const mjData& d, Suppor
 
   const double L = leg_length_;
   const double integral_limit = params_.max_tilt_rad * L / std::max(params_.integral_per_s, 1e-9);
-  integral_ += error_ * dt;
-  integral_ = integral_.cwiseMax(-integral_limit).cwiseMin(integral_limit);
-  const Vector2d tilt = -(params_.proportional * error_ + params_.integral_per_s * integral_) / L;
+  if (!(d.time == state_.last_update_s)) {  // a new step (not a redo at the same time)
+    state_.integral_at_step_start = state_.integral;
+    state_.last_update_s = d.time;
+  }
+  Vector2d& integral = state_.integral;
+  integral = state_.integral_at_step_start + error_ * dt;
+  integral = integral.cwiseMax(-integral_limit).cwiseMin(integral_limit);
+  const Vector2d tilt = -(params_.proportional * error_ + params_.integral_per_s * integral) / L;
   out.sagittal_tilt = std::clamp(tilt.x(), -params_.max_tilt_rad, params_.max_tilt_rad);
   out.frontal_tilt = std::clamp(tilt.y(), -params_.max_tilt_rad, params_.max_tilt_rad);
   const double excess = error_.x() - params_.hip_threshold_fraction * foot_half_length_;

@@ -91,12 +91,12 @@ TEST_CASE("Live walk: rewinding restores a checkpoint (at most 0.5 s replayed), 
     x.insert(x.end(), m.eq_data, m.eq_data + m.neq * mjNEQDATA);
     for (int e = 0; e < m.neq; ++e) x.push_back(m.eq_active[e]);
     x.push_back(static_cast<double>(s.gait()->strike_count()));
-    x.push_back(static_cast<double>(s.gait()->state()));
+    x.push_back(static_cast<double>(s.gait()->phase()));
     return x;
   };
   LiveScenario walk(LiveConfig{});
   walk.run_until(3.0);
-  controllers::TorqueGaitParams p = walk.gait()->params();
+  controllers::TorqueWalkerParams p = walk.gait()->params();
   p.pelvis_pitch_rad += 0.05;
   walk.set_gait_params(p);
   walk.run_until(12.0);
@@ -234,7 +234,7 @@ TEST_CASE("Live walk: a walker parameter edited mid-run changes the walk; saved 
   a.run_until(1.0);
   b.run_until(1.0);
   REQUIRE(bit_identical(state_of(a), state_of(b)));
-  controllers::TorqueGaitParams p = b.gait()->params();
+  controllers::TorqueWalkerParams p = b.gait()->params();
   p.pelvis_pitch_rad += 0.1;  // lean forward: the walk speeds up
   b.set_gait_params(p);
   a.run_until(3.0);
@@ -246,9 +246,9 @@ TEST_CASE("Live walk: a walker parameter edited mid-run changes the walk; saved 
 
   // The walker's JSON (biodyn walk --params) reads back to the same parameters.
   const std::string saved = b.gait_params_json();
-  controllers::TorqueGaitParams reread;
-  controllers::apply_torque_gait_json(saved, "saved.json", &reread);
-  CHECK(controllers::torque_gait_json(reread) == saved);
+  controllers::TorqueWalkerParams reread;
+  controllers::apply_torque_walker_json(saved, "saved.json", &reread);
+  CHECK(controllers::torque_walker_json(reread) == saved);
   CHECK(reread.pelvis_pitch_rad == p.pelvis_pitch_rad);
 
   // The controller parameters likewise (biodyn pose --params).

@@ -2,12 +2,13 @@
 #include <cmath>
 #include <random>
 
-#include "biodyn/controllers/character_controller.h"
+#include "biodyn/controllers/control_pipeline.h"
 #include "biodyn/controllers/controller_params.h"
 #include "biodyn/controllers/joint_groups.h"
 #include "biodyn/controllers/joint_limits.h"
 #include <nlohmann/json.hpp>
 #include "biodyn/models/mjcf.h"
+#include "biodyn/models/rig.h"
 #include "biodyn/sim/errors.h"
 #include "biodyn/sim/queries.h"
 #include "test_support.h"
@@ -31,14 +32,14 @@ sim::Model character(models::Detail detail = models::Detail::kFull) {
 TEST_CASE("Joint groups cover every actuated DOF with anatomical names", "[controllers]") {
   const sim::Model model = character();
   const mjModel& m = *model.get();
-  const std::vector<JointGroup> groups = controllers::find_joint_groups(m);
+  const std::vector<JointGroup> groups = models::find_joint_groups(m);
   int dofs = 0;
   for (const JointGroup& g : groups) dofs += g.dof_count;
   CHECK(dofs == m.nv - 6);  // everything but the free root
   for (const char* name : {"hip_l", "knee_r", "ankle_l", "toe_r", "shoulder_l", "elbow_r",
                            "wrist_l", "lumbar", "thorax", "neck", "head", "clavicle_r"}) {
     INFO(name);
-    CHECK(controllers::find_group(groups, name) >= 0);
+    CHECK(models::find_group(groups, name) >= 0);
   }
 }
 
@@ -47,7 +48,7 @@ TEST_CASE("orientation_from_angles matches MuJoCo's kinematics", "[controllers]"
   const mjModel& m = *model.get();
   sim::Data data(m);
   mjData& d = *data.get();
-  const std::vector<JointGroup> groups = controllers::find_joint_groups(m);
+  const std::vector<JointGroup> groups = models::find_joint_groups(m);
   std::mt19937 rng(7);
   std::uniform_real_distribution<double> angle(-0.6, 0.6);
   for (int trial = 0; trial < 20; ++trial) {
@@ -81,9 +82,9 @@ TEST_CASE("orientation_from_angles matches MuJoCo's kinematics", "[controllers]"
 
 TEST_CASE("Anatomical signs: hip flexion moves the knee forward on both sides", "[controllers]") {
   const sim::Model model = character();
-  const std::vector<JointGroup> groups = controllers::find_joint_groups(*model.get());
+  const std::vector<JointGroup> groups = models::find_joint_groups(*model.get());
   for (const char* hip : {"hip_l", "hip_r"}) {
-    const JointGroup& g = groups[static_cast<std::size_t>(controllers::find_group(groups, hip))];
+    const JointGroup& g = groups[static_cast<std::size_t>(models::find_group(groups, hip))];
     const Eigen::Vector3d down(0, 0, -1);
     const Eigen::Vector3d flexed = controllers::orientation_from_angles(g, {0.5, 0, 0}) * down;
     CHECK(flexed.x() > 0.4);  // thigh swings forward
@@ -94,8 +95,8 @@ TEST_CASE("Anatomical signs: hip flexion moves the knee forward on both sides", 
 
 TEST_CASE("Swing-twist split of hip orientations", "[controllers]") {
   const sim::Model model = character();
-  const std::vector<JointGroup> groups = controllers::find_joint_groups(*model.get());
-  const JointGroup& hip = groups[static_cast<std::size_t>(controllers::find_group(groups, "hip_r"))];
+  const std::vector<JointGroup> groups = models::find_joint_groups(*model.get());
+  const JointGroup& hip = groups[static_cast<std::size_t>(models::find_group(groups, "hip_r"))];
   // Pure twist and pure swing come out as such.
   const Eigen::Quaterniond twist = controllers::orientation_from_angles(hip, {0, 0, 0.4});
   const controllers::SwingTwistAngles t = controllers::swing_twist_angles(hip, twist);
@@ -118,7 +119,7 @@ TEST_CASE("Controller params: defaults from the motors, JSON overrides, clear er
           "[controllers]") {
   const sim::Model model = character();
   const mjModel& m = *model.get();
-  const std::vector<JointGroup> groups = controllers::find_joint_groups(m);
+  const std::vector<JointGroup> groups = models::find_joint_groups(m);
   controllers::ControllerParams p = controllers::default_params(m, groups);
   const int knee = m.actuator_trnid[2 * mj_name2id(&m, mjOBJ_ACTUATOR, "knee_flexion_l")];
   (void)knee;
@@ -171,15 +172,17 @@ TEST_CASE("Whole-body solve predicts MuJoCo's own accelerations, root untouched"
   for (const models::Detail detail : {models::Detail::kGait, models::Detail::kFull}) {
     sim::Simulation sim(character(detail));
     const mjModel& m = sim.model();
-    const std::vector<JointGroup> groups = controllers::find_joint_groups(m);
-    controllers::JointController ctrl(m, groups, controllers::default_params(m, groups),
+    const models::Rig rig(m);
+    const std::vector<JointGroup>& groups = rig.groups();
+    controllers::JointController ctrl(m, rig, controllers::default_params(m, groups),
                                       controllers::ControllerKind::kVelocity);
+    controllers::ControlFrame frame(rig, m.nv);
     sim.forward();
-    ctrl.reset(m, sim.data());
+    ctrl.reset(m, sim.data(), &frame);
     // Bend the knees a little so the targets ask for motion with both feet on the ground.
     for (std::size_t g = 0; g < groups.size(); ++g) {
       if (groups[g].name.rfind("knee", 0) == 0)
-        ctrl.set_target(static_cast<int>(g), controllers::orientation_from_angles(groups[g], {0.3, 0, 0}), 1.0);
+        frame.set_target(static_cast<int>(g), controllers::orientation_from_angles(groups[g], {0.3, 0, 0}), 1.0);
     }
     std::vector<mjtNum> torque(static_cast<std::size_t>(m.nv)), zero(static_cast<std::size_t>(m.nv));
     double worst = 0;
@@ -188,7 +191,7 @@ TEST_CASE("Whole-body solve predicts MuJoCo's own accelerations, root untouched"
       std::vector<mjtNum> predicted;
       bool saturated = false;
       sim.step([&](const mjModel& mm, mjData& d) {
-        const controllers::JointControlStatus st = ctrl.compute(mm, d, zero.data(), torque.data());
+        const controllers::JointControlStatus st = ctrl.compute(mm, d, frame, zero.data(), torque.data());
         saturated = st.saturated_dofs > 0;
         for (int i = 0; i < mm.nv; ++i) d.qfrc_applied[i] = torque[static_cast<std::size_t>(i)];
         predicted = ctrl.predicted_qacc();
@@ -213,21 +216,23 @@ TEST_CASE("Muscle limits hold exactly: |tau| <= tau_max and the reaction-time ra
           "[controllers]") {
   sim::Simulation sim(character(models::Detail::kGait));
   const mjModel& m = sim.model();
-  const std::vector<JointGroup> groups = controllers::find_joint_groups(m);
+  const models::Rig rig(m);
+  const std::vector<JointGroup>& groups = rig.groups();
   controllers::ControllerParams p = controllers::default_params(m, groups);
   for (auto& j : p.joints) j.reaction_time_s = 0.1;
-  controllers::JointController ctrl(m, groups, p, controllers::ControllerKind::kVelocity);
+  controllers::JointController ctrl(m, rig, p, controllers::ControllerKind::kVelocity);
+  controllers::ControlFrame frame(rig, m.nv);
   sim.forward();
-  ctrl.reset(m, sim.data());
+  ctrl.reset(m, sim.data(), &frame);
   // An unreachable demand: every joint to a far target immediately.
   for (std::size_t g = 0; g < groups.size(); ++g)
-    ctrl.set_target(static_cast<int>(g), controllers::orientation_from_angles(groups[g], {1.0, 0.3, 0.2}), 0.0);
+    frame.set_target(static_cast<int>(g), controllers::orientation_from_angles(groups[g], {1.0, 0.3, 0.2}), 0.0);
   std::vector<mjtNum> torque(static_cast<std::size_t>(m.nv)), zero(static_cast<std::size_t>(m.nv));
   std::vector<mjtNum> prev = ctrl.previous_torque();
   bool saw_saturation = false;
   for (int step = 0; step < 100; ++step) {
     sim.step([&](const mjModel& mm, mjData& d) {
-      const auto st = ctrl.compute(mm, d, zero.data(), torque.data());
+      const auto st = ctrl.compute(mm, d, frame, zero.data(), torque.data());
       saw_saturation = saw_saturation || st.saturated_dofs > 0;
       for (int i = 0; i < mm.nv; ++i) d.qfrc_applied[i] = torque[static_cast<std::size_t>(i)];
     });
@@ -250,16 +255,17 @@ TEST_CASE("Glue weld goes into tension when the body is lifted; honest does not"
        {controllers::WeldMode::kGlue, controllers::WeldMode::kHonest}) {
     sim::Simulation sim(character(models::Detail::kGait));
     const mjModel& m = sim.model();
-    const auto groups = controllers::find_joint_groups(m);
-    controllers::CharacterControllerConfig cfg;
+    const models::Rig rig(m);
+    const auto& groups = rig.groups();
+    controllers::ControlPipelineConfig cfg;
     cfg.weld.mode = mode;
-    controllers::CharacterController ctrl(&sim, controllers::default_params(m, groups), cfg);
+    controllers::ControlPipeline ctrl(&sim, rig, controllers::default_params(m, groups), cfg);
     ctrl.reset();
     ctrl.set_pose(controllers::pose_scenario("stand", groups, 0).front());
     double mass = 0;
     for (int b = 0; b < m.nbody; ++b) mass += m.body_mass[b];
     // Lift with 1.5x body weight on the pelvis from t = 0.5 s for 0.3 s.
-    sim.schedule_push({mj_name2id(&m, mjOBJ_BODY, "pelvis"), Eigen::Vector3d(0, 0, 1.5 * mass * 9.81), 0.5, 0.3});
+    sim.schedule_push({rig.pelvis(), Eigen::Vector3d(0, 0, 1.5 * mass * 9.81), 0.5, 0.3});
     int tension = 0, welded_before_lift = 0;
     for (int step = 0; step < 500; ++step) {
       const controllers::StepReport r = ctrl.step();
@@ -287,13 +293,14 @@ TEST_CASE("Sparse and dense constraint Jacobians give the same control and weld 
   sim::Simulation dense(testing::load_inline(models::to_mjcf(c, dense_options)));
   REQUIRE(mj_isSparse(&sparse.model()));
   REQUIRE_FALSE(mj_isSparse(&dense.model()));
-  const auto groups = controllers::find_joint_groups(sparse.model());
-  controllers::CharacterControllerConfig cfg;
+  const models::Rig rig_sparse(sparse.model()), rig_dense(dense.model());
+  const auto& groups = rig_sparse.groups();
+  controllers::ControlPipelineConfig cfg;
   cfg.weld.mode = controllers::WeldMode::kGlue;
-  controllers::CharacterController a(&sparse, controllers::default_params(sparse.model(), groups), cfg);
-  controllers::CharacterController b(&dense, controllers::default_params(dense.model(), groups), cfg);
+  controllers::ControlPipeline a(&sparse, rig_sparse, controllers::default_params(sparse.model(), groups), cfg);
+  controllers::ControlPipeline b(&dense, rig_dense, controllers::default_params(dense.model(), groups), cfg);
   const controllers::Pose squat = controllers::pose_scenario("squat", groups, 0).front();
-  for (controllers::CharacterController* ctrl : {&a, &b}) {
+  for (controllers::ControlPipeline* ctrl : {&a, &b}) {
     ctrl->reset_in_pose(controllers::pose_scenario("stand", groups, 0).front());
     ctrl->set_pose(squat);
   }
@@ -321,8 +328,8 @@ TEST_CASE("Sparse and dense constraint Jacobians give the same control and weld 
 TEST_CASE("Hinge targets are clamped inside the joint stops; ball joints are left alone",
           "[controllers]") {
   const sim::Model model = character();
-  const std::vector<JointGroup> groups = controllers::find_joint_groups(*model.get());
-  const JointGroup& knee = groups[static_cast<std::size_t>(controllers::find_group(groups, "knee_l"))];
+  const std::vector<JointGroup> groups = models::find_joint_groups(*model.get());
+  const JointGroup& knee = groups[static_cast<std::size_t>(models::find_group(groups, "knee_l"))];
   REQUIRE(knee.range_rad.size() == 1);
   const double margin = 2 * kDeg;
   CHECK(controllers::clamp_to_range(knee, Eigen::Vector3d(-0.3, 0, 0), margin)[0] ==
@@ -330,7 +337,7 @@ TEST_CASE("Hinge targets are clamped inside the joint stops; ball joints are lef
   CHECK(controllers::clamp_to_range(knee, Eigen::Vector3d(9, 0, 0), margin)[0] ==
         Approx(knee.range_rad[0][1] - margin));
   CHECK(controllers::clamp_to_range(knee, Eigen::Vector3d(1, 0, 0), margin)[0] == 1);
-  const JointGroup& hip = groups[static_cast<std::size_t>(controllers::find_group(groups, "hip_l"))];
+  const JointGroup& hip = groups[static_cast<std::size_t>(models::find_group(groups, "hip_l"))];
   CHECK(controllers::clamp_to_range(hip, Eigen::Vector3d(9, 9, 9), margin) == Eigen::Vector3d(9, 9, 9));
 }
 
@@ -339,16 +346,17 @@ TEST_CASE("place_in_pose: feet flat at rest height, CoM over the support point, 
   sim::Simulation sim(character());
   const mjModel& m = sim.model();
   mjData& d = sim.data();
-  const std::vector<JointGroup> groups = controllers::find_joint_groups(m);
-  const int foot[2] = {mj_name2id(&m, mjOBJ_BODY, "foot_l"), mj_name2id(&m, mjOBJ_BODY, "foot_r")};
-  const controllers::Sole sole = controllers::find_sole(m, foot[0]);
+  const models::Rig rig(m);
+  const std::vector<JointGroup>& groups = rig.groups();
+  const int foot[2] = {rig.leg(models::kLeft).foot, rig.leg(models::kRight).foot};
+  const models::Sole& sole = rig.leg(models::kLeft).sole;
   const double rest_sole_z = d.xpos[3 * foot[0] + 2] + sole.z;  // after reset: qpos0
   for (const std::string scenario : {"stand", "squat"}) {
     const std::vector<controllers::Pose> poses = controllers::pose_scenario(scenario, groups, 0);
     const controllers::Pose& pose = scenario == "stand" ? poses[0] : poses[1];  // squat: down
     controllers::BalanceParams balance;
     sim.reset();
-    const double lean = controllers::place_in_pose(m, d, groups, pose, balance);
+    const double lean = controllers::place_in_pose(m, d, rig, pose, balance);
     INFO(scenario << ", lean " << lean);
     CHECK(std::abs(lean) < balance.max_tilt_rad);
     double support_x = 0;

@@ -4,11 +4,13 @@
 #include <nlohmann/json.hpp>
 #include <random>
 
-#include "biodyn/controllers/character_controller.h"
-#include "biodyn/controllers/gait_controller.h"
-#include "biodyn/controllers/gait_params.h"
+#include "biodyn/controllers/control_pipeline.h"
+#include "biodyn/controllers/gait_core.h"
 #include "biodyn/controllers/motion_tracker.h"
+#include "biodyn/controllers/velocity_walker.h"
+#include "biodyn/controllers/velocity_walker_params.h"
 #include "biodyn/models/mjcf.h"
+#include "biodyn/models/rig.h"
 #include "biodyn/sim/errors.h"
 #include "test_support.h"
 
@@ -31,9 +33,11 @@ struct JointsAtRest {
         m(*model.get()),
         data(m),
         d(*data.get()),
-        groups((mj_forward(&m, &d), controllers::find_joint_groups(m))),
-        joints(m, groups, params(m, groups, reaction_time_s), controllers::ControllerKind::kVelocity) {
-    joints.reset(m, d);
+        rig((mj_forward(&m, &d), m)),
+        groups(rig.groups()),
+        joints(m, rig, params(m, groups, reaction_time_s), controllers::ControllerKind::kVelocity),
+        frame(rig, m.nv) {
+    joints.reset(m, d, &frame);
   }
   static controllers::ControllerParams params(const mjModel& mm, const std::vector<controllers::JointGroup>& g,
                                               double reaction_time_s) {
@@ -46,8 +50,10 @@ struct JointsAtRest {
   const mjModel& m;
   sim::Data data;
   mjData& d;
-  std::vector<controllers::JointGroup> groups;
+  models::Rig rig;
+  const std::vector<controllers::JointGroup>& groups;
   controllers::JointController joints;
+  controllers::ControlFrame frame;
 };
 
 }  // namespace
@@ -98,28 +104,28 @@ TEST_CASE("The base-polygon step puts the CoM on the new tolerance edge (paper 4
 }
 
 TEST_CASE("Gait parameters round-trip through JSON and reject bad input by name", "[gait]") {
-  const controllers::GaitParams defaults = controllers::default_gait_params();
+  const controllers::VelocityWalkerParams defaults = controllers::default_velocity_walker_params();
   REQUIRE_NOTHROW(defaults.validate());
-  const nlohmann::json j = controllers::gait_to_json(defaults);
-  controllers::GaitParams back;
-  back.states.clear();
-  controllers::apply_gait_json(j.dump(), "test.json", &back);
-  CHECK(controllers::gait_to_json(back) == j);
+  const nlohmann::json j = controllers::velocity_walker_json(defaults);
+  controllers::VelocityWalkerParams back;
+  back.phases.clear();
+  controllers::apply_velocity_walker_json(j.dump(), "test.json", &back);
+  CHECK(controllers::velocity_walker_json(back) == j);
 
-  controllers::GaitParams p = defaults;
-  controllers::apply_gait_json(R"({"placement": {"capture_gain": 1.3}})", "g.json", &p);
+  controllers::VelocityWalkerParams p = defaults;
+  controllers::apply_velocity_walker_json(R"({"placement": {"capture_gain": 1.3}})", "g.json", &p);
   CHECK(p.placement.capture_gain == 1.3);
-  CHECK(p.states.size() == defaults.states.size());
-  controllers::apply_gait_json(R"({"compliance": {"stance_knee": 2.5}, "placement": {"swing_clearance_m": 0.08}})",
+  CHECK(p.phases.size() == defaults.phases.size());
+  controllers::apply_velocity_walker_json(R"({"compliance": {"stance_knee": 2.5}, "placement": {"swing_clearance_m": 0.08}})",
                                "g.json", &p);
   CHECK(p.compliance.stance_knee == 2.5);
   CHECK(p.placement.swing_clearance_m == 0.08);
 
   const auto fails = [&](const std::string& text, const std::string& expected) {
-    controllers::GaitParams q = defaults;
+    controllers::VelocityWalkerParams q = defaults;
     INFO(text);
-    CHECK_THROWS_WITH(controllers::apply_gait_json(text, "g.json", &q), Contains(expected));
-    CHECK(controllers::gait_to_json(q) == j);  // untouched on error
+    CHECK_THROWS_WITH(controllers::apply_velocity_walker_json(text, "g.json", &q), Contains(expected));
+    CHECK(controllers::velocity_walker_json(q) == j);  // untouched on error
   };
   fails(R"({"placement": {"capture_gian": 1}})", "g.json.placement.capture_gian: unknown key");
   fails(R"({"placement": {"capture_gain": "big"}})", "g.json.placement.capture_gain: must be a number");
@@ -135,16 +141,18 @@ TEST_CASE("Gait parameters round-trip through JSON and reject bad input by name"
 }
 
 TEST_CASE("A torque window narrows one DOF's torque for one step", "[gait]") {
-  JointsAtRest rig;
-  const mjModel& m = rig.m;
-  mjData& d = rig.d;
-  const std::vector<controllers::JointGroup>& groups = rig.groups;
-  controllers::JointController& joints = rig.joints;
-  const int dof = groups[static_cast<std::size_t>(controllers::find_group(groups, "knee_l"))].dof_begin;
+  JointsAtRest at_rest;
+  const mjModel& m = at_rest.m;
+  mjData& d = at_rest.d;
+  const std::vector<controllers::JointGroup>& groups = at_rest.groups;
+  controllers::JointController& joints = at_rest.joints;
+  controllers::ControlFrame& frame = at_rest.frame;
+  const int dof = groups[static_cast<std::size_t>(models::find_group(groups, "knee_l"))].dof_begin;
   std::vector<mjtNum> zero(static_cast<std::size_t>(m.nv), 0.0), torque(static_cast<std::size_t>(m.nv));
   mj_step1(&m, &d);
-  joints.limit_torque_once(dof, 3.0, 4.0);
-  joints.compute(m, d, zero.data(), torque.data());
+  frame.begin_step();
+  frame.limit_torque(dof, 3.0, 4.0);
+  joints.compute(m, d, frame, zero.data(), torque.data());
   CHECK(torque[static_cast<std::size_t>(dof)] >= 3.0 - 1e-9);
   CHECK(torque[static_cast<std::size_t>(dof)] <= 4.0 + 1e-9);
   // A window the muscle cannot reach this step (rate limit): the nearest reachable torque.
@@ -152,51 +160,54 @@ TEST_CASE("A torque window narrows one DOF's torque for one step", "[gait]") {
   const double prev = joints.previous_torque()[static_cast<std::size_t>(dof)];
   const double rate = joints.tau_max()[static_cast<std::size_t>(dof)] * m.opt.timestep /
                       joints.params().joints[0].reaction_time_s;
-  joints.limit_torque_once(dof, prev + 10 * rate, prev + 20 * rate);
-  joints.compute(m, d, zero.data(), torque.data());
+  frame.begin_step();
+  frame.limit_torque(dof, prev + 10 * rate, prev + 20 * rate);
+  joints.compute(m, d, frame, zero.data(), torque.data());
   CHECK(torque[static_cast<std::size_t>(dof)] == Approx(prev + rate));
-  // Only once: the next compute is free of it again.
-  joints.compute(m, d, zero.data(), torque.data());
+  // For one step: the next step's frame is free of it again.
+  frame.begin_step();
+  joints.compute(m, d, frame, zero.data(), torque.data());
   CHECK(torque[static_cast<std::size_t>(dof)] != Approx(prev + rate));
 }
 
 TEST_CASE("The gait driver runs its states on time and sets the tabled targets", "[gait]") {
   sim::Simulation sim(character());
-  const std::vector<controllers::JointGroup> groups = controllers::find_joint_groups(sim.model());
-  controllers::CharacterController ctrl(&sim, controllers::default_params(sim.model(), groups), {});
+  const models::Rig rig(sim.model());
+  const std::vector<controllers::JointGroup>& groups = rig.groups();
+  controllers::ControlPipeline ctrl(&sim, rig, controllers::default_params(sim.model(), groups), {});
   ctrl.reset_in_pose(controllers::pose_scenario("stand", groups, 0).front());
-  controllers::GaitParams params = controllers::default_gait_params();
-  controllers::GaitController gait(sim.model(), groups, params);
+  controllers::VelocityWalkerParams params = controllers::default_velocity_walker_params();
+  controllers::VelocityWalker gait(sim.model(), rig, params);
   controllers::GaitCommand command;
   command.speed_m_s = 0.0;
   gait.set_command(command);
   gait.reset(sim.model(), sim.data());
   ctrl.set_driver(&gait);
   // From standing the first state is the lift of the right foot (left in stance).
-  REQUIRE(gait.state_name() == "lift");
+  REQUIRE(gait.phase_name() == "lift");
   CHECK(gait.stance_side() == 0);
   ctrl.step();
-  const int knee_r = controllers::find_group(groups, "knee_r");
+  const int knee_r = models::find_group(groups, "knee_r");
   const Eigen::Quaterniond want = controllers::orientation_from_angles(
-      groups[static_cast<std::size_t>(knee_r)], params.states[1].targets_rad.at("swing_knee"));
-  CHECK(controllers::rotation_angle(ctrl.joints().target(knee_r).orientation.conjugate() * want) < 1e-9);
+      groups[static_cast<std::size_t>(knee_r)], params.phases[1].targets_rad.at("swing_knee"));
+  CHECK(controllers::rotation_angle(ctrl.frame().target(knee_r).orientation.conjugate() * want) < 1e-9);
   // The right foot is released (swing), the left wanted in stance.
   CHECK_FALSE(ctrl.welds().stance(1));
   CHECK(ctrl.welds().stance(0));
   // The lift lasts its duration scaled to the cadence at this speed, then the swing starts.
-  const double lift = params.states[1].duration_s * params.posture.reference_cadence_steps_per_min /
+  const double lift = params.phases[1].duration_s * params.posture.reference_cadence_steps_per_min /
                       params.cadence(0.0);
   while (sim.data().time < lift - 1e-9) ctrl.step();
   ctrl.step();
-  CHECK(gait.state_name() == "swing");
+  CHECK(gait.phase_name() == "swing");
 }
 
 TEST_CASE("The gait driver names a target role the model does not have", "[gait]") {
   const sim::Model model = character();
-  const std::vector<controllers::JointGroup> groups = controllers::find_joint_groups(*model.get());
-  controllers::GaitParams params = controllers::default_gait_params();
-  params.states[0].targets_rad["swing_tail"] = Eigen::Vector3d::Zero();
-  CHECK_THROWS_WITH(controllers::GaitController(*model.get(), groups, params),
+  const models::Rig rig(*model.get());
+  controllers::VelocityWalkerParams params = controllers::default_velocity_walker_params();
+  params.phases[0].targets_rad["swing_tail"] = Eigen::Vector3d::Zero();
+  CHECK_THROWS_WITH(controllers::VelocityWalker(*model.get(), rig, params),
                     Contains("targets_deg.swing_tail: the model has no joint 'tail_r'"));
 }
 
@@ -207,24 +218,27 @@ TEST_CASE("Torque-specified DOFs: the solve holds them, converges and predicts m
   testing::MujocoWarningGuard guard;
   sim::Simulation sim(character());
   const mjModel& m = sim.model();
-  const std::vector<controllers::JointGroup> groups = controllers::find_joint_groups(m);
-  controllers::JointController joints(m, groups, controllers::default_params(m, groups),
+  const models::Rig rig(m);
+  const std::vector<controllers::JointGroup>& groups = rig.groups();
+  controllers::JointController joints(m, rig, controllers::default_params(m, groups),
                                       controllers::ControllerKind::kVelocity);
+  controllers::ControlFrame frame(rig, m.nv);
   sim.forward();
-  joints.reset(m, sim.data());
+  joints.reset(m, sim.data(), &frame);
   std::vector<int> springs;
   for (const char* name : {"knee_l", "ankle_l", "hip_r", "knee_r", "ankle_r"})
-    springs.push_back(controllers::find_group(groups, name));
-  const int hip_l = controllers::find_group(groups, "hip_l");
-  joints.set_target(hip_l, controllers::orientation_from_angles(groups[static_cast<std::size_t>(hip_l)], {0.2, 0, 0}), 0.5);
+    springs.push_back(models::find_group(groups, name));
+  const int hip_l = models::find_group(groups, "hip_l");
+  frame.set_target(hip_l, controllers::orientation_from_angles(groups[static_cast<std::size_t>(hip_l)], {0.2, 0, 0}), 0.5);
   std::vector<mjtNum> zero(static_cast<std::size_t>(m.nv), 0.0), torque(static_cast<std::size_t>(m.nv));
   double worst = 0;
   for (int step = 0; step < 100; ++step) {
     std::vector<mjtNum> predicted, expected(static_cast<std::size_t>(m.nv), 0.0);
     controllers::JointControlStatus st;
     sim.step([&](const mjModel& mm, mjData& d) {
-      for (const int g : springs) joints.set_compliant_once(g, 400.0, 40.0);
-      st = joints.compute(mm, d, zero.data(), torque.data());
+      frame.begin_step();
+      for (const int g : springs) frame.set_spring(g, 400.0, 40.0);
+      st = joints.compute(mm, d, frame, zero.data(), torque.data());
       predicted = joints.predicted_qacc();
       for (int i = 0; i < mm.nv; ++i) d.qfrc_applied[i] = torque[static_cast<std::size_t>(i)];
     });
@@ -238,12 +252,13 @@ TEST_CASE("Torque-specified DOFs: the solve holds them, converges and predicts m
 }
 
 TEST_CASE("A compliant group gets its spring-damper torque for one step", "[gait]") {
-  JointsAtRest rig(1.0);  // a slow reaction-time ramp the test can see
-  const mjModel& m = rig.m;
-  mjData& d = rig.d;
-  const std::vector<controllers::JointGroup>& groups = rig.groups;
-  controllers::JointController& joints = rig.joints;
-  const int knee = controllers::find_group(groups, "knee_l");
+  JointsAtRest at_rest(1.0);  // a slow reaction-time ramp the test can see
+  const mjModel& m = at_rest.m;
+  mjData& d = at_rest.d;
+  const std::vector<controllers::JointGroup>& groups = at_rest.groups;
+  controllers::JointController& joints = at_rest.joints;
+  controllers::ControlFrame& frame = at_rest.frame;
+  const int knee = models::find_group(groups, "knee_l");
   const int dof = groups[static_cast<std::size_t>(knee)].dof_begin;
   const auto k = static_cast<std::size_t>(dof);
   d.qvel[dof] = 0.2;
@@ -256,38 +271,44 @@ TEST_CASE("A compliant group gets its spring-damper torque for one step", "[gait
   const double spring = prev + 0.5 * rate;
   const double e = d.qpos[m.jnt_qposadr[m.dof_jntid[dof]]];
   const double target = e + (spring + kd * 0.2) / kp;
-  joints.set_target(knee, controllers::orientation_from_angles(groups[static_cast<std::size_t>(knee)], {target, 0, 0}), 1.0);
-  joints.set_compliant_once(knee, kp, kd);
-  joints.compute(m, d, zero.data(), torque.data());
+  frame.set_target(knee, controllers::orientation_from_angles(groups[static_cast<std::size_t>(knee)], {target, 0, 0}), 1.0);
+  frame.begin_step();
+  frame.set_spring(knee, kp, kd);
+  joints.compute(m, d, frame, zero.data(), torque.data());
   CHECK(torque[k] == Approx(spring).margin(1e-6));
   // Stiff gains: held to the reaction-time ramp.
-  joints.set_compliant_once(knee, 1e5, 0.0);
-  joints.compute(m, d, zero.data(), torque.data());
+  frame.begin_step();
+  frame.set_spring(knee, 1e5, 0.0);
+  joints.compute(m, d, frame, zero.data(), torque.data());
   CHECK(torque[k] == Approx(prev + rate));
-  // Once only: without a new call the next compute prescribes the knee's acceleration
+  // For one step: without a new command the next step prescribes the knee's acceleration
   // again, and the whole-body solve asks for another torque than the spring's.
-  joints.compute(m, d, zero.data(), torque.data());
+  frame.begin_step();
+  joints.compute(m, d, frame, zero.data(), torque.data());
   CHECK(torque[k] != Approx(spring).margin(1e-6));
 }
 
 TEST_CASE("A velocity wish replaces w = theta v / t for one step", "[gait]") {
-  JointsAtRest rig;
-  const mjModel& m = rig.m;
-  mjData& d = rig.d;
-  const std::vector<controllers::JointGroup>& groups = rig.groups;
-  controllers::JointController& joints = rig.joints;
-  const int hip = controllers::find_group(groups, "hip_r");
+  JointsAtRest at_rest;
+  const mjModel& m = at_rest.m;
+  mjData& d = at_rest.d;
+  const std::vector<controllers::JointGroup>& groups = at_rest.groups;
+  controllers::JointController& joints = at_rest.joints;
+  controllers::ControlFrame& frame = at_rest.frame;
+  const int hip = models::find_group(groups, "hip_r");
   const int dof = groups[static_cast<std::size_t>(hip)].dof_begin;
   mj_step1(&m, &d);
   std::vector<mjtNum> zero(static_cast<std::size_t>(m.nv), 0.0), torque(static_cast<std::size_t>(m.nv));
   const Eigen::Vector3d w(0.3, -0.2, 0.1);
-  joints.set_velocity_once(hip, w);
-  joints.compute(m, d, zero.data(), torque.data());
+  frame.begin_step();
+  frame.set_velocity(hip, w);
+  joints.compute(m, d, frame, zero.data(), torque.data());
   const double horizon = joints.params().velocity_horizon_s;
   for (int k = 0; k < 3; ++k)
     CHECK(joints.desired_qacc()[static_cast<std::size_t>(dof + k)] == Approx((w[k] - d.qvel[dof + k]) / horizon));
   // At rest on target the next step asks for nothing.
-  joints.compute(m, d, zero.data(), torque.data());
+  frame.begin_step();
+  joints.compute(m, d, frame, zero.data(), torque.data());
   for (int k = 0; k < 3; ++k) CHECK(joints.desired_qacc()[static_cast<std::size_t>(dof + k)] == Approx(0.0).margin(1e-9));
 }
 
@@ -306,7 +327,8 @@ TEST_CASE("Tracked motion: a standing capture that jitters by centimetres betwee
     for (int k = 0; k < m.nq; ++k) qpos(f, k) = m.qpos0[k];
     qpos(f, 0) += (f % 2 == 0 ? 0.0075 : -0.0075);
   }
-  const controllers::TrackedMotion still = controllers::make_tracked_motion(m, times, qpos);
+  const models::Rig rig(m);
+  const controllers::TrackedMotion still = controllers::make_tracked_motion(m, rig, times, qpos);
   for (int f = 0; f < n; ++f) {
     INFO("frame " << f);
     CHECK(still.stance[static_cast<std::size_t>(f)][0]);
@@ -314,7 +336,7 @@ TEST_CASE("Tracked motion: a standing capture that jitters by centimetres betwee
   }
   // A foot that really moves is not in stance: the whole body gliding at 1 m/s.
   for (int f = 0; f < n; ++f) qpos(f, 0) = m.qpos0[0] + times[static_cast<std::size_t>(f)] * 1.0;
-  const controllers::TrackedMotion glide = controllers::make_tracked_motion(m, times, qpos);
+  const controllers::TrackedMotion glide = controllers::make_tracked_motion(m, rig, times, qpos);
   CHECK_FALSE(glide.stance[60][0]);
   CHECK_FALSE(glide.stance[60][1]);
 }

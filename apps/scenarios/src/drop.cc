@@ -5,6 +5,7 @@
 #include <sstream>
 #include <string>
 
+#include "biodyn/models/rig.h"
 #include "biodyn/sim/errors.h"
 #include "biodyn/sim/queries.h"
 
@@ -49,8 +50,9 @@ DropResult run_drop(sim::Simulation* sim, const DropParams& params,
   mju_zero(d.ctrl, m.nu);
   sim->forward();
   DropResult r;
-  const int pelvis = mj_name2id(&m, mjOBJ_BODY, "pelvis");
-  if (pelvis < 0) throw sim::InvalidArgument("drop: the model has no body named 'pelvis'");
+  const models::Rig rig(m);
+  rig.require_root("drop");
+  const int pelvis = rig.pelvis();
   r.pelvis_height_start_m = d.xpos[3 * pelvis + 2];
   r.com_height_start_m = sim::center_of_mass(m, d).position_W.z();
   r.com_height_min_m = r.com_height_start_m;

@@ -5,30 +5,19 @@
 
 #include <mujoco/mujoco.h>
 
-#include <string>
-#include <vector>
+#include "biodyn/models/rig.h"
 
 namespace biodyn::scenarios {
 
 class FallWatch {
  public:
   /// Reads the pelvis start height from `d` (positions computed).
-  FallWatch(const mjModel& m, const mjData& d, double pelvis_fraction)
-      : pelvis_(mj_name2id(&m, mjOBJ_BODY, "pelvis")),
-        floor_(mj_name2id(&m, mjOBJ_GEOM, "floor")),
-        fraction_(pelvis_fraction),
-        foot_body_(static_cast<std::size_t>(m.nbody), false) {
-    for (int b = 0; b < m.nbody; ++b) {
-      const char* n = mj_id2name(&m, mjOBJ_BODY, b);
-      foot_body_[static_cast<std::size_t>(b)] = n && is_foot_body(n);
-    }
+  FallWatch(const mjData& d, const models::Rig& rig, double pelvis_fraction)
+      : rig_(&rig), pelvis_(rig.pelvis()), floor_(rig.floor_geom()), fraction_(pelvis_fraction) {
     pelvis_start_ = pelvis_ >= 0 ? d.xpos[3 * pelvis_ + 2] : 0;
   }
 
-  static bool is_foot_body(const std::string& name) {
-    return name.rfind("foot_", 0) == 0 || name.rfind("toes_", 0) == 0;
-  }
-  bool foot_body(int body) const { return foot_body_[static_cast<std::size_t>(body)]; }
+  bool foot_body(int body) const { return rig_->is_foot_part(body); }
   int floor_geom() const { return floor_; }
   double pelvis_start_height() const { return pelvis_start_; }
 
@@ -44,9 +33,9 @@ class FallWatch {
   }
 
  private:
+  const models::Rig* rig_;
   int pelvis_ = -1, floor_ = -1;
   double fraction_ = 0.7, pelvis_start_ = 0;
-  std::vector<bool> foot_body_;
 };
 
 }  // namespace biodyn::scenarios

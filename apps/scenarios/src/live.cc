@@ -44,8 +44,8 @@ constexpr double kFallenPelvisFraction = 0.7;
 struct LiveScenario::Checkpoint {
   long step = -1;  // -1: free (or dropped by a new edit)
   sim::Simulation::Checkpoint sim;
-  std::optional<controllers::CharacterController> controller;
-  std::optional<controllers::TorqueGait> gait;
+  controllers::ControlState controller;
+  controllers::TorqueWalkerState gait;
   RunState run;
 };
 
@@ -86,7 +86,7 @@ void LiveConfig::validate() const {
   if (!steps_m.empty() && scenario != "stones") {
     throw sim::InvalidArgument("steps: only the stones scenario walks planned steps");
   }
-  controllers::TorqueGait::validate_plan(steps_m);
+  controllers::TorqueWalker::validate_plan(steps_m);
   if (!(steps_start_s >= 0) || !std::isfinite(steps_start_s)) {
     throw sim::InvalidArgument("steps start: must be a time >= 0 s, got " + std::to_string(steps_start_s));
   }
@@ -102,25 +102,24 @@ LiveScenario::LiveScenario(LiveConfig config) {
   sim_ = std::make_unique<sim::Simulation>(
       sim::Model::from_string(models::to_mjcf(character), "generated character"));
   const mjModel& m = sim_->model();
-  groups_ = controllers::find_joint_groups(m);
-  run_.controller_params = controllers::default_params(m, groups_);
+  rig_ = std::make_unique<models::Rig>(m);
+  const std::vector<controllers::JointGroup>& groups = rig_->groups();
+  run_.controller_params = controllers::default_params(m, groups);
   if (!run_.config.controller_json.empty()) {
     controllers::apply_params_file_json(run_.config.controller_json, run_.config.controller_source,
-                                        groups_, m.opt.timestep, &run_.controller_params);
+                                        groups, m.opt.timestep, &run_.controller_params);
   }
   if (!run_.config.gait_json.empty()) {
-    controllers::apply_torque_gait_json(run_.config.gait_json, run_.config.gait_source, &run_.gait_params);
+    controllers::apply_torque_walker_json(run_.config.gait_json, run_.config.gait_source, &run_.gait_params);
   }
   if (run_.config.scenario == "mocap") {
     load_motion(m);
-    if (run_.config.track) tracked_ = controllers::make_tracked_motion(m, playback_t_, playback_);
+    if (run_.config.track) tracked_ = controllers::make_tracked_motion(m, *rig_, playback_t_, playback_);
   }
   initial_config_ = run_.config;
   initial_controller_params_ = run_.controller_params;
   initial_gait_params_ = run_.gait_params;
   stones_ = run_.config.scenario == "stones";
-  foot_body_[0] = mj_name2id(&m, mjOBJ_BODY, "foot_l");
-  foot_body_[1] = mj_name2id(&m, mjOBJ_BODY, "foot_r");
   checkpoint_every_ = std::max(1L, std::lround(kCheckpointInterval_s / m.opt.timestep));
   for (int i = 0; i < kCheckpoints; ++i) checkpoints_.push_back(std::make_unique<Checkpoint>());
   build();
@@ -213,13 +212,14 @@ void LiveScenario::build() {
   ctrl_.reset();
   sim_->reset();
   const mjModel& m = sim_->model();
-  controllers::CharacterControllerConfig cc;
+  controllers::ControlPipelineConfig cc;
   cc.weld.mode = run_.config.weld;
-  ctrl_ = std::make_unique<controllers::CharacterController>(sim_.get(), run_.controller_params, cc);
+  ctrl_ = std::make_unique<controllers::ControlPipeline>(sim_.get(), *rig_, run_.controller_params, cc);
+  const std::vector<controllers::JointGroup>& groups = rig_->groups();
   if (run_.config.scenario == "walk" || run_.config.scenario == "stones") {
-    poses_ = controllers::pose_scenario("stand", groups_, 0);
+    poses_ = controllers::pose_scenario("stand", groups, 0);
     ctrl_->reset_in_pose(poses_.front());
-    gait_ = std::make_unique<controllers::TorqueGait>(m, groups_, run_.gait_params);
+    gait_ = std::make_unique<controllers::TorqueWalker>(*rig_, run_.gait_params);
     gait_->reset(sim_->data());
     gait_->set_speed(run_.config.speed_m_s);
     gait_->set_heading_rate(run_.config.heading_rate_deg_s * kRadPerDeg);
@@ -230,7 +230,7 @@ void LiveScenario::build() {
     run_.playback_time_s = 0;
     show_playback_frame();
   } else {
-    poses_ = controllers::pose_scenario(run_.config.scenario, groups_, 0);
+    poses_ = controllers::pose_scenario(run_.config.scenario, groups, 0);
     ctrl_->reset_in_pose(poses_.front());
   }
   run_.pose_index = 0;
@@ -241,7 +241,7 @@ void LiveScenario::build() {
   run_.strikes_seen = 0;
   run_.tracking_stats = TrackingStats{};
   run_.fell_at_s = -1;
-  fall_ = std::make_unique<FallWatch>(sim_->model(), sim_->data(), kFallenPelvisFraction);
+  fall_ = std::make_unique<FallWatch>(sim_->data(), *rig_, kFallenPelvisFraction);
 }
 
 void LiveScenario::start_tracking() {
@@ -260,7 +260,7 @@ void LiveScenario::start_tracking() {
   mj_differentiatePos(&m, d.qvel, tracked_.times_s[f1] - tracked_.times_s[0], q0.data(), q1.data());
   mj_forward(&m, &d);
   ctrl_->reset();
-  tracker_ = std::make_unique<controllers::MotionTracker>(m, groups_, &tracked_, run_.config.tracker);
+  tracker_ = std::make_unique<controllers::MotionTracker>(m, *rig_, &tracked_, run_.config.tracker);
   ctrl_->set_driver(tracker_.get());
 }
 
@@ -338,10 +338,10 @@ void LiveScenario::step() {
 void LiveScenario::track_stones() {
   // As run_walk: the plan starts at the first strike at or after steps_start_s; each strike
   // ends one planned step (its length walked) and begins the next swing.
-  const controllers::TorqueGait& g = *gait_;
+  const controllers::TorqueWalker& g = *gait_;
   if (g.strike_count() != run_.strikes_seen) {
     run_.strikes_seen = g.strike_count();
-    const controllers::TorqueGaitStrike& st = g.last_strike();
+    const controllers::TorqueWalkerStrike& st = g.last_strike();
     if (!std::isnan(st.target_length_m) && !run_.stones.empty() && std::isnan(run_.stones.back().walked_m)) {
       run_.stones.back().walked_m = st.step_length_m;
     }
@@ -358,13 +358,13 @@ void LiveScenario::track_stones() {
   // heading by the planned length, across as far as the swing ankle was when the swing began.
   const mjData& d = sim_->data();
   const int swing = 1 - g.stance_side();
-  const int stance_body = foot_body_[g.stance_side()];
+  const int stance_body = rig_->leg(g.stance_side()).foot;
   const Eigen::Vector2d stance(d.xpos[3 * stance_body], d.xpos[3 * stance_body + 1]);
   const Eigen::Vector2d along(std::cos(g.heading_rad()), std::sin(g.heading_rad()));
   const Eigen::Vector2d across(-along.y(), along.x());
   if (run_.stone_pending) {
     run_.stone_pending = false;
-    const int swing_body = foot_body_[swing];
+    const int swing_body = rig_->leg(swing).foot;
     const Eigen::Vector2d swing_at(d.xpos[3 * swing_body], d.xpos[3 * swing_body + 1]);
     LiveStone stone;
     stone.side = swing;
@@ -388,25 +388,19 @@ void LiveScenario::save_checkpoint() {
   Checkpoint& c = *slot;
   c.step = run_.steps;
   sim_->save(&c.sim);
-  if (c.controller) {
-    *c.controller = *ctrl_;
-  } else {
-    c.controller.emplace(*ctrl_);
-  }
-  if (gait_) {
-    if (c.gait) {
-      *c.gait = *gait_;
-    } else {
-      c.gait.emplace(*gait_);
-    }
-  }
+  c.controller = ctrl_->state();
+  if (gait_) c.gait = gait_->state();
   c.run = run_;
 }
 
 void LiveScenario::restore_checkpoint(const Checkpoint& c) {
+  // The parameters of that moment first (the edits logged before it), then its state.
+  ctrl_->set_params(c.run.controller_params);
+  ctrl_->set_weld_mode(c.run.config.weld);
+  if (gait_) gait_->set_params(c.run.gait_params);
   sim_->restore(c.sim);
-  ctrl_->restore_state(*c.controller);
-  if (gait_) *gait_ = *c.gait;
+  ctrl_->restore(c.controller);
+  if (gait_) gait_->restore(c.gait);
   run_ = c.run;
 }
 
@@ -445,7 +439,7 @@ void LiveScenario::set_controller_params(const controllers::ControllerParams& pa
   });
 }
 
-void LiveScenario::set_gait_params(const controllers::TorqueGaitParams& params) {
+void LiveScenario::set_gait_params(const controllers::TorqueWalkerParams& params) {
   if (!gait_) throw sim::InvalidArgument("walker parameters: the scenario does not walk");
   params.validate();
   record([params](LiveScenario& s) {
@@ -481,7 +475,7 @@ void LiveScenario::set_weld_mode(controllers::WeldMode mode) {
 
 void LiveScenario::push(const std::string& body, const Eigen::Vector3d& force_W, double duration_s) {
   if (playback()) throw sim::InvalidArgument("push: the mocap scenario plays its motion kinematically");
-  const int id = mj_name2id(&sim_->model(), mjOBJ_BODY, body.c_str());
+  const int id = rig_->body(body);
   if (id < 0) throw sim::InvalidArgument("push body: no body named '" + body + "'");
   if (!(duration_s > 0) || !std::isfinite(duration_s) || !force_W.allFinite()) {
     throw sim::InvalidArgument("push: needs a finite force and a duration > 0 s");
@@ -550,11 +544,11 @@ void LiveScenario::rewind_to(long step) {
 }
 
 std::string LiveScenario::controller_params_json() const {
-  return controllers::params_to_json(run_.controller_params, groups_).dump(2) + "\n";
+  return controllers::params_to_json(run_.controller_params, rig_->groups()).dump(2) + "\n";
 }
 
 std::string LiveScenario::gait_params_json() const {
-  return gait_ ? controllers::torque_gait_json(run_.gait_params) : std::string();
+  return gait_ ? controllers::torque_walker_json(run_.gait_params) : std::string();
 }
 
 }  // namespace biodyn::scenarios

@@ -5,7 +5,9 @@
 #include <cmath>
 #include <sstream>
 
+#include "biodyn/controllers/control_pipeline.h"
 #include "biodyn/controllers/controller_params.h"
+#include "biodyn/models/rig.h"
 #include "biodyn/controllers/poses.h"
 #include "biodyn/sim/errors.h"
 #include "biodyn/sim/queries.h"
@@ -58,7 +60,8 @@ PoseRunResult run_pose(sim::Simulation* sim, const PoseRunParams& params,
   params.validate();
   const mjModel& m = sim->model();
   mjData& d = sim->data();
-  const std::vector<JointGroup> groups = controllers::find_joint_groups(m);
+  const models::Rig rig(m);
+  const std::vector<JointGroup>& groups = rig.groups();
   controllers::ControllerParams cp = controllers::default_params(m, groups);
   if (!params.params_json.empty()) {
     controllers::apply_params_file_json(params.params_json, params.params_source, groups,
@@ -74,10 +77,10 @@ PoseRunResult run_pose(sim::Simulation* sim, const PoseRunParams& params,
   if (params.duration_s > 0) total = params.duration_s;
 
   sim->reset();
-  controllers::CharacterControllerConfig config;
+  controllers::ControlPipelineConfig config;
   config.kind = params.kind;
   config.weld.mode = params.weld;
-  controllers::CharacterController ctrl(sim, cp, config);
+  controllers::ControlPipeline ctrl(sim, rig, cp, config);
   ctrl.reset_in_pose(poses[0]);  // already standing in the first pose at t = 0
 
   PoseRunResult r;
@@ -88,17 +91,17 @@ PoseRunResult run_pose(sim::Simulation* sim, const PoseRunParams& params,
   for (const controllers::JointParams& j : cp.joints)
     if (j.reaction_time_s != r.reaction_time_s) r.reaction_time_s = -1;
 
-  const int pelvis = mj_name2id(&m, mjOBJ_BODY, "pelvis");
-  const FallWatch fall(m, d, kFallenPelvisFraction);
+  const int pelvis = rig.pelvis();
+  const FallWatch fall(d, rig, kFallenPelvisFraction);
   const int floor = fall.floor_geom();
-  const int foot[2] = {mj_name2id(&m, mjOBJ_BODY, "foot_l"), mj_name2id(&m, mjOBJ_BODY, "foot_r")};
+  const int foot[2] = {rig.leg(models::kLeft).foot, rig.leg(models::kRight).foot};
   Vector2d foot_start[2];
   for (int s = 0; s < 2; ++s) foot_start[s] = Vector2d(d.xpos[3 * foot[s]], d.xpos[3 * foot[s] + 1]);
 
   if (params.push) {
     const double a = params.push->direction_deg / kRadToDeg;
     sim::Push push;
-    push.body = mj_name2id(&m, mjOBJ_BODY, params.push->body.c_str());
+    push.body = rig.body(params.push->body);
     if (push.body < 0) {
       throw sim::InvalidArgument("push body: no body named '" + params.push->body + "'");
     }
@@ -177,7 +180,7 @@ PoseRunResult run_pose(sim::Simulation* sim, const PoseRunParams& params,
       tc.pose = pose.name;
       tc.time_s = d.time;
       for (std::size_t g = 0; g < groups.size(); ++g) {
-        const double e = ctrl.joints().orientation_error(m, d, static_cast<int>(g)) * kRadToDeg;
+        const double e = ctrl.orientation_error(static_cast<int>(g)) * kRadToDeg;
         if (e > tc.error_deg) {
           tc.error_deg = e;
           tc.worst_joint = groups[g].name;

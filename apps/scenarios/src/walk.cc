@@ -8,7 +8,9 @@
 #include "biodyn/controllers/controller_params.h"
 #include "biodyn/controllers/foot_contact.h"
 #include "biodyn/controllers/poses.h"
-#include "biodyn/controllers/torque_gait.h"
+#include "biodyn/controllers/control_pipeline.h"
+#include "biodyn/controllers/torque_walker.h"
+#include "biodyn/models/rig.h"
 #include "biodyn/sim/errors.h"
 #include "biodyn/sim/queries.h"
 #include "fall_watch.h"
@@ -44,11 +46,12 @@ void fail(const std::string& field, const std::string& rule, double v) {
 
 Vector2d com_xy(const mjModel& m, const mjData& d) { return sim::center_of_mass(m, d).position_W.head<2>(); }
 
-std::string push_body_name(const mjModel& m, const std::string& body) {
-  if (body != "trunk") return body;
-  for (const char* n : {"thorax", "trunk", "lumbar"})
-    if (mj_name2id(&m, mjOBJ_BODY, n) >= 0) return n;
-  return body;
+// The body a push goes through: "trunk" is the rig's trunk body (thorax, or the gait model's
+// trunk), any other name that body.
+int push_body_id(const models::Rig& rig, const std::string& body) {
+  const int id = body == "trunk" && rig.trunk_body() >= 0 ? rig.trunk_body() : rig.body(body);
+  if (id < 0) throw sim::InvalidArgument("push body: no body named '" + body + "'");
+  return id;
 }
 
 // Per-angle [min, max] of the legs and the lumbar joint.
@@ -94,7 +97,7 @@ struct AngleRanges {
 // One foot's stance, for slip and heel-strike read-outs.
 struct FootWatch {
   int foot = -1, toes = -1;
-  controllers::Sole sole;
+  models::Sole sole;
   bool touching = false;  // foot or toes on the floor
   bool flat = false;      // flat in this stance at least once
   Vector2d flat_at = Vector2d::Zero();
@@ -140,7 +143,8 @@ WalkRunResult run_walk(sim::Simulation* sim, const WalkRunParams& params,
   params.validate();
   const mjModel& m = sim->model();
   mjData& d = sim->data();
-  const std::vector<JointGroup> groups = controllers::find_joint_groups(m);
+  const models::Rig rig(m);
+  const std::vector<JointGroup>& groups = rig.groups();
   controllers::ControllerParams cp = controllers::default_params(m, groups);
   if (!params.controller_json.empty()) {
     controllers::apply_params_file_json(params.controller_json, params.controller_source, groups,
@@ -149,16 +153,16 @@ WalkRunResult run_walk(sim::Simulation* sim, const WalkRunParams& params,
   if (params.reaction_time_s > 0) {
     for (controllers::JointParams& j : cp.joints) j.reaction_time_s = params.reaction_time_s;
   }
-  controllers::TorqueGaitParams gp;
-  if (!params.gait_json.empty()) controllers::apply_torque_gait_json(params.gait_json, params.gait_source, &gp);
+  controllers::TorqueWalkerParams gp;
+  if (!params.gait_json.empty()) controllers::apply_torque_walker_json(params.gait_json, params.gait_source, &gp);
 
   sim->reset();
-  controllers::CharacterControllerConfig config;
+  controllers::ControlPipelineConfig config;
   config.weld.mode = params.weld;
-  controllers::CharacterController ctrl(sim, cp, config);
+  controllers::ControlPipeline ctrl(sim, rig, cp, config);
   const controllers::Pose stand_pose = controllers::pose_scenario("stand", groups, 0)[0];
   ctrl.reset_in_pose(stand_pose);
-  controllers::TorqueGait gait(m, groups, gp);
+  controllers::TorqueWalker gait(rig, gp);
   gait.reset(d);
   gait.set_heading_rate(params.heading_rate_deg_s / kRadToDeg);
   gait.set_speed(params.speed_m_s);
@@ -172,30 +176,20 @@ WalkRunResult run_walk(sim::Simulation* sim, const WalkRunParams& params,
   for (const controllers::JointParams& j : cp.joints)
     if (j.reaction_time_s != r.reaction_time_s) r.reaction_time_s = -1;
 
-  const FallWatch fall(m, d, kFallenPelvisFraction);
-  const int pelvis = mj_name2id(&m, mjOBJ_BODY, "pelvis");
-  double body_mass = 0;
-  for (int b = 1; b < m.nbody; ++b) body_mass += m.body_mass[b];
+  const FallWatch fall(d, rig, kFallenPelvisFraction);
+  const int pelvis = rig.pelvis();
+  const double body_mass = rig.mass_kg();
   FootWatch feet[2];
-  const char* const sides[2] = {"_l", "_r"};
   for (int s = 0; s < 2; ++s) {
-    feet[s].foot = mj_name2id(&m, mjOBJ_BODY, (std::string("foot") + sides[s]).c_str());
-    feet[s].toes = mj_name2id(&m, mjOBJ_BODY, (std::string("toes") + sides[s]).c_str());
-    feet[s].sole = controllers::find_sole(m, feet[s].foot);
+    feet[s].foot = rig.leg(s).foot;
+    feet[s].toes = rig.leg(s).toes;
+    feet[s].sole = rig.leg(s).sole;
   }
   int knee_dof[2];
-  for (int s = 0; s < 2; ++s) {
-    const int g = controllers::find_group(groups, std::string("knee") + sides[s]);
-    knee_dof[s] = groups[static_cast<std::size_t>(g)].dof_begin;
-  }
+  for (int s = 0; s < 2; ++s) knee_dof[s] = groups[static_cast<std::size_t>(rig.leg(s).knee)].dof_begin;
   AngleRanges ranges(groups);
 
-  int push_body = -1;
-  if (params.push) {
-    const std::string name = push_body_name(m, params.push->body);
-    push_body = mj_name2id(&m, mjOBJ_BODY, name.c_str());
-    if (push_body < 0) throw sim::InvalidArgument("push body: no body named '" + params.push->body + "'");
-  }
+  const int push_body = params.push ? push_body_id(rig, params.push->body) : -1;
 
   const double dt = m.opt.timestep;
   const Vector3d start_heading(std::cos(gait.heading_rad()), std::sin(gait.heading_rad()), 0);
@@ -260,7 +254,7 @@ WalkRunResult run_walk(sim::Simulation* sim, const WalkRunParams& params,
     // Strikes: step length, width, path, strides; stepping stones.
     if (gait.strike_count() != strikes_seen) {
       strikes_seen = gait.strike_count();
-      const controllers::TorqueGaitStrike& st = gait.last_strike();
+      const controllers::TorqueWalkerStrike& st = gait.last_strike();
       if (!std::isnan(st.target_length_m)) {
         stones.lengths_m.push_back(st.step_length_m);
         stones.errors_m.push_back(st.step_length_m - st.target_length_m);
@@ -380,7 +374,7 @@ WalkRunResult run_walk(sim::Simulation* sim, const WalkRunParams& params,
       *params.trace << d.time << ',' << com.position_W.x() << ',' << com.position_W.y() << ','
                     << com.position_W.z() << ',' << com.velocity_W.x() << ',' << com.velocity_W.y() << ','
                     << d.xpos[3 * pelvis + 2] << ',' << gait.heading_rad() * kRadToDeg
-                    << ',' << gait.stance_side() << ',' << gait.state() << ',' << gait.strike_count() << ','
+                    << ',' << gait.stance_side() << ',' << gait.phase() << ',' << gait.strike_count() << ','
                     << gait.base_polygon_rule_active() << ','
                     << static_cast<int>(feet[0].touching) << ',' << static_cast<int>(feet[1].touching) << ','
                     << rep.weld_active[0] << ',' << rep.weld_active[1] << ','

@@ -3,7 +3,6 @@
 
 #include <cmath>
 
-#include "biodyn/controllers/foot_contact.h"
 #include "biodyn/controllers/support_polygon.h"
 #include "biodyn/sim/queries.h"
 
@@ -31,26 +30,11 @@ void polygon(const std::vector<Eigen::Vector2d>& p, const float rgba[4], double 
 
 }  // namespace
 
-void foot_support(const mjModel& m, const mjData& d, OverlayBuffers* b) {
-  if (!b->resolved) {
-    b->floor_geom = mj_name2id(&m, mjOBJ_GEOM, "floor");
-    const char* names[4] = {"foot_l", "foot_r", "toes_l", "toes_r"};
-    for (int i = 0; i < 4; ++i) b->feet[static_cast<std::size_t>(i)] = mj_name2id(&m, mjOBJ_BODY, names[i]);
-    // The stones' size: the left sole from the heel to the toe tips (the toes' box ends there).
-    constexpr double kMargin_m = 0.01;
-    const controllers::Sole sole = controllers::find_sole(m, b->feet[0]);
-    double front = sole.x_max;
-    for (int g = 0; g < m.ngeom; ++g) {
-      if (m.geom_bodyid[g] != b->feet[2] || m.geom_type[g] != mjGEOM_BOX) continue;
-      front = std::max(front, m.body_pos[3 * b->feet[2]] + m.geom_pos[3 * g] + m.geom_size[3 * g]);
-    }
-    b->stone_back_m = sole.x_min - kMargin_m;
-    b->stone_front_m = front + kMargin_m;
-    b->stone_half_width_m = 0.5 * (sole.y_max - sole.y_min) + kMargin_m;
-    b->resolved = true;
-  }
-  sim::floor_contacts(m, d, b->floor_geom, &b->contacts);
-  controllers::contact_support_polygon(b->contacts, b->feet.data(), 4, &b->points, &b->hull);
+void foot_support(const mjModel& m, const mjData& d, const models::Rig& rig, OverlayBuffers* b) {
+  const int feet[4] = {rig.leg(models::kLeft).foot, rig.leg(models::kRight).foot, rig.leg(models::kLeft).toes,
+                       rig.leg(models::kRight).toes};
+  sim::floor_contacts(m, d, rig.floor_geom(), &b->contacts);
+  controllers::contact_support_polygon(b->contacts, feet, 4, &b->points, &b->hull);
 }
 
 void build_overlays(const scenarios::LiveScenario& s, const OverlayOptions& o, OverlayBuffers* b,
@@ -58,7 +42,7 @@ void build_overlays(const scenarios::LiveScenario& s, const OverlayOptions& o, O
   out->clear();
   const mjModel& m = s.simulation().model();
   const mjData& d = s.simulation().data();
-  foot_support(m, d, b);
+  foot_support(m, d, s.rig(), b);
   static constexpr float kSupport[4] = {0.2f, 0.8f, 0.3f, 1.0f};
   static constexpr float kTolerance[4] = {0.95f, 0.75f, 0.1f, 1.0f};
   static constexpr float kCom[4] = {0.9f, 0.1f, 0.9f, 1.0f};
@@ -109,8 +93,13 @@ void build_overlays(const scenarios::LiveScenario& s, const OverlayOptions& o, O
     static constexpr float kStoneHit[4] = {0.25f, 0.7f, 0.35f, 1.0f};
     static constexpr float kStoneMissed[4] = {0.95f, 0.55f, 0.1f, 1.0f};
     constexpr double kHit_m = 0.02, kThick_m = 0.003;
+    // A stone's outline in the ankle's frame: the sole from heel to toe tips, 1 cm around.
+    constexpr double kMargin_m = 0.01;
+    const models::Sole& sole = s.rig().leg(models::kLeft).sole;
+    const double back = sole.x_min - kMargin_m, front = sole.x_max + kMargin_m;
+    const double half_width = 0.5 * (sole.y_max - sole.y_min) + kMargin_m;
     for (const scenarios::LiveStone& st : s.stones()) {
-      const double mid = 0.5 * (b->stone_back_m + b->stone_front_m);
+      const double mid = 0.5 * (back + front);
       const Eigen::Vector2d along(std::cos(st.heading_rad), std::sin(st.heading_rad));
       const Eigen::Vector2d c = st.ankle_W + mid * along;
       sim::OverlayGeom g;
@@ -119,7 +108,7 @@ void build_overlays(const scenarios::LiveScenario& s, const OverlayOptions& o, O
       // higher so the two do not flicker through each other.
       const double half_thick = kThick_m + 0.001 * st.side;
       g.from_W = Eigen::Vector3d(c.x(), c.y(), half_thick);
-      g.half_size_m = Eigen::Vector3d(0.5 * (b->stone_front_m - b->stone_back_m), b->stone_half_width_m, half_thick);
+      g.half_size_m = Eigen::Vector3d(0.5 * (front - back), half_width, half_thick);
       g.yaw_rad = st.heading_rad;
       const float* rgba = std::isnan(st.walked_m)                           ? kStone
                           : std::abs(st.walked_m - st.target_m) <= kHit_m ? kStoneHit
@@ -132,7 +121,7 @@ void build_overlays(const scenarios::LiveScenario& s, const OverlayOptions& o, O
     const controllers::StepReport& r = s.last_report();
     for (int side = 0; side < 2; ++side) {
       if (!r.weld_active[static_cast<std::size_t>(side)]) continue;
-      const int body = b->feet[static_cast<std::size_t>(side)];  // foot_l, foot_r (resolved once)
+      const int body = s.rig().leg(side).foot;
       sim::OverlayGeom g;
       g.kind = sim::OverlayGeom::Kind::kSphere;
       g.from_W = Eigen::Vector3d(d.xpos[3 * body], d.xpos[3 * body + 1], d.xpos[3 * body + 2] + 0.06);

@@ -45,7 +45,7 @@ RenderStats render_scenario(scenarios::LiveScenario* s, const RenderOptions& o,
   HeadlessGl gl;
   sim::Simulation& simulation = s->simulation();
   sim::SceneRenderer renderer(simulation.mutable_model(), o.width, o.height);
-  renderer.follow(mj_name2id(&simulation.model(), mjOBJ_BODY, "pelvis"));
+  renderer.follow(s->rig().pelvis());
   renderer.view().azimuth_deg = o.azimuth_deg;
   renderer.view().elevation_deg = o.elevation_deg;
   renderer.view().distance_m = o.distance_m;

@@ -196,16 +196,17 @@ void sample_plots(Shared& sh) {
   const mjModel& m = s.simulation().model();
   const mjData& d = s.simulation().data();
   OverlayBuffers& b = sh.plot_buffers;
-  foot_support(m, d, &b);
-  const auto& feet = b.feet;
+  foot_support(m, d, s.rig(), &b);
+  const models::RigLeg& left = s.rig().leg(models::kLeft);
+  const models::RigLeg& right = s.rig().leg(models::kRight);
   const sim::CenterOfMass com = sim::center_of_mass(m, d);
   const Eigen::Vector2d c = com.position_W.head<2>();
   const float outside = static_cast<float>(controllers::distance_outside(b.hull, c));
   const float tol = s.gait() ? static_cast<float>(controllers::distance_outside(s.gait()->tolerance_polygon(), c)) : 0.0f;
   bool on[2] = {false, false};
   for (const sim::FloorContact& k : b.contacts) {
-    if (k.body == feet[0] || k.body == feet[2]) on[0] = true;
-    if (k.body == feet[1] || k.body == feet[3]) on[1] = true;
+    if (k.body == left.foot || k.body == left.toes) on[0] = true;
+    if (k.body == right.foot || k.body == right.toes) on[1] = true;
   }
   const auto& joints = s.controller().joints();
   const auto& tau = joints.previous_torque();
@@ -309,8 +310,8 @@ void physics_loop(Shared& sh) {
 
 void set_walker_field(scenarios::LiveScenario& s, const std::string& field, double value) {
   if (s.gait() == nullptr) throw sim::InvalidArgument("walker." + field + ": the scenario does not walk");
-  controllers::TorqueGaitParams p = s.gait()->params();
-  controllers::apply_torque_gait_json(nlohmann::json{{field, value}}.dump(), "walker", &p);
+  controllers::TorqueWalkerParams p = s.gait()->params();
+  controllers::apply_torque_walker_json(nlohmann::json{{field, value}}.dump(), "walker", &p);
   s.set_gait_params(p);
 }
 
@@ -475,10 +476,10 @@ void control_panel(Shared& sh, UiState& ui) {
       float h = static_cast<float>(s.config().heading_rate_deg_s);
       if (ImGui::SliderFloat("heading rate (deg/s)", &h, -45.0f, 45.0f)) s.set_heading_rate(h);
       if (ImGui::CollapsingHeader("Gait state machine", ImGuiTreeNodeFlags_DefaultOpen)) {
-        controllers::TorqueGaitParams p = s.gait()->params();
+        controllers::TorqueWalkerParams p = s.gait()->params();
         bool changed = false;
-        for (std::size_t i = 0; i < p.states.size(); ++i) {
-          controllers::TorqueGaitState& st = p.states[i];
+        for (std::size_t i = 0; i < p.phases.size(); ++i) {
+          controllers::TorqueWalkerPhase& st = p.phases[i];
           ImGui::PushID(static_cast<int>(i));
           ImGui::Text("%s%s", st.name.c_str(), st.ends_at_strike ? " (ends at strike)" : "");
           float dur = static_cast<float>(st.duration_s);
@@ -578,8 +579,8 @@ void control_panel(Shared& sh, UiState& ui) {
           std::ifstream in(ui.walker_path);
           std::stringstream text;
           text << in.rdbuf();
-          controllers::TorqueGaitParams p;
-          controllers::apply_torque_gait_json(text.str(), ui.walker_path, &p);
+          controllers::TorqueWalkerParams p;
+          controllers::apply_torque_walker_json(text.str(), ui.walker_path, &p);
           s.set_gait_params(p);
         }
         std::ifstream in(ui.controller_path);
@@ -662,7 +663,7 @@ ViewerStats run_viewer(scenarios::LiveConfig config, const ViewerOptions& option
   renderer.view().elevation_deg = -10;
   renderer.view().distance_m = 4.0;
   renderer.view().lookat_W.z() = 0.9;
-  const int pelvis = mj_name2id(&simulation.model(), mjOBJ_BODY, "pelvis");
+  const int pelvis = scenario.rig().pelvis();
   sim::Data display(simulation.model());  // a past state shown while scrubbing
 
   IMGUI_CHECKVERSION();

@@ -35,20 +35,10 @@
 #include <string>
 #include <vector>
 
+#include "biodyn/models/rig.h"
 #include "biodyn/sim/queries.h"
 
 namespace biodyn::controllers {
-
-/// A foot's sole: the rectangle spanned by the box geoms of the foot body and its child bodies
-/// (toes) in the standing pose, in the foot's body frame.
-struct Sole {
-  double x_min = 0, x_max = 0, y_min = 0, y_max = 0;  ///< m, foot frame
-  double z = 0;                                       ///< m, sole height in the foot frame
-  Eigen::Vector3d centre_B() const { return {(x_min + x_max) / 2, (y_min + y_max) / 2, z}; }
-};
-
-/// The sole of `foot_body`; throws sim::InvalidArgument if it has no box geom.
-Sole find_sole(const mjModel& m, int foot_body);
 
 enum class WeldMode { kOff, kHonest, kGlue };
 const char* to_string(WeldMode mode);
@@ -88,14 +78,20 @@ struct WeldWrench {
   double margin = -1;
 };
 
-/// Foot welds of a generated character (equalities "foot_weld_l/r" on "foot_l/r").
+/// What the foot welds carry from one step to the next (a copyable aggregate; the welds'
+/// activation and anchors are model fields, kept by sim::DataCheckpoint).
+struct FootWeldState {
+  std::array<bool, 2> stance = {true, true};        ///< the controller's wish per foot
+  std::array<double, 2> released_at_s = {-1e9, -1e9};  ///< s, the last honest release
+  std::array<WeldWrench, 2> wrench;                 ///< the last measured wrenches
+};
+
+/// The foot-contact welds of a rig's feet (equalities foot_weld_l/r).
 class FootWelds {
  public:
-  static constexpr int kLeft = 0, kRight = 1;
-
-  /// Finds the welds, feet and soles in `m`. Throws sim::InvalidArgument if the model has no
-  /// foot welds (and the mode is not off) or params are invalid.
-  FootWelds(const mjModel& m, FootWeldParams params);
+  /// Throws sim::InvalidArgument for invalid params, and models::RigError if the mode is not
+  /// off and the rig has no foot welds, feet or floor.
+  FootWelds(const mjModel& m, const models::Rig& rig, FootWeldParams params);
 
   const FootWeldParams& params() const { return params_; }
   /// Changes the mode (releases every weld when switched to off).
@@ -106,7 +102,7 @@ class FootWelds {
 
   /// The controller's wish: stance (may weld at strike) or swing (released now).
   void set_stance(mjModel& m, int side, bool stance);
-  bool stance(int side) const { return feet_[static_cast<std::size_t>(side)].stance; }
+  bool stance(int side) const { return state_.stance[static_cast<std::size_t>(side)]; }
   bool active(const mjModel& m, int side) const;
 
   /// Call inside the control callback (after mj_step1): switches on welds of stance feet
@@ -116,7 +112,7 @@ class FootWelds {
   /// After mj_step2: each foot's weld wrench, ground wrench (weld + contacts) and margin in
   /// this step. Returns the side of an active weld in tension, or -1.
   int measure(const mjModel& m, const mjData& d);
-  const WeldWrench& wrench(int side) const { return wrench_[static_cast<std::size_t>(side)]; }
+  const WeldWrench& wrench(int side) const { return state_.wrench[static_cast<std::size_t>(side)]; }
 
   /// Honest mode, after a kept step: switch off welds whose margin fell below
   /// release_margin (effective from the next step).
@@ -125,28 +121,29 @@ class FootWelds {
   /// Honest mode: switch `side` off after it went into tension at time `t`.
   void release_for_tension(mjModel& m, int side, double t);
 
-  const Sole& sole(int side) const { return feet_[static_cast<std::size_t>(side)].sole; }
+  const models::Sole& sole(int side) const { return feet_[static_cast<std::size_t>(side)].sole; }
   int foot_body(int side) const { return feet_[static_cast<std::size_t>(side)].body; }
 
+  const FootWeldState& state() const { return state_; }
+  void restore(const FootWeldState& state) { state_ = state; }
+
  private:
-  struct Foot {
+  struct Foot {  // fixed for the model
     int eq = -1, body = -1;
-    bool stance = true;
-    double released_at = -1e9;
-    Sole sole;
-    double mu = 1.0;                                 // friction with the floor
+    models::Sole sole;
+    double mu = 1.0;  // friction with the floor
   };
-  void engage(mjModel& m, const mjData& d, Foot& foot);
+  void engage(mjModel& m, const mjData& d, const Foot& foot);
 
   FootWeldParams params_;
+  FootWeldState state_;
   int floor_geom_ = -1;
   std::array<Foot, 2> feet_;
-  std::array<WeldWrench, 2> wrench_;
-  std::vector<mjtNum> qfrc_;  // nv scratch
+  std::vector<mjtNum> qfrc_;          // nv scratch
   std::vector<mjtNum> jacobian_row_;  // nv scratch: one efc_J row, dense
   std::vector<sim::FloorContact> contacts_;
   double weight_ = 0;  // N, body weight
-  static constexpr int root_body_ = 1;  // the free root is the first body of a character
+  int root_body_ = 1;  // the free root
   int root_dof_ = 0;
 };
 

@@ -10,8 +10,8 @@
 /// targets only:
 ///  - a stance hip's target is the one that turns the pelvis to the motion's world orientation
 ///    with the thigh where it is (the stance leg carries the trunk; SIMBICON's torso control),
-///    and with the foot on the floor the thigh's own rotation is fed forward, as the walker's
-///    stance hip does (gait_controller.h step 3);
+///    and with the foot on the floor the thigh's own rotation is fed forward, as the velocity
+///    walker's stance hip does (velocity_walker.h step 3);
 ///  - in double support both ankles lean the body (dorsiflexion) by
 ///    -(a_d * (d - d_ref) + a_v * (v - v_ref)), d the CoM relative to the midpoint of the
 ///    ankles (the ankle strategy of standing balance, on the deviation from the motion);
@@ -27,8 +27,9 @@
 #include <array>
 #include <vector>
 
-#include "biodyn/controllers/character_controller.h"
+#include "biodyn/controllers/control_driver.h"
 #include "biodyn/controllers/joint_groups.h"
+#include "biodyn/models/rig.h"
 #include "biodyn/sim/queries.h"
 
 namespace biodyn::controllers {
@@ -55,10 +56,12 @@ struct TrackedMotion {
   std::size_t frame_at(double t_s) const;
 };
 
-/// Builds a TrackedMotion from qpos frames (forward kinematics on `m`; bodies foot_l/_r and
-/// toes_l/_r with box geoms), floored at its first frame (start_lift_m). Throws sim::InvalidArgument for fewer than 2 frames, times not
-/// increasing or a qpos row of the wrong size.
-TrackedMotion make_tracked_motion(const mjModel& m, const std::vector<double>& times_s, const Eigen::MatrixXd& qpos);
+/// Builds a TrackedMotion from qpos frames (forward kinematics on `m`; the rig's feet and toes
+/// with their box geoms), floored at its first frame (start_lift_m). Throws sim::InvalidArgument
+/// for fewer than 2 frames, times not increasing or a qpos row of the wrong size, and
+/// models::RigError for a model without feet.
+TrackedMotion make_tracked_motion(const mjModel& m, const models::Rig& rig, const std::vector<double>& times_s,
+                                  const Eigen::MatrixXd& qpos);
 
 /// The motion's pose at time t (clamped to its ends): hinges interpolated linearly, ball joints
 /// and the root orientation by slerp. `qpos` must have nq entries.
@@ -79,11 +82,12 @@ struct MotionTrackerParams {
   void validate() const;     ///< throws sim::InvalidArgument naming the field
 };
 
-class MotionTracker : public TargetDriver {
+class MotionTracker : public ControlDriver {
  public:
-  MotionTracker(const mjModel& m, std::vector<JointGroup> groups, const TrackedMotion* motion,
-                MotionTrackerParams params = {});
-  void drive(CharacterController& controller, const mjModel& m, const mjData& d) override;
+  /// Throws models::RigError for a rig without ball hips, ankles, thighs and feet, and
+  /// sim::InvalidArgument for bad params. `rig` and `motion` must outlive the tracker.
+  MotionTracker(const mjModel& m, const models::Rig& rig, const TrackedMotion* motion, MotionTrackerParams params = {});
+  void drive(const ControlInput& in, ControlFrame* frame) override;
 
   /// How far the body is from the motion at the current time: RMS over the joint groups of
   /// the rotation between the body's and the motion's joint orientation (rad), and the
@@ -99,11 +103,9 @@ class MotionTracker : public TargetDriver {
  private:
   Eigen::Quaterniond group_orientation(const mjModel& m, const JointGroup& g, const double* qpos) const;
 
-  std::vector<JointGroup> groups_;
+  const models::Rig* rig_;
   const TrackedMotion* motion_;
   MotionTrackerParams params_;
-  int hip_[2] = {-1, -1}, ankle_[2] = {-1, -1}, thigh_[2] = {-1, -1}, foot_[2] = {-1, -1}, toes_[2] = {-1, -1};
-  int pelvis_ = -1, floor_geom_ = -1;
   double weight_ = 0;  // N
   std::vector<sim::FloorContact> contacts_;
   mutable std::vector<double> pose_;  // nq scratch (drive and error: one thread)

@@ -19,6 +19,7 @@
 
 #include <Eigen/Core>
 #include <array>
+#include <limits>
 #include <map>
 #include <string>
 #include <vector>
@@ -76,8 +77,8 @@ struct BalanceParams {
 /// their rest height, and the stance legs leaned about the ankles (trunk kept upright by the
 /// hips) so the CoM is over the balance's support point. Keeps the root's x, y; zero
 /// velocities; runs mj_forward. Returns the sagittal lean it chose, rad.
-double place_in_pose(const mjModel& m, mjData& d, const std::vector<JointGroup>& groups,
-                     const Pose& pose, const BalanceParams& balance);
+double place_in_pose(const mjModel& m, mjData& d, const models::Rig& rig, const Pose& pose,
+                     const BalanceParams& balance);
 
 /// Offsets the balance adds to the stance legs, rad.
 struct BalanceOffsets {
@@ -86,10 +87,22 @@ struct BalanceOffsets {
   double hip_flexion = 0;    ///< hip strategy, both stance hips
 };
 
-/// Standing balance state (the integrators). reset() -> update() each step.
+/// What the standing balance carries from one step to the next (a copyable aggregate).
+struct StandingBalanceState {
+  Eigen::Vector2d integral = Eigen::Vector2d::Zero();  ///< m s, capture-point error integral
+  /// The integral when the step at last_update_s began: a step taken again at the same time (an
+  /// honest weld's redo) integrates from here once more, not twice.
+  Eigen::Vector2d integral_at_step_start = Eigen::Vector2d::Zero();
+  double last_update_s = std::numeric_limits<double>::quiet_NaN();  ///< s, NaN before the first
+  Eigen::Vector2d error = Eigen::Vector2d::Zero();   ///< m, capture-point error, heading frame
+  Eigen::Vector2d centre = Eigen::Vector2d::Zero();  ///< m, support centre, world
+};
+
+/// Standing balance (the capture-point PI feedback). reset() -> update() each step.
 class StandingBalance {
  public:
-  StandingBalance(const mjModel& m, BalanceParams params);
+  /// Throws models::RigError without a pelvis and feet, sim::InvalidArgument for bad params.
+  StandingBalance(const mjModel& m, const models::Rig& rig, BalanceParams params);
   const BalanceParams& params() const { return params_; }
   void set_params(const BalanceParams& params);
   void reset();
@@ -98,21 +111,23 @@ class StandingBalance {
   void preset_sagittal_tilt(double tilt_rad);
   /// Offsets for the current state (after mj_step1) holding the CoM over `support` with the
   /// given feet in stance. Also reports the capture-point error (m, heading frame) and the
-  /// support centre (world).
+  /// support centre (world). Called again at the same time (a redone step) it gives what the
+  /// first call would have given for that state: the integral is not counted twice.
   BalanceOffsets update(const mjModel& m, const mjData& d, Support support, double dt);
-  const Eigen::Vector2d& capture_point_error() const { return error_; }
-  const Eigen::Vector2d& support_centre_W() const { return centre_; }
+  const Eigen::Vector2d& capture_point_error() const { return state_.error; }
+  const Eigen::Vector2d& support_centre_W() const { return state_.centre; }
+
+  const StandingBalanceState& state() const { return state_; }
+  void restore(const StandingBalanceState& state) { state_ = state; }
 
  private:
   BalanceParams params_;
+  StandingBalanceState state_;
   int foot_[2] = {-1, -1};
   int pelvis_ = -1;
   Eigen::Vector3d support_point_B_[2];  // balance point on each sole, foot frame (m)
   double foot_half_length_ = 0.1;
   double leg_length_ = 0.9;
-  Eigen::Vector2d integral_ = Eigen::Vector2d::Zero();
-  Eigen::Vector2d error_ = Eigen::Vector2d::Zero();
-  Eigen::Vector2d centre_ = Eigen::Vector2d::Zero();
 };
 
 }  // namespace biodyn::controllers

@@ -22,11 +22,12 @@
 #include <string>
 #include <vector>
 
-#include "biodyn/controllers/character_controller.h"
+#include "biodyn/controllers/control_pipeline.h"
 #include "biodyn/controllers/controller_params.h"
 #include "biodyn/controllers/motion_tracker.h"
-#include "biodyn/controllers/torque_gait.h"
+#include "biodyn/controllers/torque_walker.h"
 #include "biodyn/models/character.h"
+#include "biodyn/models/rig.h"
 #include "biodyn/sim/simulation.h"
 
 namespace biodyn::scenarios {
@@ -107,7 +108,7 @@ class LiveScenario {
 
   // --- Edits: logged, applied before the next step. ---
   void set_controller_params(const controllers::ControllerParams& params);
-  void set_gait_params(const controllers::TorqueGaitParams& params);  ///< walk only
+  void set_gait_params(const controllers::TorqueWalkerParams& params);  ///< walk only
   void set_speed(double m_s);                                         ///< walk only
   void set_heading_rate(double deg_s);                                ///< walk only
   void set_weld_mode(controllers::WeldMode mode);
@@ -133,11 +134,13 @@ class LiveScenario {
   // --- Read-outs (for panels, overlays and plots). ---
   const LiveConfig& config() const { return run_.config; }
   sim::Simulation& simulation() { return *sim_; }
+  /// The character's parts, resolved once (models/rig.h).
+  const models::Rig& rig() const { return *rig_; }
   const sim::Simulation& simulation() const { return *sim_; }
-  const controllers::CharacterController& controller() const { return *ctrl_; }
+  const controllers::ControlPipeline& controller() const { return *ctrl_; }
   const controllers::ControllerParams& controller_params() const { return run_.controller_params; }
   /// The walker, or nullptr in the pose scenarios.
-  const controllers::TorqueGait* gait() const { return gait_.get(); }
+  const controllers::TorqueWalker* gait() const { return gait_.get(); }
   const controllers::StepReport& last_report() const { return ctrl_->last_report(); }
   const std::vector<sim::Push>& pushes() const { return sim_->pushes(); }
   /// scenario "stones": the steps planned so far (empty before steps_start_s).
@@ -200,7 +203,7 @@ class LiveScenario {
   struct RunState {
     LiveConfig config;  // speed, heading and weld as edited
     controllers::ControllerParams controller_params;
-    controllers::TorqueGaitParams gait_params;
+    controllers::TorqueWalkerParams gait_params;
     long steps = 0;
     std::size_t pose_index = 0;  // pose scenarios: the current pose and when it began
     double pose_start_s = 0;
@@ -216,19 +219,18 @@ class LiveScenario {
   RunState run_;
   LiveConfig initial_config_;
   controllers::ControllerParams initial_controller_params_;
-  controllers::TorqueGaitParams initial_gait_params_;
+  controllers::TorqueWalkerParams initial_gait_params_;
 
   std::unique_ptr<sim::Simulation> sim_;
-  std::vector<controllers::JointGroup> groups_;
-  std::unique_ptr<controllers::CharacterController> ctrl_;
-  std::unique_ptr<controllers::TorqueGait> gait_;
+  std::unique_ptr<models::Rig> rig_;
+  std::unique_ptr<controllers::ControlPipeline> ctrl_;
+  std::unique_ptr<controllers::TorqueWalker> gait_;
   controllers::TrackedMotion tracked_;  // mocap + track
   std::unique_ptr<controllers::MotionTracker> tracker_;
   std::vector<controllers::Pose> poses_;
   Eigen::MatrixXd playback_;        // mocap: qpos per frame
   std::vector<double> playback_t_;  // mocap: s, per frame
   std::unique_ptr<FallWatch> fall_;  // the scenarios' fall rule, from the start of each run
-  int foot_body_[2] = {-1, -1};      // foot_l, foot_r
   bool stones_ = false;              // scenario "stones" (not a string compare per step)
   void track_stones();
 

@@ -9,7 +9,7 @@
 #include <string>
 #include <vector>
 
-#include "biodyn/controllers/character_controller.h"
+#include "biodyn/controllers/control_pipeline.h"
 #include "biodyn/sim/simulation.h"
 
 namespace biodyn::scenarios {

@@ -24,21 +24,15 @@ struct OverlayOptions {
   double force_scale_m_per_N = 0.001;  ///< arrow length per newton (1 m per kN)
 };
 
-/// Scratch reused frame to frame (no allocation once grown), and the ids the overlays need,
-/// resolved on first use.
+/// Scratch reused frame to frame (no allocation once grown).
 struct OverlayBuffers {
   std::vector<sim::FloorContact> contacts;
   std::vector<Eigen::Vector2d> points, hull, tolerance;
-  int floor_geom = -1;
-  std::array<int, 4> feet = {-1, -1, -1, -1};  ///< foot_l, foot_r, toes_l, toes_r
-  /// A stone's outline in the ankle's frame: the sole from heel to toe tips, 1 cm around.
-  double stone_back_m = 0, stone_front_m = 0, stone_half_width_m = 0;
-  bool resolved = false;
 };
 
 /// The current floor contacts (`contacts`) and the feet's support polygon (`hull`): what the
 /// overlays draw and the viewer's plots sample.
-void foot_support(const mjModel& m, const mjData& d, OverlayBuffers* buffers);
+void foot_support(const mjModel& m, const mjData& d, const models::Rig& rig, OverlayBuffers* buffers);
 
 /// Appends the overlays of `s`'s current state to `out` (cleared first). Reads the simulation:
 /// call under the physics lock, with the scene update.

@@ -1,4 +1,4 @@
-#include "biodyn/controllers/gait_params.h"
+#include "biodyn/controllers/velocity_walker_params.h"
 
 #include <algorithm>
 #include <cmath>
@@ -6,6 +6,7 @@
 #include <nlohmann/json.hpp>
 
 #include "biodyn/sim/errors.h"
+#include "biodyn/sim/units.h"
 #include "json_fields.h"
 
 namespace biodyn::controllers {
@@ -13,7 +14,6 @@ namespace {
 
 using Json = nlohmann::json;
 using sim::InvalidArgument;
-constexpr double kDeg = M_PI / 180.0;
 
 using json_fields::fail;
 
@@ -34,8 +34,8 @@ Eigen::Vector2d pair(const Json& j, const std::string& where) {
   return {v[0], v[1]};
 }
 
-GaitState read_state(const Json& j, const std::string& where) {
-  GaitState s;
+VelocityWalkerPhase read_state(const Json& j, const std::string& where) {
+  VelocityWalkerPhase s;
   bool have_name = false;
   read_object(j, where,
               {{"name", [&](const Json& v, const std::string& w) {
@@ -61,7 +61,7 @@ GaitState read_state(const Json& j, const std::string& where) {
                     if (a.empty() || a.size() > 3)
                       fail(w + "." + it.key(), "must have 1 to 3 angles", it.value().dump());
                     Eigen::Vector3d r = Eigen::Vector3d::Zero();
-                    for (std::size_t k = 0; k < a.size(); ++k) r[static_cast<Eigen::Index>(k)] = a[k] * kDeg;
+                    for (std::size_t k = 0; k < a.size(); ++k) r[static_cast<Eigen::Index>(k)] = a[k] * kRadPerDeg;
                     s.targets_rad[it.key()] = r;
                   }
                 }}});
@@ -69,9 +69,9 @@ GaitState read_state(const Json& j, const std::string& where) {
   return s;
 }
 
-Json state_json(const GaitState& s) {
+Json state_json(const VelocityWalkerPhase& s) {
   Json t = Json::object();
-  for (const auto& [role, a] : s.targets_rad) t[role] = {a[0] / kDeg, a[1] / kDeg, a[2] / kDeg};
+  for (const auto& [role, a] : s.targets_rad) t[role] = {a[0] / kRadPerDeg, a[1] / kRadPerDeg, a[2] / kRadPerDeg};
   return {{"name", s.name},
           {"duration_s", s.duration_s},
           {"end", s.ends_at_strike ? "strike" : "time"},
@@ -83,23 +83,23 @@ Json state_json(const GaitState& s) {
           {"targets_deg", t}};
 }
 
-GaitState state(const std::string& name, double duration_s, bool at_strike, double reach_fraction,
+VelocityWalkerPhase state(const std::string& name, double duration_s, bool at_strike, double reach_fraction,
                 bool placement, std::map<std::string, Eigen::Vector3d> deg) {
-  GaitState s;
+  VelocityWalkerPhase s;
   s.name = name;
   s.duration_s = duration_s;
   s.ends_at_strike = at_strike;
   s.reach_fraction = reach_fraction;
   s.foot_placement = placement;
-  for (auto& [role, a] : deg) s.targets_rad[role] = a * kDeg;
+  for (auto& [role, a] : deg) s.targets_rad[role] = a * kRadPerDeg;
   return s;
 }
 
 }  // namespace
 
-GaitParams default_gait_params() {
+VelocityWalkerParams default_velocity_walker_params() {
   using V = Eigen::Vector3d;
-  GaitParams p;
+  VelocityWalkerParams p;
   // One step at the reference cadence of 108 steps/min (0.556 s): double support 0.1 s
   // (~18% of the step, as in human walking at 1.2 m/s, Perry 1992), lift 0.16 s, swing to
   // the strike ~0.3 s. Angles after Winter's (2009) normal-gait averages, simplified:
@@ -114,7 +114,7 @@ GaitParams default_gait_params() {
     for (const auto& kv : arms) t.insert(kv);
     return t;
   };
-  p.states = {
+  p.phases = {
       state("double_support", 0.10, false, 1.0, false,
             with_arms({{"swing_hip", V(-15, 0, 0)},
                        {"swing_knee", V(30, 0, 0)},
@@ -135,15 +135,15 @@ GaitParams default_gait_params() {
                        {"stance_knee", V(8, 0, 0)},
                        {"stance_ankle", V(10, 0, 0)}})),
   };
-  p.states[0].swing_foot_down = true;
-  p.states[0].stance_cop = {0.1, 0.3};
-  p.states[0].trailing_cop = {0.85, 0.95};
-  p.states[1].stance_cop = {0.3, 0.45};
-  p.states[2].stance_cop = {0.45, 0.8};
+  p.phases[0].swing_foot_down = true;
+  p.phases[0].stance_cop = {0.1, 0.3};
+  p.phases[0].trailing_cop = {0.85, 0.95};
+  p.phases[1].stance_cop = {0.3, 0.45};
+  p.phases[2].stance_cop = {0.45, 0.8};
   return p;
 }
 
-double GaitParams::cadence(double speed_m_s) const {
+double VelocityWalkerParams::cadence(double speed_m_s) const {
   const auto& xs = posture.cadence_speeds_m_s;
   const auto& ys = posture.cadence_steps_per_min;
   if (speed_m_s <= xs.front()) return ys.front();
@@ -156,13 +156,13 @@ double GaitParams::cadence(double speed_m_s) const {
   return ys.back();
 }
 
-void GaitParams::validate() const {
-  if (states.empty()) fail("gait.states", "needs at least one state", "none");
-  if (!states.back().ends_at_strike)
-    fail("gait.states[" + std::to_string(states.size() - 1) + "].end",
+void VelocityWalkerParams::validate() const {
+  if (phases.empty()) fail("gait.states", "needs at least one state", "none");
+  if (!phases.back().ends_at_strike)
+    fail("gait.states[" + std::to_string(phases.size() - 1) + "].end",
          "the last state of a step must end at the strike", "\"time\"");
-  for (std::size_t i = 0; i < states.size(); ++i) {
-    const GaitState& s = states[i];
+  for (std::size_t i = 0; i < phases.size(); ++i) {
+    const VelocityWalkerPhase& s = phases[i];
     const std::string w = "gait.states[" + std::to_string(i) + "] (" + s.name + ")";
     check(s.duration_s > 0 && s.duration_s <= 10, w + ".duration_s", "must be in (0, 10] s", s.duration_s);
     check(s.reach_fraction > 0 && s.reach_fraction <= 5, w + ".reach_fraction", "must be in (0, 5]",
@@ -172,7 +172,7 @@ void GaitParams::validate() const {
         fail(w + ".targets_deg.stance_hip", "the stance hip holds the pelvis posture, it takes no target",
              "an entry");
       for (int k = 0; k < 3; ++k)
-        check(std::abs(a[k]) <= M_PI, w + ".targets_deg." + role, "angles must be within +-180 deg", a[k] / kDeg);
+        check(std::abs(a[k]) <= M_PI, w + ".targets_deg." + role, "angles must be within +-180 deg", a[k] / kRadPerDeg);
     }
   }
   const FootPlacementParams& f = placement;
@@ -223,14 +223,14 @@ void GaitParams::validate() const {
   check(p.cop_margin > 0 && p.cop_margin <= 1, "gait.posture.cop_margin", "must be in (0, 1]", p.cop_margin);
 }
 
-void apply_gait_json(const std::string& json_text, const std::string& source, GaitParams* params) {
+void apply_velocity_walker_json(const std::string& json_text, const std::string& source, VelocityWalkerParams* params) {
   Json root;
   try {
     root = Json::parse(json_text);
   } catch (const Json::parse_error& e) {
     throw InvalidArgument(source + ": not valid JSON (" + std::string(e.what()) + ")");
   }
-  GaitParams p = *params;
+  VelocityWalkerParams p = *params;
   FootPlacementParams& f = p.placement;
   GaitPostureParams& q = p.posture;
   const auto num = [](double* out) {
@@ -240,8 +240,8 @@ void apply_gait_json(const std::string& json_text, const std::string& source, Ga
       root, source,
       {{"states", [&](const Json& v, const std::string& w) {
           if (!v.is_array()) fail(w, "must be an array of states", v.dump());
-          p.states.clear();
-          for (std::size_t i = 0; i < v.size(); ++i) p.states.push_back(read_state(v[i], w + "[" + std::to_string(i) + "]"));
+          p.phases.clear();
+          for (std::size_t i = 0; i < v.size(); ++i) p.phases.push_back(read_state(v[i], w + "[" + std::to_string(i) + "]"));
         }},
        {"placement", [&](const Json& v, const std::string& w) {
           read_object(v, w,
@@ -280,12 +280,12 @@ void apply_gait_json(const std::string& json_text, const std::string& source, Ga
   *params = p;
 }
 
-Json gait_to_json(const GaitParams& p) {
-  Json states = Json::array();
-  for (const GaitState& s : p.states) states.push_back(state_json(s));
+Json velocity_walker_json(const VelocityWalkerParams& p) {
+  Json phases = Json::array();
+  for (const VelocityWalkerPhase& s : p.phases) phases.push_back(state_json(s));
   const FootPlacementParams& f = p.placement;
   const GaitPostureParams& q = p.posture;
-  return {{"states", states},
+  return {{"states", phases},
           {"placement",
            {{"capture_gain", f.capture_gain},
             {"step_width_fraction", f.step_width_fraction},

@@ -3,10 +3,11 @@
 #include <cmath>
 #include <vector>
 
-#include "biodyn/controllers/character_controller.h"
-#include "biodyn/controllers/gait_controller.h"
+#include "biodyn/controllers/gait_core.h"
 #include "biodyn/controllers/support_polygon.h"
-#include "biodyn/controllers/torque_gait.h"
+#include "biodyn/controllers/torque_walker.h"
+#include "biodyn/controllers/control_pipeline.h"
+#include "biodyn/models/rig.h"
 #include "biodyn/models/mjcf.h"
 #include "biodyn/sim/errors.h"
 #include "biodyn/sim/simulation.h"
@@ -43,19 +44,20 @@ double polygon_area(const std::vector<Eigen::Vector2d>& p) {
 
 // Walks the default character from standing for `duration_s` with the default parameters.
 WalkResult walk(double duration_s, const char* weld,
-               const controllers::TorqueGaitParams& params = controllers::TorqueGaitParams{}) {
+               const controllers::TorqueWalkerParams& params = controllers::TorqueWalkerParams{}) {
   sim::Simulation sim(testing::load_inline(models::to_mjcf(models::generate_character(models::CharacterSpec{}))));
   const mjModel& m = sim.model();
   mjData& d = sim.data();
-  const auto groups = controllers::find_joint_groups(m);
-  controllers::CharacterControllerConfig config;
+  const models::Rig rig(m);
+  const auto& groups = rig.groups();
+  controllers::ControlPipelineConfig config;
   config.weld.mode = controllers::parse_weld_mode(weld);
-  controllers::CharacterController controller(&sim, controllers::default_params(m, groups), config);
+  controllers::ControlPipeline controller(&sim, rig, controllers::default_params(m, groups), config);
   controller.reset_in_pose(controllers::pose_scenario("stand", groups, 0)[0]);
-  controllers::TorqueGait gait(m, groups, params);
-  const int floor = mj_name2id(&m, mjOBJ_GEOM, "floor");
-  const int feet[2] = {mj_name2id(&m, mjOBJ_BODY, "foot_l"), mj_name2id(&m, mjOBJ_BODY, "foot_r")};
-  const int toes[2] = {mj_name2id(&m, mjOBJ_BODY, "toes_l"), mj_name2id(&m, mjOBJ_BODY, "toes_r")};
+  controllers::TorqueWalker gait(rig, params);
+  const int floor = rig.floor_geom();
+  const int feet[2] = {rig.leg(models::kLeft).foot, rig.leg(models::kRight).foot};
+  const int toes[2] = {rig.leg(models::kLeft).toes, rig.leg(models::kRight).toes};
   const auto down = [&](int s) {
     return sim::floor_contact_count(m, d, floor, feet[s]) > 0 || sim::floor_contact_count(m, d, floor, toes[s]) > 0;
   };
@@ -67,8 +69,8 @@ WalkResult walk(double duration_s, const char* weld,
   int counted = 0, last = 0, state = -1, state0_steps = 0, both_feet_steps = 0;
   while (d.time - t0 < duration_s) {
     controller.step();
-    if (gait.state() != state) {
-      state = gait.state();
+    if (gait.phase() != state) {
+      state = gait.phase();
       if (r.state_order.size() < 12) r.state_order.push_back(state);
       if (state == 0) ++r.state0_entries;
     }
@@ -126,17 +128,17 @@ TEST_CASE("The torque walker walks from standing by joint torques and contacts o
 }
 
 TEST_CASE("The walker's states are data: a double support state added in front runs in order", "[gait][walk]") {
-  controllers::TorqueGaitParams p;
-  controllers::TorqueGaitState ds;
+  controllers::TorqueWalkerParams p;
+  controllers::TorqueWalkerPhase ds;
   ds.name = "double support";
   ds.duration_s = 0.08;
   ds.swing_foot_down = true;
   ds.swing_hip_rad = -0.3;    // the trailing thigh behind the hip
   ds.swing_knee_rad = 0.3;
   ds.swing_ankle_rad = -0.2;  // push-off
-  ds.stance_knee_rad = p.states[0].stance_knee_rad;
-  ds.stance_ankle_rad = p.states[0].stance_ankle_rad;
-  p.states.insert(p.states.begin(), ds);
+  ds.stance_knee_rad = p.phases[0].stance_knee_rad;
+  ds.stance_ankle_rad = p.phases[0].stance_ankle_rad;
+  p.phases.insert(p.phases.begin(), ds);
   const WalkResult r = walk(10.0, "honest", p);
   CHECK_FALSE(r.fallen);
   // From standing the first step starts with the lift (state 1), then 1, 2, 0, 1, 2, 0, ...
@@ -153,7 +155,7 @@ TEST_CASE("The walker's states are data: a double support state added in front r
 TEST_CASE("Base-polygon balance: the rule leaves the tuned gait alone and moves steps when the CoM runs off", "[gait][walk]") {
   // The tuned gait: its velocity feedback already steps further than the rule asks, so the
   // rule moves no step and the walk is the same with it off (measured: 0 steps at 0.5-1.5 m/s).
-  controllers::TorqueGaitParams off;
+  controllers::TorqueWalkerParams off;
   off.base_polygon_rule = false;
   const WalkResult with_rule = walk(8.0, "honest");
   const WalkResult without = walk(8.0, "honest", off);
@@ -166,9 +168,9 @@ TEST_CASE("Base-polygon balance: the rule leaves the tuned gait alone and moves 
   CHECK(with_rule.tolerance_inside_support);
   // Without the sagittal feedback and with the late swing's thigh behind the vertical, the
   // CoM runs ahead of the stance foot's tolerance polygon: the rule lengthens steps.
-  controllers::TorqueGaitParams weak;
+  controllers::TorqueWalkerParams weak;
   weak.sagittal_cd = weak.sagittal_cv = 0;
-  weak.states[1].swing_hip_rad = -0.1;
+  weak.phases[1].swing_hip_rad = -0.1;
   const WalkResult ruled = walk(2.0, "honest", weak);
   CHECK(ruled.base_polygon_steps >= 1);
   weak.base_polygon_rule = false;
@@ -178,45 +180,46 @@ TEST_CASE("Base-polygon balance: the rule leaves the tuned gait alone and moves 
 TEST_CASE("The torque walker rejects invalid parameters and models without legs by name", "[gait]") {
   const sim::Model model = testing::load_inline(models::to_mjcf(models::generate_character(models::CharacterSpec{})));
   const mjModel& m = *model.get();
-  const auto groups = controllers::find_joint_groups(m);
-  controllers::TorqueGaitParams p;
-  p.states[0].duration_s = 0;
-  CHECK_THROWS_WITH(controllers::TorqueGait(m, groups, p), Catch::Matchers::Contains("states[0].duration_s"));
-  p = controllers::TorqueGaitParams{};
-  p.states[1].ends_at_strike = false;  // no state ends at the strike
-  CHECK_THROWS_WITH(controllers::TorqueGait(m, groups, p),
+  const models::Rig rig(m);
+  controllers::TorqueWalkerParams p;
+  p.phases[0].duration_s = 0;
+  CHECK_THROWS_WITH(controllers::TorqueWalker(rig, p), Catch::Matchers::Contains("states[0].duration_s"));
+  p = controllers::TorqueWalkerParams{};
+  p.phases[1].ends_at_strike = false;  // no state ends at the strike
+  CHECK_THROWS_WITH(controllers::TorqueWalker(rig, p),
                     Catch::Matchers::Contains("states[1].end") && Catch::Matchers::Contains("must end at the strike"));
-  p = controllers::TorqueGaitParams{};
-  p.states[1].name = p.states[0].name;
-  CHECK_THROWS_WITH(controllers::TorqueGait(m, groups, p), Catch::Matchers::Contains("states[1].name"));
-  p = controllers::TorqueGaitParams{};
-  p.states.clear();
-  CHECK_THROWS_WITH(controllers::TorqueGait(m, groups, p), Catch::Matchers::Contains("at least one state"));
-  p = controllers::TorqueGaitParams{};
+  p = controllers::TorqueWalkerParams{};
+  p.phases[1].name = p.phases[0].name;
+  CHECK_THROWS_WITH(controllers::TorqueWalker(rig, p), Catch::Matchers::Contains("states[1].name"));
+  p = controllers::TorqueWalkerParams{};
+  p.phases.clear();
+  CHECK_THROWS_WITH(controllers::TorqueWalker(rig, p), Catch::Matchers::Contains("at least one state"));
+  p = controllers::TorqueWalkerParams{};
   p.damping_time_s = -1;
-  CHECK_THROWS_WITH(controllers::TorqueGait(m, groups, p), Catch::Matchers::Contains("damping_time_s"));
+  CHECK_THROWS_WITH(controllers::TorqueWalker(rig, p), Catch::Matchers::Contains("damping_time_s"));
   const sim::Model ball = testing::load_inline(
       "<mujoco><worldbody><body name='pelvis'><freejoint/><geom size='0.1'/></body></worldbody></mujoco>");
-  CHECK_THROWS_WITH(controllers::TorqueGait(*ball.get(), controllers::find_joint_groups(*ball.get()), controllers::TorqueGaitParams{}),
+  const models::Rig ball_rig(*ball.get());
+  CHECK_THROWS_WITH(controllers::TorqueWalker(ball_rig, controllers::TorqueWalkerParams{}),
                     Catch::Matchers::Contains("thigh_l"));
 }
 
 TEST_CASE("The torque walker's parameter file round-trips and overrides only what it names", "[gait]") {
-  controllers::TorqueGaitParams p;
-  p.states[0].duration_s = 0.41;
-  p.states[1].swing_knee_rad = 0.3;
+  controllers::TorqueWalkerParams p;
+  p.phases[0].duration_s = 0.41;
+  p.phases[1].swing_knee_rad = 0.3;
   p.hip_kp = 912.5;
   p.speed_integral_rad_per_m = 0.0;
-  controllers::TorqueGaitParams q;
-  controllers::apply_torque_gait_json(controllers::torque_gait_json(p), "saved.json", &q);
-  CHECK(controllers::torque_gait_json(q) == controllers::torque_gait_json(p));
+  controllers::TorqueWalkerParams q;
+  controllers::apply_torque_walker_json(controllers::torque_walker_json(p), "saved.json", &q);
+  CHECK(controllers::torque_walker_json(q) == controllers::torque_walker_json(p));
   CHECK(q.hip_kp == 912.5);
-  controllers::TorqueGaitParams r;
-  controllers::apply_torque_gait_json(R"({"knee_kp": 300})", "partial.json", &r);
+  controllers::TorqueWalkerParams r;
+  controllers::apply_torque_walker_json(R"({"knee_kp": 300})", "partial.json", &r);
   CHECK(r.knee_kp == 300);
-  CHECK(r.hip_kp == controllers::TorqueGaitParams{}.hip_kp);
+  CHECK(r.hip_kp == controllers::TorqueWalkerParams{}.hip_kp);
   // Errors leave the params as they were.
-  CHECK_THROWS_WITH(controllers::apply_torque_gait_json(R"({"knee_kp": "stiff"})", "bad.json", &r),
+  CHECK_THROWS_WITH(controllers::apply_torque_walker_json(R"({"knee_kp": "stiff"})", "bad.json", &r),
                     Catch::Matchers::Contains("bad.json.knee_kp") && Catch::Matchers::Contains("number"));
   CHECK(r.knee_kp == 300);
 }
@@ -252,8 +255,8 @@ TEST_CASE("The leg IK triangle puts the ankle where asked, or points the straigh
 
 TEST_CASE("The torque walker rejects a step plan out of range, naming the step", "[gait][stones]") {
   const sim::Model model = testing::load_inline(models::to_mjcf(models::generate_character(models::CharacterSpec{})));
-  const auto groups = controllers::find_joint_groups(*model.get());
-  controllers::TorqueGait gait(*model.get(), groups, controllers::TorqueGaitParams{});
+  const models::Rig rig(*model.get());
+  controllers::TorqueWalker gait(rig, controllers::TorqueWalkerParams{});
   CHECK_THROWS_WITH(gait.plan_steps({0.5, -0.2}), Catch::Matchers::Contains("planned step 2") &&
                                                       Catch::Matchers::Contains("-0.2"));
   gait.plan_steps({0.5, 0.3});

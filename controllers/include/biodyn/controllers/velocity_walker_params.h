@@ -1,10 +1,10 @@
 #pragma once
 /// The walking gait as data (paper §4, Fig. 2): one step's finite-state machine of target
-/// states, written for the left foot in stance and mirrored for the right, plus the foot
+/// phases, written for the left foot in stance and mirrored for the right, plus the foot
 /// placement and posture settings. Read from and written to JSON (`biodyn walk --params`,
 /// `biodyn walk --write-params`); every field optional, unknown keys are errors.
 ///
-/// A step (stance = the foot that struck last, swing = the other one) runs the states in
+/// A step (stance = the foot that struck last, swing = the other one) runs the phases in
 /// order; the last one ends at the swing foot's strike, which swaps the sides:
 ///   double_support  both feet down, the trailing (swing) foot pushes off      (time)
 ///   lift            the swing foot leaves the floor, knee flexes              (time)
@@ -28,7 +28,7 @@
 namespace biodyn::controllers {
 
 /// One target state of a step.
-struct GaitState {
+struct VelocityWalkerPhase {
   std::string name;
   /// s, length of the state at the reference cadence (scaled by reference_cadence /
   /// cadence(speed)); for a state that ends at strike, the planned time to the strike.
@@ -107,13 +107,13 @@ struct GaitPostureParams {
   /// Stance ankles: the ankle torque is held to what the centre of pressure inside this
   /// fraction of the actual contact area can give (so the foot stays flat).
   double cop_margin = 0.8;
-  /// true: stance ankle torques put the CoP on the states' stance_cop/trailing_cop profile;
+  /// true: stance ankle torques put the CoP on the phases' stance_cop/trailing_cop profile;
   /// false: the ankles follow their angle targets inside the CoP window.
   bool cop_torque = false;
 };
 
-struct GaitParams {
-  std::vector<GaitState> states;
+struct VelocityWalkerParams {
+  std::vector<VelocityWalkerPhase> phases;
   FootPlacementParams placement;
   GaitPostureParams posture;
   LegComplianceParams compliance;
@@ -124,14 +124,14 @@ struct GaitParams {
 };
 
 /// The built-in default gait (documented in controllers/README.md).
-GaitParams default_gait_params();
+VelocityWalkerParams default_velocity_walker_params();
 
 /// Applies the JSON text on top of `params` (only the fields present; a "states" array
-/// replaces all states). `source` names the file in errors. Throws sim::InvalidArgument for
+/// replaces all phases). `source` names the file in errors. Throws sim::InvalidArgument for
 /// malformed JSON, unknown keys, wrong types and out-of-range values (key path and value).
-void apply_gait_json(const std::string& json_text, const std::string& source, GaitParams* params);
+void apply_velocity_walker_json(const std::string& json_text, const std::string& source, VelocityWalkerParams* params);
 
-/// The full gait as JSON (angles in degrees); apply_gait_json of it gives the same params.
-nlohmann::json gait_to_json(const GaitParams& params);
+/// The full gait as JSON (angles in degrees); apply_velocity_walker_json of it gives the same params.
+nlohmann::json velocity_walker_json(const VelocityWalkerParams& params);
 
 }  // namespace biodyn::controllers

@@ -1,0 +1,292 @@
+#pragma once
+/// The torque walker: SIMBICON (Yin, Loken & van de Panne 2007) on the generated character,
+/// with the torso torque distributed as in Coros et al. 2010 — the walker that walks. The
+/// velocity-based walker (velocity_walker.h, the paper's own method) is the other state machine
+/// on the same gait core (gait_core.h); it does not walk yet (controllers/README.md).
+///
+/// Per step (a ControlDriver: every DOF gets a prescribed torque in the control frame, so the
+/// joint controllers' muscle limits tau_max and reaction-time rate limit still apply):
+///  - A finite-state machine of phases per step (the paper's target states, Fig. 2), data in
+///    TorqueWalkerParams::phases (JSON "states"): each phase ends on time or, the last one, at
+///    the swing foot's strike (gait core: touching the floor after having left it), which swaps
+///    the legs. The default gait has two: "early swing" (time), "late swing" (strike), as
+///    SIMBICON; a double support phase (swing_foot_down) can be put first.
+///  - Every joint except the hips: PD towards its phase target, tau = kp (theta_d - theta) -
+///    kp damping_time omega. The swing ankle holds the sole level in the heading frame (gait
+///    core, toes up by toe_up), so the foot neither scuffs nor stubs whatever the shank does.
+///  - Swing hip: PD on the swing thigh's orientation in the heading frame, its pitch and roll
+///    given by the balance feedback theta = theta_0 + c_d d + c_v v (d, v: CoM position
+///    relative to the stance ankle and CoM velocity, heading frame) in both planes.
+///  - Constrained stepping (paper §4.2; plan_steps): a step with a planned length puts the
+///    swing ankle on its target instead: the 2D IK triangle hip-knee-ankle in the heading
+///    frame's sagittal plane (gait core) gives the swing thigh's pitch and the knee angle (an
+///    unreachable target gives the straight leg pointing at it, the closest reachable state).
+///    The roll stays with the balance feedback.
+///  - Base-polygon balance (paper §4.3, gait core; base_polygon_rule): when the CoM's projection
+///    leaves the tolerance polygon, the swing thigh pitches (rolls) at least far enough for the
+///    paper's step d = 4(c - b_P)/3 - 2 foot_length ahead, behind or aside.
+///  - Stance hip: the pelvis's orientation in the world (upright, pitched pelvis_pitch, facing
+///    the heading) by a virtual torso torque tau_torso; the stance hip takes
+///    tau_stance = -tau_torso - tau_swing - tau_lumbar so that the joints' reactions on the
+///    pelvis sum to tau_torso (the lumbar's reaction included: the upper body is half the mass).
+/// Gains are for an 80 kg body and scale with the body mass. Nothing acts on the root: the
+/// torso torque is made by the hips against the legs, and the feet hold by contact only.
+///
+/// A step redone at the same time (honest welds) drives again from the state the first call
+/// left: the heading and the strikes advance once, but a placed step's IK rates (a finite
+/// difference over time) read zero in the redone step. Kept: fixing it changes the stepping
+/// stones' figures.
+
+#include <mujoco/mujoco.h>
+
+#include <Eigen/Core>
+#include <cmath>
+#include <limits>
+#include <string>
+#include <vector>
+
+#include "biodyn/controllers/control_driver.h"
+#include "biodyn/controllers/gait_core.h"
+#include "biodyn/controllers/joint_groups.h"
+#include "biodyn/models/rig.h"
+#include "biodyn/sim/queries.h"
+
+namespace biodyn::controllers {
+
+/// One phase of a step (a target state, paper Fig. 2), written for the swing leg and mirrored
+/// for either side. Angles in rad; the swing hip's is the swing thigh's pitch forward of
+/// vertical in the heading frame, before the balance feedback; the swing ankle's is added to the
+/// level sole (in a swing_foot_down phase it is the joint angle itself: the foot is on the floor).
+struct TorqueWalkerPhase {
+  std::string name;
+  bool ends_at_strike = false;    ///< JSON "end": "time" (after duration_s) or "strike"
+  double duration_s = 0.3;        ///< a time phase's length at reference_speed_m_s
+  /// The phase shortens by this much per m/s of commanded speed above the reference (people
+  /// step faster as they walk faster, not only longer).
+  double duration_per_m_s = 0;
+  double swing_hip_rad = 0;
+  double swing_knee_rad = 0;
+  double swing_ankle_rad = 0;
+  double stance_knee_rad = 0;
+  double stance_ankle_rad = 0;    ///< dorsiflexion positive
+  /// Double support: the swing foot stays in stance (the welds may hold it) and a planned
+  /// step's IK waits for the next state.
+  bool swing_foot_down = false;
+};
+
+/// The documented default gait: "early swing" then "late swing" (SIMBICON's two states).
+std::vector<TorqueWalkerPhase> default_torque_walker_phases();
+
+/// Parameters of the torque walker; angles in rad, gains in N m/rad for an 80 kg body. The
+/// defaults were found by a cross-entropy search on the walker (12 s walks at 0.5-1.5 m/s on
+/// three bodies, from standing, with a human cadence band; controllers/README.md).
+struct TorqueWalkerParams {
+  /// The step's phases in order (JSON "states"); the last one ends at the strike (validate()).
+  std::vector<TorqueWalkerPhase> phases = default_torque_walker_phases();
+  double sagittal_cd = 0.246;          ///< rad/m of CoM ahead of the stance ankle
+  double sagittal_cv = 0.225;          ///< rad per m/s of forward CoM velocity
+  double frontal_cd = -0.020;          ///< rad/m of CoM beside the stance ankle
+  double frontal_cv = 0.480;           ///< rad per m/s of sideways CoM velocity
+  double swing_hip_out_rad = -0.075;   ///< swing thigh roll outwards (the step width offset)
+  double toe_up_rad = 0.070;             ///< swing sole pitch, toes up
+  double pelvis_pitch_rad = 0.125;       ///< forward lean of the pelvis in the world
+  double start_pitch_rad = 0.073;        ///< extra lean for the first start_time_s (from standing)
+  double start_time_s = 1.934;
+  double torso_kp = 1273;
+  double hip_kp = 434;
+  double knee_kp = 218;
+  double ankle_kp = 52;
+  double toe_kp = 30;
+  double trunk_kp = 600;    ///< lumbar, thorax
+  double arm_kp = 100;      ///< shoulders, clavicles
+  double distal_kp = 50;    ///< neck, head, elbows, forearms, wrists
+  double damping_time_s = 0.1;  ///< kd = kp damping_time_s
+  /// Speed regulation (walking-notes.md: speed is set mostly by the forward lean). The gait
+  /// walks at about reference_speed_m_s with the lean above; a commanded speed v adds
+  /// speed_lean_rad_per_m_s (v - reference) at once, and after every step
+  /// speed_integral_rad_per_m (v - v_step) t_step, v_step the step's mean CoM speed along the
+  /// heading (held within +-speed_lean_limit_rad).
+  double reference_speed_m_s = 1.0;
+  double speed_lean_rad_per_m_s = 0.1;
+  double speed_integral_rad_per_m = 0.03;
+  double speed_lean_limit_rad = 0.2;
+  /// The frontal counterpart: after every step the swing thigh's roll gains
+  /// lateral_integral_rad_per_m times the CoM's sideways travel in that step (heading frame), so
+  /// a steady sideways drift places the feet against it (held within +-speed_lean_limit_rad).
+  double lateral_integral_rad_per_m = 0.05;
+  /// Constrained stepping: in early swing the ankle is held this high above its target.
+  double step_clearance_m = 0.06;
+  /// Constrained stepping: the IK aims short of the target by this times the ankle's
+  /// overshoot (in late swing: its miss either way), correcting the PD's lag.
+  double placement_gain = 2.0;
+  /// Constrained stepping: in late swing a target still out of reach on the floor keeps the
+  /// ankle at the clearance height for up to this long (the hip catches up) before it comes
+  /// down at the closest reachable point.
+  double placed_wait_s = 0.15;
+  /// Stopping: while braking, the swing thigh pitches this much further per m/s of forward
+  /// CoM speed (the foot lands ahead of the CoM); once the CoM is slower than stop_speed_m_s
+  /// at a strike, the next step brings the feet side by side.
+  double stop_brake_rad_per_m_s = 0.0;
+  double stop_speed_m_s = 0.325;
+  /// Base-polygon balance (paper §4.3): the tolerance polygon is the support polygon (the
+  /// feet's floor contacts) scaled about its centre so that its edges lie this fraction of the
+  /// polygon's extent from the centre; when the CoM's projection leaves it during a swing, the
+  /// strike is moved to at least base_polygon_step() ahead (or behind, or aside).
+  double tolerance_fraction = 0.25;
+  bool base_polygon_rule = true;
+  void validate() const;  ///< throws sim::InvalidArgument naming the field
+};
+
+/// Overrides the fields a JSON object gives (keys are the member names above, e.g.
+/// {"hip_kp": 900, "states": [...]}; "states", the phases, replaces the whole list); unknown
+/// keys, non-numbers and values out of range are errors naming `source`, the field, the rule and
+/// the value (sim::InvalidArgument). On error `params` is unchanged.
+void apply_torque_walker_json(const std::string& json_text, const std::string& source, TorqueWalkerParams* params);
+/// Every field as a JSON object that apply_torque_walker_json reads back identically.
+std::string torque_walker_json(const TorqueWalkerParams& params);
+
+/// One strike of the torque walker.
+struct TorqueWalkerStrike {
+  double time_s = 0;
+  int side = 0;                 ///< the foot that struck (0 left, 1 right)
+  double step_length_m = 0;     ///< along the heading, ankle to ankle
+  double step_width_m = 0;      ///< across it
+  double target_length_m = std::numeric_limits<double>::quiet_NaN();  ///< the planned length; NaN: a free step
+};
+
+/// What the torque walker carries from one step to the next (a copyable aggregate).
+struct TorqueWalkerState {
+  // The command (set between steps).
+  double speed_m_s = 1.0;            ///< m/s along the heading (0 once stopping)
+  double heading_rate_rad_s = 0;
+  // The state machine.
+  int stance = 0;                    ///< the stance foot (0 left, 1 right)
+  int phase = 0;                     ///< index into params().phases
+  int strikes = 0;
+  double phase_start_s = 0, start_s = 0;
+  HeadingFrame heading;
+  StrikeDetector strike;
+  TorqueWalkerStrike last_strike;
+  Eigen::Vector3d com_at_strike = Eigen::Vector3d::Zero();
+  double ankle_height_m = 0;         ///< the ankles' height standing flat, measured at reset
+  // Speed and drift regulation (rad).
+  double lean_integral = 0, roll_integral = 0;
+  // Base-polygon balance: the rule's step length and width for this swing (NaN: not moved).
+  double rule_length_m = std::numeric_limits<double>::quiet_NaN();
+  double rule_width_m = std::numeric_limits<double>::quiet_NaN();
+  int rule_steps = 0;
+  bool rule_bound = false;  ///< the rule's step has overridden the balance feedback this swing
+  std::vector<Eigen::Vector2d> support, tolerance;  ///< the last evaluated polygons (world xy)
+  // Constrained stepping.
+  std::vector<double> plan;
+  int plan_next = 0;
+  double swing_target_m = std::numeric_limits<double>::quiet_NaN();
+  bool stopping = false, stopped = false;
+  // The last IK solution of a placed step, for its rates.
+  bool ik_valid = false;
+  int ik_phase = -1;
+  double ik_time_s = 0, ik_pitch = 0, ik_knee = 0, ik_pitch_rate = 0, ik_knee_rate = 0;
+};
+
+class TorqueWalker : public ControlDriver {
+ public:
+  /// For a rig with legs (thigh, shank, foot, optional toes; groups hip, knee, ankle, optional
+  /// toe) and a lumbar joint. Throws models::RigError if a part is missing, sim::InvalidArgument
+  /// if the params are invalid. The rig must outlive the walker.
+  TorqueWalker(const models::Rig& rig, TorqueWalkerParams params);
+
+  /// Starts from the current state: left foot in stance, early swing of the right leg,
+  /// heading from the pelvis yaw. Needs positions computed (mj_forward).
+  void reset(const mjData& d);
+  void set_heading_rate(double rad_s) { state_.heading_rate_rad_s = rad_s; }
+  /// Commanded speed along the heading, m/s (> 0).
+  void set_speed(double m_s) { state_.speed_m_s = m_s; }
+  double speed_command() const { return state_.speed_m_s; }
+  /// rad, the lean the speed regulation adds now (feed-forward + integral).
+  double speed_lean_rad() const;
+  /// s, a time phase's length at the commanded speed.
+  double phase_duration_s(int phase) const;
+  /// Constrained stepping: the next steps' lengths, m, along the heading (ankle to ankle),
+  /// from the swing that starts at the next strike; afterwards the steps are free again.
+  /// Replaces any plan not yet walked. Throws sim::InvalidArgument for a length outside
+  /// [0, 1.5] m (naming its index).
+  void plan_steps(const std::vector<double>& lengths_m);
+  /// The check plan_steps makes, without a walker (to refuse a plan before a run starts).
+  static void validate_plan(const std::vector<double>& lengths_m);
+  /// Stopping back to standing: the speed command drops to 0 and the steps brake (the swing
+  /// foot lands further ahead, stop_brake_rad_per_m_s) until the CoM is slower than
+  /// stop_speed_m_s at a strike; then one planned step (as above) brings the feet side by
+  /// side. stopped() is true from that strike on, and the walker no longer swaps legs: hand
+  /// the character to the standing controller (ControlPipeline::set_driver(nullptr) with both
+  /// feet in stance).
+  void request_stop();
+  bool stopping() const { return state_.stopping; }
+  bool stopped() const { return state_.stopped; }
+  /// Planned steps not yet begun.
+  int planned_steps_left() const { return static_cast<int>(state_.plan.size()) - state_.plan_next; }
+  /// The current swing's planned length (NaN for a free step).
+  double swing_target_m() const { return state_.swing_target_m; }
+  /// Base-polygon balance: whether the rule moves the current swing's strike, and how many
+  /// steps it has moved since reset(). The last evaluated support and tolerance polygons
+  /// (world xy, counter-clockwise; empty when not evaluated).
+  bool base_polygon_rule_active() const { return state_.rule_bound; }
+  int base_polygon_steps() const { return state_.rule_steps; }
+  const std::vector<Eigen::Vector2d>& support_polygon() const { return state_.support; }
+  const std::vector<Eigen::Vector2d>& tolerance_polygon() const { return state_.tolerance; }
+  void drive(const ControlInput& in, ControlFrame* frame) override;
+
+  const TorqueWalkerParams& params() const { return params_; }
+  /// Replaces the parameters from the next drive() on (the viewer's live edits); the current
+  /// phase index is kept, clamped to the new list. Throws sim::InvalidArgument naming the field
+  /// (the parameters are then unchanged). Allocates: not for the step loop.
+  void set_params(const TorqueWalkerParams& params);
+  int stance_side() const { return state_.stance; }
+  /// The current phase's index in params().phases.
+  int phase() const { return state_.phase; }
+  int strike_count() const { return state_.strikes; }
+  const TorqueWalkerStrike& last_strike() const { return state_.last_strike; }
+  double heading_rad() const { return state_.heading.heading_rad(); }
+
+  const TorqueWalkerState& state() const { return state_; }
+  /// Takes over a state saved from this walker (rewind).
+  void restore(const TorqueWalkerState& state) { state_ = state; }
+
+ private:
+  /// Sets and returns the PD torque of one hinge DOF (towards target at target_rate).
+  double hinge_pd(ControlFrame* f, const mjModel& m, const mjData& d, int dof, double target, double kp,
+                  double target_rate = 0) const;
+  void hip_torque(ControlFrame* f, const mjData& d, int side, const Eigen::Vector3d& torque_W) const;
+  /// The stop's closing step (the planned step of length 0 that brings the feet side by side).
+  bool closing_step() const { return state_.stopping && state_.swing_target_m == 0.0; }
+  /// The phase machine: time phases in order, then the last one until the swing foot strikes.
+  void advance_phases(const mjModel& m, const mjData& d, const sim::CenterOfMass& com);
+  /// At a strike: step records, speed and drift integrals, the next planned step, the stop.
+  void on_strike(const mjData& d, const sim::CenterOfMass& com, int swing);
+  /// Every joint but the legs holds the standing pose; returns the lumbar's torque on the upper
+  /// body (world), whose reaction the stance hip takes.
+  Eigen::Vector3d hold_upper_body(ControlFrame* f, const mjModel& m, const mjData& d) const;
+  /// Constrained stepping: the IK triangle for the planned step's ankle target (and its rates).
+  LegTriangle placed_step_ik(const mjData& d, const TorqueWalkerPhase& ph);
+  /// Knees, ankles (the swing sole level) and toes.
+  void leg_joints(ControlFrame* f, const mjModel& m, const mjData& d, const TorqueWalkerPhase& ph, bool placed,
+                  const LegTriangle& ik) const;
+  /// The swing thigh's goal pitch and roll (balance feedback, IK, base-polygon rule), heading frame.
+  Eigen::Vector2d swing_thigh_angles(const mjData& d, const TorqueWalkerPhase& ph, bool placed, const LegTriangle& ik,
+                                     const Eigen::Vector3d& rel, const Eigen::Vector3d& vel);
+  /// Paper §4.3 during a swing: accumulates the rule's step for this swing (gait core).
+  void apply_base_polygon_rule(const mjModel& m, const mjData& d, const Eigen::Vector3d& com_W,
+                               const Eigen::Vector3d& com_velocity_H);
+  /// The non-leg groups' PD gains from the params (trunk, arms, distal).
+  void set_gains();
+
+  TorqueWalkerParams params_;
+  TorqueWalkerState state_;
+  const models::Rig* rig_;
+  double gain_scale_ = 1;  // body mass / 80 kg
+  int lumbar_ = -1;
+  std::vector<double> kp_;  // per group, the PD gain of the non-leg groups
+  std::vector<bool> leg_;   // per group: hip, knee, ankle or toe
+  SupportPolygons polygons_;
+};
+
+}  // namespace biodyn::controllers
