@@ -17,11 +17,11 @@ namespace biodyn::apps {
 namespace {
 
 // "N,dur,deg" -> push.
-scenarios::PosePush parse_push(const std::string& text, double onset_s) {
+scenarios::TimedPush parse_push(const std::string& text, double onset_s) {
   const std::string expected = "3 numbers N,duration_s,direction_deg (e.g. 150,0.2,0)";
   const std::vector<double> v = parse_number_list(text, "--push", expected);
   if (v.size() != 3) throw sim::InvalidArgument("--push: expected " + expected + ", got '" + text + "'");
-  scenarios::PosePush p;
+  scenarios::TimedPush p;
   p.force_N = v[0];
   p.duration_s = v[1];
   p.direction_deg = v[2];
@@ -84,12 +84,12 @@ Command add_pose_command(CLI::App* app) {
   CLI::App* cmd = app->add_subcommand(
       "pose", "Stand, squat, reach or balance on one leg under the joint controllers (headless)");
   o->character.add_to(cmd);
-  cmd->add_option("--scenario", o->run.scenario, "stand | squat | reach | one-leg")
+  cmd->add_option("--scenario", o->run.config.scenario, "stand | squat | reach | one-leg")
       ->capture_default_str();
-  cmd->add_option("--duration", o->run.duration_s,
+  cmd->add_option("--duration", o->run.config.pose_duration_s,
                   "Simulated time, s (0: the scenario's own length; longer: the last pose holds)")
       ->capture_default_str();
-  cmd->add_option("--reaction-time", o->run.reaction_time_s,
+  cmd->add_option("--reaction-time", o->run.config.reaction_time_s,
                   "Muscle reaction time t_r for every joint, s (default: params, 0.02 = paper)");
   cmd->add_option("--controller", o->controller, "velocity | pd")->capture_default_str();
   cmd->add_option("--weld", o->weld, "Foot-contact weld: off | honest | glue")->capture_default_str();
@@ -103,12 +103,13 @@ Command add_pose_command(CLI::App* app) {
   return {cmd, [o]() {
             const models::CharacterSpec spec = o->character.to_spec();
             scenarios::PoseRunParams run = o->run;
-            run.kind = controllers::parse_controller_kind(o->controller, "--controller");
-            run.weld = controllers::parse_weld_mode(o->weld, "--weld");
-            if (!o->push.empty()) run.push = parse_push(o->push, o->push_onset_s);
+            run.config.character = spec;
+            run.config.controller = controllers::parse_controller_kind(o->controller, "--controller");
+            run.config.weld = controllers::parse_weld_mode(o->weld, "--weld");
+            if (!o->push.empty()) run.config.pose_push = parse_push(o->push, o->push_onset_s);
             if (!o->params_path.empty()) {
-              run.params_json = read_file(o->params_path);
-              run.params_source = o->params_path;
+              run.config.controller_json = read_file(o->params_path);
+              run.config.controller_source = o->params_path;
             }
             run.validate();
             const models::Character character = models::generate_character(spec);
@@ -117,7 +118,7 @@ Command add_pose_command(CLI::App* app) {
             if (!o->csv.empty()) run.trace = &trace;
             scenarios::PoseRunResult r;
             {
-              ProgressBar bar("pose " + run.scenario);
+              ProgressBar bar("pose " + run.config.scenario);
               r = scenarios::run_pose(&sim, run, [&](double f) { bar.update(f); });
             }
             std::ostringstream out;
@@ -130,7 +131,7 @@ Command add_pose_command(CLI::App* app) {
                 << "\n";
             out << "  result:   " << (r.fallen ? "FELL at t = " + std::to_string(r.time_fallen_s).substr(0, 5) + " s"
                                                : std::string("stayed up"))
-                << (run.push ? (r.fallen ? " after the push" : ", survived the push") : "") << "\n";
+                << (run.config.pose_push ? (r.fallen ? " after the push" : ", survived the push") : "") << "\n";
             for (const scenarios::TargetCheck& t : r.targets) {
               out << "  target:   " << std::setw(16) << std::left << t.pose << std::right
                   << " at " << t.time_s << " s: error " << t.error_deg << " deg (" << t.worst_joint

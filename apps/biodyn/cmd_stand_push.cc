@@ -66,11 +66,11 @@ Command add_stand_push_command(CLI::App* app) {
   return {cmd, [o]() {
             const models::CharacterSpec spec = o->character.to_spec();
             scenarios::PoseRunParams base;
-            base.kind = controllers::parse_controller_kind(o->controller, "--controller");
-            base.reaction_time_s = o->reaction_time_s;
+            base.config.controller = controllers::parse_controller_kind(o->controller, "--controller");
+            base.config.reaction_time_s = o->reaction_time_s;
             if (!o->params_path.empty()) {
-              base.params_json = read_file(o->params_path);
-              base.params_source = o->params_path;
+              base.config.controller_json = read_file(o->params_path);
+              base.config.controller_source = o->params_path;
             }
             const std::vector<double> directions = parse_directions(o->directions);
             std::vector<controllers::WeldMode> welds;
@@ -90,7 +90,7 @@ Command add_stand_push_command(CLI::App* app) {
             for (controllers::WeldMode w : welds) {
               for (double deg : directions) {
                 scenarios::PoseRunParams run = base;
-                run.weld = w;
+                run.config.weld = w;
                 scenarios::StandingPushScan s;
                 {
                   ProgressBar bar(std::string("stand-push ") + controllers::to_string(w) + " " + direction_name(deg));

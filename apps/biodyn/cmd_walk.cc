@@ -43,17 +43,20 @@ models::PhysicsOptions WalkOptions::physics() const {
 
 scenarios::WalkRunParams WalkOptions::to_params() const {
   scenarios::WalkRunParams p;
-  p.speed_m_s = speed_m_s;
-  p.heading_rate_deg_s = heading_rate_deg_s;
-  p.weld = controllers::parse_weld_mode(weld, "--weld");
-  p.reaction_time_s = reaction_time_s;
+  scenarios::ScenarioConfig& c = p.config;
+  c.scenario = "walk";
+  c.character = character.to_spec();
+  c.speed_m_s = speed_m_s;
+  c.heading_rate_deg_s = heading_rate_deg_s;
+  c.weld = controllers::parse_weld_mode(weld, "--weld");
+  c.reaction_time_s = reaction_time_s;
   if (!params_path.empty()) {
-    p.gait_json = read_file(params_path);
-    p.gait_source = params_path;
+    c.gait_json = read_file(params_path);
+    c.gait_source = params_path;
   }
   if (!controller_params_path.empty()) {
-    p.controller_json = read_file(controller_params_path);
-    p.controller_source = controller_params_path;
+    c.controller_json = read_file(controller_params_path);
+    c.controller_source = controller_params_path;
   }
   return p;
 }
@@ -254,21 +257,23 @@ Command add_walk_command(CLI::App* app) {
             p.duration_s = o->duration_s;
             if (o->print_params) {
               controllers::TorqueWalkerParams gp;
-              if (!p.gait_json.empty()) controllers::apply_torque_walker_json(p.gait_json, p.gait_source, &gp);
+              if (!p.config.gait_json.empty()) controllers::apply_torque_walker_json(p.config.gait_json, p.config.gait_source, &gp);
               std::cout << controllers::torque_walker_json(gp);
               return kExitOk;
             }
             if (!o->steps.empty()) {
-              p.steps_m = parse_number_list(o->steps, "--steps", "step lengths in m separated by commas");
-              p.steps_start_s = o->steps_start_s;
+              p.config.scenario = "stones";
+              p.config.steps_m = parse_number_list(o->steps, "--steps", "step lengths in m separated by commas");
+              p.config.steps_start_s = o->steps_start_s;
             }
-            p.stop_at_s = o->stop_at_s;
+            p.config.stop_at_s = o->stop_at_s;
             p.validate();
             const models::CharacterSpec spec = o->walk.character.to_spec();
             const models::PhysicsOptions physics = o->walk.physics();
             std::cout << "biodyn walk: " << to_string(spec.sex) << " " << spec.height_m << " m " << spec.mass_kg
                       << " kg (" << to_string(spec.detail) << "), " << p.duration_s << " s, weld " << o->walk.weld
-                      << ", speed " << p.speed_m_s << " m/s, heading rate " << p.heading_rate_deg_s << " deg/s, timestep "
+                      << ", speed " << p.config.speed_m_s << " m/s, heading rate " << p.config.heading_rate_deg_s
+                      << " deg/s, timestep "
                       << 1000 * o->walk.timestep_s << " ms\n";
             std::string trace;
             const scenarios::WalkRunResult r = run_walk_on(spec, physics, p, !o->csv.empty(), "walk", &trace);
@@ -313,14 +318,14 @@ Command add_push_command(CLI::App* app) {
               throw sim::InvalidArgument("--body: expected pelvis or trunk, got '" + o->push.body + "'");
             }
             scenarios::WalkRunParams p = o->walk.to_params();
-            p.push = o->push;
+            p.config.walk_push = o->push;
             p.validate();
             const models::CharacterSpec spec = o->walk.character.to_spec();
             const models::PhysicsOptions physics = o->walk.physics();
             std::cout << "biodyn push: " << o->push.force_N << " N for " << o->push.duration_s << " s on the "
                       << o->push.body << ", " << o->push.direction_deg << " deg from the heading, at "
                       << o->push.onset_phase << " of the stride after " << o->push.settle_strides
-                      << " strides; weld " << o->walk.weld << ", speed " << p.speed_m_s << " m/s, timestep "
+                      << " strides; weld " << o->walk.weld << ", speed " << p.config.speed_m_s << " m/s, timestep "
                       << 1000 * o->walk.timestep_s << " ms\n";
             std::string trace;
             const scenarios::WalkRunResult r = run_walk_on(spec, physics, p, !o->csv.empty(), "push", &trace);

@@ -13,7 +13,7 @@ namespace biodyn::apps {
 
 void ViewOptions::add_to(CLI::App* cmd) {
   std::string names;
-  for (const std::string& n : scenarios::live_scenario_names()) names += (names.empty() ? "" : " | ") + n;
+  for (const std::string& n : scenarios::scenario_names()) names += (names.empty() ? "" : " | ") + n;
   cmd->add_option("--scenario", scenario, "Scenario: " + names)->capture_default_str();
   character.add_to(cmd);
   speed_option = cmd->add_option("--speed", speed_m_s,
@@ -53,8 +53,8 @@ void ViewOptions::add_to(CLI::App* cmd) {
                                  ->capture_default_str());
 }
 
-scenarios::LiveConfig ViewOptions::to_config() const {
-  scenarios::LiveConfig c;
+scenarios::ScenarioConfig ViewOptions::to_config() const {
+  scenarios::ScenarioConfig c;
   c.scenario = scenario;
   c.character = character.to_spec();
   const bool speed_given = speed_option != nullptr && speed_option->count() > 0;
@@ -120,10 +120,10 @@ std::string ViewOptions::assumption() const {
   return weld_assumption(weld);
 }
 
-nlohmann::json stones_json(const std::vector<double>& plan_m, const std::vector<scenarios::LiveStone>& stones) {
+nlohmann::json stones_json(const std::vector<double>& plan_m, const std::vector<scenarios::Stone>& stones) {
   nlohmann::json walked = nlohmann::json::array(), errors = nlohmann::json::array();
   double sq = 0;
-  for (const scenarios::LiveStone& st : stones) {
+  for (const scenarios::Stone& st : stones) {
     if (std::isnan(st.walked_m)) continue;
     walked.push_back(st.walked_m);
     errors.push_back(st.walked_m - st.target_m);
@@ -136,7 +136,7 @@ nlohmann::json stones_json(const std::vector<double>& plan_m, const std::vector<
           {"definition", "step length ankle to ankle along the heading at each strike, against the plan"}};
 }
 
-nlohmann::json tracking_json(const scenarios::LiveScenario::TrackingReport& r) {
+nlohmann::json tracking_json(const scenarios::TrackingReport& r) {
   constexpr double kDeg = 180.0 / 3.14159265358979323846;
   return {{"motion_length_s", r.motion_length_s},
           {"lookahead_s", r.lookahead_s},
@@ -153,7 +153,7 @@ nlohmann::json tracking_json(const scenarios::LiveScenario::TrackingReport& r) {
                          "it the targets hold its last frame)"}};
 }
 
-std::string tracking_line(const scenarios::LiveScenario::TrackingReport& r) {
+std::string tracking_line(const scenarios::TrackingReport& r) {
   if (!r.tracked) return "";
   constexpr double kDeg = 180.0 / 3.14159265358979323846;
   std::ostringstream out;
@@ -171,7 +171,7 @@ std::string tracking_line(const scenarios::LiveScenario::TrackingReport& r) {
   return out.str();
 }
 
-std::string stones_line(const std::vector<double>& plan_m, const std::vector<scenarios::LiveStone>& stones) {
+std::string stones_line(const std::vector<double>& plan_m, const std::vector<scenarios::Stone>& stones) {
   if (plan_m.empty()) return "";
   const nlohmann::json j = stones_json(plan_m, stones);
   std::ostringstream out;

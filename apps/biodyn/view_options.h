@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "biodyn/scenarios/live.h"
+#include "biodyn/scenarios/registry.h"
 #include "cli_common.h"
 
 namespace biodyn::apps {
@@ -34,19 +35,19 @@ struct ViewOptions {
   /// --steps-start.
   void add_to(CLI::App* cmd);
   /// Reads the files; throws sim::InvalidArgument naming the option or file.
-  scenarios::LiveConfig to_config() const;
+  scenarios::ScenarioConfig to_config() const;
   /// What the results depend on, said in every output: the foot-contact mode, or for the mocap
   /// scenario that it is a kinematic playback.
   std::string assumption() const;
 };
 
 /// scenario mocap --track: the tracking error over the run and the fall (JSON), and one line.
-nlohmann::json tracking_json(const scenarios::LiveScenario::TrackingReport& r);
-std::string tracking_line(const scenarios::LiveScenario::TrackingReport& r);  ///< "" when not tracked
+nlohmann::json tracking_json(const scenarios::TrackingReport& r);
+std::string tracking_line(const scenarios::TrackingReport& r);  ///< "" when not tracked
 
 /// scenario stones: the plan, the lengths walked so far, their errors and RMS (JSON), and one
 /// line for the terminal ("" without a plan).
-nlohmann::json stones_json(const std::vector<double>& plan_m, const std::vector<scenarios::LiveStone>& stones);
-std::string stones_line(const std::vector<double>& plan_m, const std::vector<scenarios::LiveStone>& stones);
+nlohmann::json stones_json(const std::vector<double>& plan_m, const std::vector<scenarios::Stone>& stones);
+std::string stones_line(const std::vector<double>& plan_m, const std::vector<scenarios::Stone>& stones);
 
 }  // namespace biodyn::apps

@@ -14,7 +14,7 @@
 #include "test_support.h"
 
 using namespace biodyn;
-using scenarios::LiveConfig;
+using scenarios::ScenarioConfig;
 using scenarios::LiveScenario;
 
 namespace {
@@ -37,7 +37,7 @@ bool bit_identical(const std::vector<double>& a, const std::vector<double>& b) {
 TEST_CASE("Live walk: rewinding and resuming gives the same future, edits included",
           "[apps][live]") {
   testing::MujocoWarningGuard guard;
-  LiveScenario walk(LiveConfig{});
+  LiveScenario walk(ScenarioConfig{});
   walk.run_until(1.0);
   walk.set_speed(1.3);
   walk.run_until(1.5);
@@ -94,7 +94,7 @@ TEST_CASE("Live walk: rewinding restores a checkpoint (at most 0.5 s replayed), 
     x.push_back(static_cast<double>(s.gait()->phase()));
     return x;
   };
-  LiveScenario walk(LiveConfig{});
+  LiveScenario walk(ScenarioConfig{});
   walk.run_until(3.0);
   controllers::TorqueWalkerParams p = walk.gait()->params();
   p.pelvis_pitch_rad += 0.05;
@@ -147,7 +147,7 @@ TEST_CASE("Live walk: rewinding restores a checkpoint (at most 0.5 s replayed), 
 
 TEST_CASE("Live squat: rewinding across pose changes from a checkpoint is exact", "[apps][live]") {
   testing::MujocoWarningGuard guard;
-  LiveConfig squat;
+  ScenarioConfig squat;
   squat.scenario = "squat";
   squat.weld = controllers::WeldMode::kGlue;
   LiveScenario s(squat);
@@ -162,12 +162,12 @@ TEST_CASE("Live squat: rewinding across pose changes from a checkpoint is exact"
 TEST_CASE("Live stones: the paper's stepping stones, walked as biodyn walk --steps walks them",
           "[apps][live][stones]") {
   testing::MujocoWarningGuard guard;
-  LiveConfig config;
+  ScenarioConfig config;
   config.scenario = "stones";
   config.speed_m_s = 0.7;  // the plan's mean step at the gait's cadence (walk_test.cc)
   config.weld = controllers::WeldMode::kOff;
   LiveScenario live(config);
-  const std::vector<scenarios::LiveStone>& stones = live.stones();
+  const std::vector<scenarios::Stone>& stones = live.stones();
   // To the strike on the last stone: each stone is drawn where its foot then lands, off by the
   // length error along the heading (the walker plans lengths, not widths: across, by how far
   // the swing foot strayed).
@@ -176,7 +176,7 @@ TEST_CASE("Live stones: the paper's stepping stones, walked as biodyn walk --ste
   {
     const mjModel& m = live.simulation().model();
     const mjData& d = live.simulation().data();
-    const scenarios::LiveStone& last = stones.back();
+    const scenarios::Stone& last = stones.back();
     const int foot = mj_name2id(&m, mjOBJ_BODY, last.side == 0 ? "foot_l" : "foot_r");
     const Eigen::Vector2d off = Eigen::Vector2d(d.xpos[3 * foot], d.xpos[3 * foot + 1]) - last.ankle_W;
     const Eigen::Vector2d along(std::cos(last.heading_rad), std::sin(last.heading_rad));
@@ -194,16 +194,17 @@ TEST_CASE("Live stones: the paper's stepping stones, walked as biodyn walk --ste
                                               "generated character"));
   scenarios::WalkRunParams p;
   p.duration_s = 14;
-  p.speed_m_s = 0.7;
-  p.weld = controllers::WeldMode::kOff;
-  p.steps_m = scenarios::paper_stepping_stones_m();
+  p.config.scenario = "stones";
+  p.config.speed_m_s = 0.7;
+  p.config.weld = controllers::WeldMode::kOff;
+  p.config.steps_m = scenarios::paper_stepping_stones_m();
   const scenarios::WalkRunResult r = scenarios::run_walk(&sim, p);
   REQUIRE(r.stones);
   REQUIRE(r.stones->lengths_m.size() == 6);
   for (std::size_t i = 0; i < stones.size(); ++i) {
     INFO("stone " << i + 1 << ": target " << stones[i].target_m << " m, walked " << stones[i].walked_m
                   << " m (biodyn walk: " << r.stones->lengths_m[i] << " m)");
-    CHECK(stones[i].target_m == p.steps_m[i]);
+    CHECK(stones[i].target_m == p.config.steps_m[i]);
     CHECK(stones[i].walked_m == Approx(r.stones->lengths_m[i]).margin(1e-9));
     CHECK(std::abs(stones[i].walked_m - stones[i].target_m) < 0.05);
     if (i > 0) CHECK(stones[i].side != stones[i - 1].side);
@@ -211,7 +212,7 @@ TEST_CASE("Live stones: the paper's stepping stones, walked as biodyn walk --ste
 
   // Rewound into the stones (7.3 s, from a checkpoint): the same walk, the same stones.
   const std::vector<double> end_state = state_of(live);
-  const std::vector<scenarios::LiveStone> walked = stones;
+  const std::vector<scenarios::Stone> walked = stones;
   live.rewind_to(3650);
   CHECK(stones.size() < walked.size());
   live.run_until(14.0);
@@ -220,7 +221,7 @@ TEST_CASE("Live stones: the paper's stepping stones, walked as biodyn walk --ste
   CHECK(stones.back().walked_m == walked.back().walked_m);
   CHECK(stones.back().ankle_W == walked.back().ankle_W);
 
-  LiveConfig walk_with_steps;
+  ScenarioConfig walk_with_steps;
   walk_with_steps.steps_m = {0.5};
   CHECK_THROWS_WITH(LiveScenario(walk_with_steps), Catch::Matchers::Contains("stones scenario"));
   config.steps_m = {0.5, 2.0};
@@ -230,7 +231,7 @@ TEST_CASE("Live stones: the paper's stepping stones, walked as biodyn walk --ste
 TEST_CASE("Live walk: a walker parameter edited mid-run changes the walk; saved params read back",
           "[apps][live]") {
   testing::MujocoWarningGuard guard;
-  LiveScenario a(LiveConfig{}), b(LiveConfig{});
+  LiveScenario a(ScenarioConfig{}), b(ScenarioConfig{});
   a.run_until(1.0);
   b.run_until(1.0);
   REQUIRE(bit_identical(state_of(a), state_of(b)));
@@ -252,11 +253,11 @@ TEST_CASE("Live walk: a walker parameter edited mid-run changes the walk; saved 
   CHECK(reread.pelvis_pitch_rad == p.pelvis_pitch_rad);
 
   // The controller parameters likewise (biodyn pose --params).
-  controllers::ControllerParams cp = b.controller_params();
+  controllers::ControllerParams cp = *b.controller_params();
   cp.joints.front().reaction_time_s = 0.04;
   b.set_controller_params(cp);
   b.step();
-  LiveConfig from_saved;
+  ScenarioConfig from_saved;
   from_saved.controller_json = b.controller_params_json();
   from_saved.controller_source = "saved_controller.json";
   LiveScenario c(from_saved);
@@ -265,7 +266,7 @@ TEST_CASE("Live walk: a walker parameter edited mid-run changes the walk; saved 
 
 TEST_CASE("Live scenarios: standing holds; bad configs and edits are refused", "[apps][live]") {
   testing::MujocoWarningGuard guard;
-  LiveConfig stand;
+  ScenarioConfig stand;
   stand.scenario = "stand";
   LiveScenario s(stand);
   s.run_until(2.0);
@@ -277,14 +278,14 @@ TEST_CASE("Live scenarios: standing holds; bad configs and edits are refused", "
   s.push("pelvis", Eigen::Vector3d(800, 0, 0), 0.5);
   s.run_until(5.0);
   CHECK(s.fallen());
-  LiveConfig bad;
+  ScenarioConfig bad;
   bad.scenario = "dance";
   CHECK_THROWS_WITH(LiveScenario(bad), Catch::Matchers::Contains("walk"));
 }
 
 TEST_CASE("Live mocap: a retargeted BVH plays kinematically on the character, looping",
           "[apps][live]") {
-  LiveConfig config;
+  ScenarioConfig config;
   config.scenario = "mocap";
   config.motion_path =
       biodyn::testing::source_dir() + "/../shared/data/mocap/bvh/cmu_131_01_start_walk_stop.bvh";
@@ -311,7 +312,7 @@ TEST_CASE("Live mocap: a retargeted BVH plays kinematically on the character, lo
       }());
   const std::string csv = biodyn::testing::binary_dir() + "/live_scenario_motion.csv";
   sim::write_file_atomically(csv, mocap_io::format_motion_csv(r.motion));
-  LiveConfig from_csv = config;
+  ScenarioConfig from_csv = config;
   from_csv.motion_path = csv;
   LiveScenario play_csv(from_csv);
   play_csv.run_until(1.0);
@@ -319,13 +320,13 @@ TEST_CASE("Live mocap: a retargeted BVH plays kinematically on the character, lo
   // qpos as written to 9+ significant digits: equal to the in-memory motion within 1e-8.
   REQUIRE(csv_at1.size() == at1.size());
   for (int k = 0; k < m.nq; ++k) CHECK(csv_at1[static_cast<std::size_t>(k)] == Approx(at1[static_cast<std::size_t>(k)]).margin(1e-8));
-  LiveConfig no_motion;
+  ScenarioConfig no_motion;
   no_motion.scenario = "mocap";
   CHECK_THROWS_WITH(LiveScenario(no_motion), Catch::Matchers::Contains("--motion"));
 
   // A part of the motion (--motion-from/--motion-to): replayed from 0; from frame 480 on, its
   // frame at 0.504 s (between frames) is the whole motion's at frame 480's time + 0.504 s.
-  LiveConfig part = from_csv;
+  ScenarioConfig part = from_csv;
   const double t480 = r.motion.times_s[480] - r.motion.times_s[0];
   part.motion_from_s = t480;
   part.motion_to_s = t480 + 2.0;
@@ -345,7 +346,7 @@ TEST_CASE("Live mocap: a retargeted BVH plays kinematically on the character, lo
   part.motion_from_s = -1.0;
   part.motion_to_s = -1;
   CHECK_THROWS_WITH(LiveScenario(part), Catch::Matchers::Contains("motion from: must be a time >= 0"));
-  LiveConfig walk_from;
+  ScenarioConfig walk_from;
   walk_from.motion_from_s = 1.0;
   CHECK_THROWS_WITH(LiveScenario(walk_from), Catch::Matchers::Contains("only the mocap scenario"));
 }
@@ -354,7 +355,7 @@ TEST_CASE("Live mocap --track: the controllers follow a motion this body can do;
           "[apps][live][track]") {
   testing::MujocoWarningGuard guard;
   // A motion this body can do: 6 s of its own walk (qpos every 4 ms), as a motion CSV.
-  LiveScenario walk(LiveConfig{});
+  LiveScenario walk(ScenarioConfig{});
   const mjModel& wm = walk.simulation().model();
   mocap_io::Motion motion;
   motion.columns = mocap_io::qpos_names(wm);
@@ -373,7 +374,7 @@ TEST_CASE("Live mocap --track: the controllers follow a motion this body can do;
   const std::string path = dir + "/own_walk.csv";
   sim::write_file_atomically(path, mocap_io::format_motion_csv(motion));
 
-  LiveConfig config;
+  ScenarioConfig config;
   config.scenario = "mocap";
   config.motion_path = path;
   config.track = true;
@@ -424,7 +425,7 @@ TEST_CASE("Live mocap --track: the controllers follow a motion this body can do;
   raised.qpos.col(2).array() += 0.05;  // pelvis_z
   const std::string raised_path = dir + "/own_walk_raised.csv";
   sim::write_file_atomically(raised_path, mocap_io::format_motion_csv(raised));
-  LiveConfig raised_config = config;
+  ScenarioConfig raised_config = config;
   raised_config.motion_path = raised_path;
   LiveScenario raised_track(raised_config);
   raised_track.run_until(6.0);
@@ -449,7 +450,7 @@ TEST_CASE("Live mocap --track: the controllers follow a motion this body can do;
 
   config.tracker.lookahead_s = 0;
   CHECK_THROWS_WITH(LiveScenario(config), Catch::Matchers::Contains("lookahead"));
-  LiveConfig walk_track;
+  ScenarioConfig walk_track;
   walk_track.track = true;
   CHECK_THROWS_WITH(LiveScenario(walk_track), Catch::Matchers::Contains("only the mocap scenario"));
 }

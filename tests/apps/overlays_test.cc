@@ -31,7 +31,7 @@ int weld_markers(const scenarios::LiveScenario& s, const std::vector<sim::Overla
 TEST_CASE("Overlays: a glued foot pulled up shows the red tension flag; honest welds never do",
           "[apps][overlays]") {
   for (const controllers::WeldMode mode : {controllers::WeldMode::kGlue, controllers::WeldMode::kHonest}) {
-    scenarios::LiveConfig config;
+    scenarios::ScenarioConfig config;
     config.scenario = "stand";
     config.weld = mode;
     scenarios::LiveScenario s(config);
@@ -64,7 +64,7 @@ TEST_CASE("Overlays: a glued foot pulled up shows the red tension flag; honest w
 }
 
 TEST_CASE("Overlays: one box per stepping stone, the support polygon under the feet", "[apps][overlays][stones]") {
-  scenarios::LiveConfig config;
+  scenarios::ScenarioConfig config;
   config.scenario = "stones";
   config.speed_m_s = 0.7;
   scenarios::LiveScenario s(config);

@@ -26,9 +26,9 @@ TEST_CASE("Quiet standing 60 s: upright, CoM inside the support polygon", "[apps
   for (const controllers::WeldMode weld : {controllers::WeldMode::kOff, controllers::WeldMode::kHonest}) {
     sim::Simulation sim = make_sim(models::Detail::kFull);
     scenarios::PoseRunParams p;
-    p.scenario = "stand";
-    p.duration_s = 60;
-    p.weld = weld;
+    p.config.scenario = "stand";
+    p.config.pose_duration_s = 60;
+    p.config.weld = weld;
     const scenarios::PoseRunResult r = scenarios::run_pose(&sim, p);
     INFO("weld " << controllers::to_string(weld));
     CHECK_FALSE(r.fallen);
@@ -46,9 +46,9 @@ TEST_CASE("Stable from t_r = 10 ms to 150 ms: 30 s without a fall or a growing o
   for (const double t_r : {0.01, 0.02, 0.05, 0.1, 0.15}) {
     sim::Simulation sim = make_sim(models::Detail::kFull);
     scenarios::PoseRunParams p;
-    p.scenario = "stand";
-    p.duration_s = 30;
-    p.reaction_time_s = t_r;
+    p.config.scenario = "stand";
+    p.config.pose_duration_s = 30;
+    p.config.reaction_time_s = t_r;
     const scenarios::PoseRunResult r = scenarios::run_pose(&sim, p);
     INFO("t_r " << t_r);
     CHECK_FALSE(r.fallen);
@@ -68,8 +68,8 @@ TEST_CASE("Squat-and-stand and arm reach: within 3 degrees at every reach time",
     for (const double t_r : {0.02, 0.1}) {
       sim::Simulation sim = make_sim(models::Detail::kFull);
       scenarios::PoseRunParams p;
-      p.scenario = scenario;
-      p.reaction_time_s = t_r;
+      p.config.scenario = scenario;
+      p.config.reaction_time_s = t_r;
       const scenarios::PoseRunResult r = scenarios::run_pose(&sim, p);
       INFO(scenario << ", t_r " << t_r);
       CHECK_FALSE(r.fallen);
@@ -87,8 +87,8 @@ TEST_CASE("Weight shift onto one leg and back", "[apps][pose]") {
   for (const double t_r : {0.02, 0.1}) {
     sim::Simulation sim = make_sim(models::Detail::kFull);
     scenarios::PoseRunParams p;
-    p.scenario = "one-leg";
-    p.reaction_time_s = t_r;
+    p.config.scenario = "one-leg";
+    p.config.reaction_time_s = t_r;
     const scenarios::PoseRunResult r = scenarios::run_pose(&sim, p);
     INFO("t_r " << t_r);
     CHECK_FALSE(r.fallen);
@@ -101,9 +101,9 @@ TEST_CASE("The PD controller stands on the same interface", "[apps][pose]") {
   testing::MujocoWarningGuard guard;
   sim::Simulation sim = make_sim(models::Detail::kFull);
   scenarios::PoseRunParams p;
-  p.scenario = "stand";
-  p.duration_s = 10;
-  p.kind = controllers::ControllerKind::kPd;
+  p.config.scenario = "stand";
+  p.config.pose_duration_s = 10;
+  p.config.controller = controllers::ControllerKind::kPd;
   const scenarios::PoseRunResult r = scenarios::run_pose(&sim, p);
   CHECK(r.controller == "pd");
   CHECK_FALSE(r.fallen);
@@ -127,14 +127,14 @@ TEST_CASE("Standing push of 100 N for 0.2 s is survived without stepping in ever
     for (const double deg : {0.0, 180.0, 90.0}) {
       sim::Simulation sim = make_sim(models::Detail::kFull);
       scenarios::PoseRunParams p;
-      p.scenario = "stand";
-      p.duration_s = 4.2;
-      p.weld = weld;
-      scenarios::PosePush push;
+      p.config.scenario = "stand";
+      p.config.pose_duration_s = 4.2;
+      p.config.weld = weld;
+      scenarios::TimedPush push;
       push.force_N = kStandingPushFloorN;
       push.duration_s = 0.2;
       push.direction_deg = deg;
-      p.push = push;
+      p.config.pose_push = push;
       const scenarios::PoseRunResult r = scenarios::run_pose(&sim, p);
       INFO("weld " << controllers::to_string(weld) << ", direction " << deg << " deg");
       CHECK(r.survived_push);
@@ -163,11 +163,11 @@ TEST_CASE("The push scan stops at the first failure and reports the force below 
 TEST_CASE("Bad pose parameters are refused with the field named", "[apps][pose]") {
   sim::Simulation sim = make_sim(models::Detail::kGait);
   scenarios::PoseRunParams p;
-  p.scenario = "cartwheel";
+  p.config.scenario = "cartwheel";
   CHECK_THROWS_WITH(scenarios::run_pose(&sim, p), Catch::Contains("scenario: must be one of"));
-  p.scenario = "reach";  // the gait character has no arms
+  p.config.scenario = "reach";  // the gait character has no arms
   CHECK_THROWS_WITH(scenarios::run_pose(&sim, p), Catch::Contains("--detail full"));
-  p.scenario = "stand";
-  p.reaction_time_s = 5;
+  p.config.scenario = "stand";
+  p.config.reaction_time_s = 5;
   CHECK_THROWS_WITH(scenarios::run_pose(&sim, p), Catch::Contains("reaction-time"));
 }

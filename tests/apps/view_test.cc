@@ -57,7 +57,7 @@ TEST_CASE("biodyn view: a scripted session under Xvfb edits, pushes, shoots and 
 
   // The viewer runs the headless scenario's physics: the plain session ends where a headless
   // run of the same scenario ends, bit for bit (nlohmann writes doubles round-trip exact).
-  biodyn::scenarios::LiveScenario headless{biodyn::scenarios::LiveConfig{}};
+  biodyn::scenarios::LiveScenario headless{biodyn::scenarios::ScenarioConfig{}};
   headless.run_until(3.0);
   const auto com = biodyn::sim::center_of_mass(headless.simulation().model(), headless.simulation().data());
   CHECK(a["com_x_m"].get<double>() == com.position_W.x());

@@ -25,7 +25,7 @@ TEST_CASE("a walk reports what it measured, consistently", "[apps][walk]") {
   sim::Simulation sim = make_default_sim();
   scenarios::WalkRunParams p;
   p.duration_s = 12;
-  p.weld = controllers::WeldMode::kHonest;
+  p.config.weld = controllers::WeldMode::kHonest;
   std::ostringstream trace;
   p.trace = &trace;
   const scenarios::WalkRunResult r = scenarios::run_walk(&sim, p);
@@ -71,8 +71,8 @@ TEST_CASE("the walker follows a commanded speed from 0.5 to 1.5 m/s", "[apps][wa
   for (double v : {0.5, 1.5}) {
     scenarios::WalkRunParams p;
     p.duration_s = 25;
-    p.speed_m_s = v;
-    p.weld = controllers::WeldMode::kOff;
+    p.config.speed_m_s = v;
+    p.config.weld = controllers::WeldMode::kOff;
     const scenarios::WalkRunResult r = scenarios::run_walk(&sim, p);
     INFO("commanded " << v << " m/s: steady " << r.steady_speed_m_s << ", fell at " << r.time_fallen_s);
     CHECK_FALSE(r.fallen);
@@ -83,12 +83,12 @@ TEST_CASE("the walker follows a commanded speed from 0.5 to 1.5 m/s", "[apps][wa
 TEST_CASE("a push during walking is timed by the gait and judged by the protocol", "[apps][walk][push]") {
   sim::Simulation sim = make_default_sim();
   scenarios::WalkRunParams p;
-  p.weld = controllers::WeldMode::kHonest;
+  p.config.weld = controllers::WeldMode::kHonest;
   scenarios::WalkPush push;
   push.force_N = 0;  // the timing and the judgement without a disturbance
   push.onset_phase = 0.5;
   push.settle_strides = 5;  // the protocol's steady walking before a push
-  p.push = push;
+  p.config.walk_push = push;
   const scenarios::WalkRunResult calm = scenarios::run_walk(&sim, p);
   REQUIRE(calm.push);
   INFO(calm.push->failure);
@@ -106,8 +106,8 @@ TEST_CASE("a push during walking is timed by the gait and judged by the protocol
   CHECK(calm.push->stride_speeds_after_m_s.size() >= 4);
 
   // A push no walker takes: 0.5 s of 1500 N forward (delta-v 9 m/s).
-  p.push->force_N = 1500;
-  p.push->duration_s = 0.5;
+  p.config.walk_push->force_N = 1500;
+  p.config.walk_push->duration_s = 0.5;
   const scenarios::WalkRunResult hard = scenarios::run_walk(&sim, p);
   REQUIRE(hard.push);
   CHECK_FALSE(hard.push->survived);
@@ -121,16 +121,17 @@ TEST_CASE("the walker steps on the paper's stepping stones", "[apps][walk][stone
   sim::Simulation sim = make_default_sim();
   scenarios::WalkRunParams p;
   p.duration_s = 14;
-  p.speed_m_s = 0.7;  // the plan's mean step (0.38 m) at the gait's cadence
-  p.weld = controllers::WeldMode::kOff;
-  p.steps_m = {0.60, 0.20, 0.50, 0.16, 0.50, 0.30};  // paper §4.2
+  p.config.scenario = "stones";
+  p.config.speed_m_s = 0.7;  // the plan's mean step (0.38 m) at the gait's cadence
+  p.config.weld = controllers::WeldMode::kOff;
+  p.config.steps_m = {0.60, 0.20, 0.50, 0.16, 0.50, 0.30};  // paper §4.2
   const scenarios::WalkRunResult r = scenarios::run_walk(&sim, p);
   REQUIRE(r.stones);
   const scenarios::SteppingStonesResult& s = *r.stones;
   INFO("fell at " << r.time_fallen_s << ", walked " << s.lengths_m.size() << " stones, RMS " << s.rms_error_m);
   CHECK_FALSE(r.fallen);
   REQUIRE(s.complete);
-  CHECK(s.start_s >= p.steps_start_s);
+  CHECK(s.start_s >= p.config.steps_start_s);
   // The walked lengths are the strikes' own, in order, and the errors their differences.
   double sq = 0;
   for (std::size_t i = 0; i < s.lengths_m.size(); ++i) {
@@ -151,8 +152,8 @@ TEST_CASE("the walker stops back to standing", "[apps][walk][stop]") {
   for (const controllers::WeldMode weld : {controllers::WeldMode::kOff, controllers::WeldMode::kHonest}) {
     scenarios::WalkRunParams p;
     p.duration_s = 16;
-    p.stop_at_s = 8;
-    p.weld = weld;
+    p.config.stop_at_s = 8;
+    p.config.weld = weld;
     const scenarios::WalkRunResult r = scenarios::run_walk(&sim, p);
     INFO("weld " << controllers::to_string(weld) << ": stopped at " << r.stopped_at_s << ", fell at " << r.time_fallen_s
                  << ", CoM " << r.final_com_speed_m_s << " m/s at the end");
@@ -170,31 +171,32 @@ TEST_CASE("the walker stops back to standing", "[apps][walk][stop]") {
 TEST_CASE("walk inputs out of range are rejected by name", "[apps][walk]") {
   sim::Simulation sim = make_default_sim();
   scenarios::WalkRunParams p;
-  p.speed_m_s = 3;
+  p.config.speed_m_s = 3;
   CHECK_THROWS_WITH(scenarios::run_walk(&sim, p), Catch::Contains("speed") && Catch::Contains("3"));
   p = scenarios::WalkRunParams{};
-  p.push = scenarios::WalkPush{};
-  p.push->onset_phase = 1.0;
+  p.config.walk_push = scenarios::WalkPush{};
+  p.config.walk_push->onset_phase = 1.0;
   CHECK_THROWS_WITH(scenarios::run_walk(&sim, p), Catch::Contains("onset-phase"));
   p = scenarios::WalkRunParams{};
-  p.gait_json = R"({"hip_kp": 400, "hip_kpp": 900})";
-  p.gait_source = "my_gait.json";
+  p.config.gait_json = R"({"hip_kp": 400, "hip_kpp": 900})";
+  p.config.gait_source = "my_gait.json";
   CHECK_THROWS_WITH(scenarios::run_walk(&sim, p), Catch::Contains("my_gait.json.hip_kpp") && Catch::Contains("unknown key"));
-  p.gait_json = R"({"hip_kp": -1})";
+  p.config.gait_json = R"({"hip_kp": -1})";
   CHECK_THROWS_WITH(scenarios::run_walk(&sim, p), Catch::Contains("hip_kp") && Catch::Contains("-1"));
-  p.gait_json = R"({"states": [{"name": "swing", "end": "strike", "swing_knee_rad": 0.5, "knee": 1}]})";
+  p.config.gait_json = R"({"states": [{"name": "swing", "end": "strike", "swing_knee_rad": 0.5, "knee": 1}]})";
   CHECK_THROWS_WITH(scenarios::run_walk(&sim, p), Catch::Contains("my_gait.json.states[0].knee") && Catch::Contains("unknown key"));
-  p.gait_json = R"({"states": [{"name": "swing", "end": "later"}]})";
+  p.config.gait_json = R"({"states": [{"name": "swing", "end": "later"}]})";
   CHECK_THROWS_WITH(scenarios::run_walk(&sim, p), Catch::Contains("states[0].end") && Catch::Contains("later"));
-  p.gait_json = "{";
+  p.config.gait_json = "{";
   CHECK_THROWS_WITH(scenarios::run_walk(&sim, p), Catch::Contains("my_gait.json") && Catch::Contains("not valid JSON"));
   p = scenarios::WalkRunParams{};
-  p.steps_m = {0.5, 2.0};
-  CHECK_THROWS_WITH(scenarios::run_walk(&sim, p), Catch::Contains("steps[2]") && Catch::Contains("2"));
-  p.steps_m = {0.5};
-  p.steps_start_s = 30;
+  p.config.scenario = "stones";
+  p.config.steps_m = {0.5, 2.0};
+  CHECK_THROWS_WITH(scenarios::run_walk(&sim, p), Catch::Contains("planned step 2") && Catch::Contains("2"));
+  p.config.steps_m = {0.5};
+  p.config.steps_start_s = 30;
   CHECK_THROWS_WITH(scenarios::run_walk(&sim, p), Catch::Contains("steps start") && Catch::Contains("30"));
   p = scenarios::WalkRunParams{};
-  p.stop_at_s = 25;
+  p.config.stop_at_s = 25;
   CHECK_THROWS_WITH(scenarios::run_walk(&sim, p), Catch::Contains("stop-at") && Catch::Contains("25"));
 }

@@ -98,7 +98,7 @@ void build_overlays(const scenarios::LiveScenario& s, const OverlayOptions& o, O
     const models::Sole& sole = s.rig().leg(models::kLeft).sole;
     const double back = sole.x_min - kMargin_m, front = sole.x_max + kMargin_m;
     const double half_width = 0.5 * (sole.y_max - sole.y_min) + kMargin_m;
-    for (const scenarios::LiveStone& st : s.stones()) {
+    for (const scenarios::Stone& st : s.stones()) {
       const double mid = 0.5 * (back + front);
       const Eigen::Vector2d along(std::cos(st.heading_rad), std::sin(st.heading_rad));
       const Eigen::Vector2d c = st.ankle_W + mid * along;

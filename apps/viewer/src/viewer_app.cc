@@ -208,12 +208,12 @@ void sample_plots(Shared& sh) {
     if (k.body == left.foot || k.body == left.toes) on[0] = true;
     if (k.body == right.foot || k.body == right.toes) on[1] = true;
   }
-  const auto& joints = s.controller().joints();
-  const auto& tau = joints.previous_torque();
-  const auto& tau_max = joints.tau_max();
   sh.ratio_scratch.assign(sh.plots.group_index.size(), 0.0f);
-  for (std::size_t g = 0; g < sh.plots.group_index.size(); ++g) {
-    const controllers::JointGroup& jg = s.controller().groups()[static_cast<std::size_t>(sh.plots.group_index[g])];
+  const controllers::ControlPipeline* pipeline = s.controller();  // none in a kinematic playback
+  for (std::size_t g = 0; pipeline != nullptr && g < sh.plots.group_index.size(); ++g) {
+    const auto& tau = pipeline->joints().previous_torque();
+    const auto& tau_max = pipeline->joints().tau_max();
+    const controllers::JointGroup& jg = s.rig().groups()[static_cast<std::size_t>(sh.plots.group_index[g])];
     for (int k = 0; k < jg.dof_count; ++k) {
       const std::size_t dof = static_cast<std::size_t>(jg.dof_begin + k);
       if (tau_max[dof] > 0) sh.ratio_scratch[g] = std::max(sh.ratio_scratch[g], static_cast<float>(std::abs(tau[dof]) / tau_max[dof]));
@@ -224,6 +224,13 @@ void sample_plots(Shared& sh) {
 }
 
 void run_command(Shared& sh, const ScriptCommand& c, const std::string& script);
+
+// The controller parameters in use; throws sim::InvalidArgument for a kinematic playback.
+controllers::ControllerParams current_controller_params(const scenarios::LiveScenario& s) {
+  const controllers::ControllerParams* p = s.controller_params();
+  if (p == nullptr) throw sim::InvalidArgument("controller parameters: the motion plays kinematically, no controllers");
+  return *p;
+}
 
 /// The physics thread: keeps simulated time at speed_factor x wall time (dropping behind rather
 /// than spiralling when the machine cannot keep up), records history and plot samples.
@@ -346,11 +353,11 @@ void run_command(Shared& sh, const ScriptCommand& c, const std::string& script) 
       } else if (w[1].rfind("walker.", 0) == 0) {
         set_walker_field(s, w[1].substr(7), number(w[2], w[1]));
       } else if (w[1] == "reaction_time") {
-        controllers::ControllerParams p = s.controller_params();
+        controllers::ControllerParams p = current_controller_params(s);
         for (controllers::JointParams& j : p.joints) j.reaction_time_s = number(w[2], w[1]);
         s.set_controller_params(p);
       } else if (w[1] == "tau_scale") {
-        controllers::ControllerParams p = s.controller_params();
+        controllers::ControllerParams p = current_controller_params(s);
         p.at(w[2]).tau_max_Nm *= number(w[3], "tau_scale");
         s.set_controller_params(p);
       } else {
@@ -466,15 +473,24 @@ void control_panel(Shared& sh, UiState& ui) {
   ImGui::SetNextWindowSize(ImVec2(400, 520), ImGuiCond_FirstUseEver);
   ImGui::Begin("Controllers");
   try {
+    if (s.controller() == nullptr) {
+      ImGui::TextDisabled("a kinematic playback: no controllers (biodyn mocap id gives its forces)");
+      ImGui::End();
+      return;
+    }
     // Foot contact.
-    int weld = static_cast<int>(s.controller().config().weld.mode);
+    int weld = static_cast<int>(s.config().weld);
     const char* modes[] = {"off", "honest", "glue"};
     if (ImGui::Combo("foot contact", &weld, modes, 3)) s.set_weld_mode(static_cast<controllers::WeldMode>(weld));
     if (s.walking()) {
       float v = static_cast<float>(s.config().speed_m_s);
-      if (ImGui::SliderFloat("speed (m/s)", &v, 0.0f, 2.0f)) s.set_speed(v);
+      if (ImGui::SliderFloat("speed (m/s)", &v, static_cast<float>(scenarios::kMinWalkSpeed_m_s),
+                             static_cast<float>(scenarios::kMaxWalkSpeed_m_s))) {
+        s.set_speed(v);
+      }
       float h = static_cast<float>(s.config().heading_rate_deg_s);
-      if (ImGui::SliderFloat("heading rate (deg/s)", &h, -45.0f, 45.0f)) s.set_heading_rate(h);
+      const float max_rate = static_cast<float>(scenarios::kMaxHeadingRate_deg_s);
+      if (ImGui::SliderFloat("heading rate (deg/s)", &h, -max_rate, max_rate)) s.set_heading_rate(h);
       if (ImGui::CollapsingHeader("Gait state machine", ImGuiTreeNodeFlags_DefaultOpen)) {
         controllers::TorqueWalkerParams p = s.gait()->params();
         bool changed = false;
@@ -515,7 +531,7 @@ void control_panel(Shared& sh, UiState& ui) {
       }
     }
     if (ImGui::CollapsingHeader("Joint groups")) {
-      controllers::ControllerParams p = s.controller_params();
+      controllers::ControllerParams p = current_controller_params(s);
       bool changed = false;
       if (ImGui::BeginTable("groups", 4, ImGuiTableFlags_RowBg | ImGuiTableFlags_SizingStretchProp)) {
         ImGui::TableSetupColumn("group");
@@ -586,8 +602,8 @@ void control_panel(Shared& sh, UiState& ui) {
         std::ifstream in(ui.controller_path);
         std::stringstream text;
         text << in.rdbuf();
-        controllers::ControllerParams p = s.controller_params();
-        controllers::apply_params_json(text.str(), ui.controller_path, s.controller().groups(), &p);
+        controllers::ControllerParams p = current_controller_params(s);
+        controllers::apply_params_json(text.str(), ui.controller_path, s.rig().groups(), &p);
         s.set_controller_params(p);
         sh.message = "loaded the parameter files";
       }
@@ -620,7 +636,7 @@ void plot_panel(Shared& sh, int window_width) {
 
 }  // namespace
 
-ViewerStats run_viewer(scenarios::LiveConfig config, const ViewerOptions& options) {
+ViewerStats run_viewer(scenarios::ScenarioConfig config, const ViewerOptions& options) {
   const std::vector<ScriptCommand> script =
       options.script_path.empty() ? std::vector<ScriptCommand>{} : parse_script(options.script_path);
   scenarios::LiveScenario scenario(std::move(config));
@@ -648,7 +664,7 @@ ViewerStats run_viewer(scenarios::LiveConfig config, const ViewerOptions& option
   const double timestep = simulation.model().opt.timestep;
   sh.history.init(static_cast<int>(std::ceil(12.0 / (History::kEvery * timestep))), simulation.model().nq, timestep);
   for (const char* g : {"hip_l", "knee_l", "ankle_l", "hip_r", "knee_r", "ankle_r", "lumbar"}) {
-    const auto& groups = scenario.controller().groups();
+    const auto& groups = scenario.rig().groups();
     for (std::size_t i = 0; i < groups.size(); ++i) {
       if (groups[i].name == g) {
         sh.plots.groups.push_back(g);
@@ -838,7 +854,7 @@ ViewerStats run_viewer(scenarios::LiveConfig config, const ViewerOptions& option
       ImGui::SetNextWindowPos(ImVec2(10, static_cast<float>(height) - 30), ImGuiCond_Always);
       ImGui::Begin("status", nullptr, ImGuiWindowFlags_NoDecoration | ImGuiWindowFlags_AlwaysAutoResize | ImGuiWindowFlags_NoBackground);
       ImGui::Text("%s  [space] pause  [.] step  [P] push  [ctrl+drag] push a body  [F2] screenshot  [F3] record  %s",
-                  controllers::to_string(scenario.controller().config().weld.mode), sh.message.c_str());
+                  scenario.playback() ? "playback" : controllers::to_string(scenario.config().weld), sh.message.c_str());
       ImGui::End();
     }
     // Render without the lock.

@@ -1,7 +1,8 @@
 #pragma once
-/// The pose scenarios of `biodyn pose` (stand, squat, reach, one-leg), optionally with a push,
-/// run headless on a generated character with the joint controllers, standing balance and
-/// foot welds. Shared by the CLI, the viewer (later) and the tests.
+/// `biodyn pose` and `stand-push`: a pose scenario (pose_scenario.h: stand, squat, reach,
+/// one-leg, optionally with a push) run headless to its end, measured by observers (target
+/// errors at the reach times, welds, support polygon, joint velocities), and the standing push
+/// scan.
 
 #include <functional>
 #include <ostream>
@@ -9,29 +10,17 @@
 #include <string>
 #include <vector>
 
-#include "biodyn/controllers/control_pipeline.h"
+#include "biodyn/scenarios/scenario.h"
 #include "biodyn/sim/simulation.h"
 
 namespace biodyn::scenarios {
 
-/// A horizontal push through the pelvis centre of mass (references.md, push protocol).
-struct PosePush {
-  double force_N = 0;         ///< N, >= 0
-  double duration_s = 0.2;    ///< s, > 0
-  double direction_deg = 0;   ///< deg, 0 = forward (+x), 90 = to the character's left
-  double onset_s = 1.0;       ///< s, simulation time of onset
-  std::string body = "pelvis";
-};
-
+/// A pose scenario's run (`biodyn pose`).
 struct PoseRunParams {
-  std::string scenario = "stand";
-  double duration_s = 0;  ///< s; 0: the scenario's own length; longer: the last pose holds
-  controllers::ControllerKind kind = controllers::ControllerKind::kVelocity;
-  controllers::WeldMode weld = controllers::WeldMode::kHonest;
-  double reaction_time_s = 0;  ///< s; > 0 replaces every joint's t_r
-  std::optional<PosePush> push;
-  std::string params_json;    ///< controller parameter overrides (JSON text), optional
-  std::string params_source;  ///< the file it came from, for errors
+  PoseRunParams() { config.scenario = "stand"; }
+  /// The scenario (a pose scenario: stand, squat, reach, one-leg), its controller kind, weld
+  /// mode, reaction time, parameter files, duration (pose_duration_s) and push (pose_push).
+  ScenarioConfig config;
   /// Joint-velocity RMS is reported per window of this length (stability check), s.
   double velocity_window_s = 5.0;
   /// If set, one CSV line per step is written here (header first): time, CoM, pelvis
@@ -80,8 +69,9 @@ struct PoseRunResult {
   bool survived_push = false;
 };
 
-/// Builds and runs the scenario on `sim` (a generated character, reset inside). Progress is
-/// reported as a fraction. Throws sim::InvalidArgument for bad params.
+/// Builds and runs the scenario on `sim` (a generated character, reset inside): a PoseScenario
+/// with the pose metrics and trace as observers. Progress is reported as a fraction. Throws
+/// sim::InvalidArgument for bad params.
 PoseRunResult run_pose(sim::Simulation* sim, const PoseRunParams& params,
                        const std::function<void(double)>& progress = {});
 

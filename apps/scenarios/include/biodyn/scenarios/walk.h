@@ -1,8 +1,7 @@
 #pragma once
-/// The walking scenario of `biodyn walk` and `biodyn push` (issue 4): a generated character
-/// starts standing and walks under the torque walker (controllers/torque_gait.h) with the joint
-/// controllers' muscle limits and a foot-contact mode, optionally pushed once during steady
-/// walking (references.md, push protocol). Headless; shared by the CLI, the viewer and tests.
+/// `biodyn walk` and `push`: a walking scenario (walk_scenario.h) run headless to its end,
+/// measured by observers: gait figures (distance, speed, cadence, steps, joint ranges, heel
+/// strikes, foot slip), a per-step trace, and a push judged by the protocol of references.md.
 
 #include <array>
 #include <functional>
@@ -12,53 +11,40 @@
 #include <string>
 #include <vector>
 
-#include "biodyn/controllers/control_pipeline.h"
+#include "biodyn/scenarios/scenario.h"
 #include "biodyn/sim/simulation.h"
 
 namespace biodyn::scenarios {
 
-/// One horizontal push during steady walking, through the centre of mass of the pelvis or the
-/// trunk (xfrc_applied), timed by the gait: after `settle_strides` strides (a stride starts at
-/// a left-foot strike), at `onset_phase` of the next stride (its length taken from the stride
-/// before).
-struct WalkPush {
-  double force_N = 0;          ///< N, >= 0
-  double duration_s = 0.2;     ///< s, > 0
-  double direction_deg = 0;    ///< deg, relative to the heading: 0 forward, 90 left
-  std::string body = "pelvis";  ///< "pelvis" or "trunk" (the thorax), or any body name
-  double onset_phase = 0;      ///< [0, 1), fraction of the stride
-  int settle_strides = 5;      ///< steady strides walked before the push's stride (>= 1)
-  double watch_s = 5.0;        ///< s, watched after the push ends (references.md: 5 s)
-};
-
+/// A walking scenario's run (`biodyn walk`, `push`, one push-sweep run).
 struct WalkRunParams {
-  double duration_s = 20;          ///< s; with a push the run ends when the push is judged
-  double speed_m_s = 1.0;          ///< m/s, commanded speed
-  double heading_rate_deg_s = 0;   ///< deg/s, commanded turning rate (+ to the left)
-  controllers::WeldMode weld = controllers::WeldMode::kHonest;
-  double reaction_time_s = 0;      ///< s; > 0 replaces every joint's t_r
-  /// Joint controller parameter overrides (controller_params.h JSON, as `biodyn pose --params`
-  /// and the viewer's saved files), optional; reaction_time_s > 0 still overrides t_r.
-  std::string controller_json, controller_source;
-  std::string gait_json;           ///< torque walker parameter overrides (JSON text), optional
-  std::string gait_source;         ///< the file it came from, for errors
-  std::optional<WalkPush> push;
-  /// Stepping stones (paper §4.2): step lengths, m, ankle to ankle along the heading, walked
-  /// from the first strike at or after steps_start_s (steady walking first); free steps after.
-  std::vector<double> steps_m;
-  double steps_start_s = 5.0;
-  /// s; >= 0: from this time the walker stops (a half step, then the feet side by side) and
-  /// the character is handed to the standing controller (pose "stand" with its balance).
-  double stop_at_s = -1;
+  /// The scenario: "walk" (or "stones" with steps_m planned), its speed,
+  /// turning rate, weld mode, reaction time, parameter files, stepping stones, stop and push.
+  ScenarioConfig config;
+  double duration_s = 20;  ///< s; with a push the run ends when the push is judged
   /// If set, one CSV line per step is written here (header first).
   std::ostream* trace = nullptr;
   void validate() const;  ///< throws sim::InvalidArgument naming the field
 };
 
+/// How a push ended (references.md: survived = only the feet touch the ground for watch_s
+/// after the push, the pelvis stays >= 0.7 x its standing height, and the speed is back within
+/// 10% of the speed before the push by the 4th stride after it).
+enum class PushOutcome {
+  kSurvived,
+  kFellBeforePush,     ///< the walk itself failed: the run has no figure
+  kNoSteadyStride,     ///< no stride to push in (the walker stopped striking)
+  kFell,               ///< fell after the push
+  kSpeedNotRecovered,  ///< up, but the stride speed not back within 10% in 4 strides
+};
+/// "survived", "fell before the push", ...
+const char* to_string(PushOutcome outcome);
+
 /// The outcome of a push (references.md: survived = only the feet touch the ground for
 /// watch_s after the push, the pelvis stays >= 0.7 x its standing height, and the speed is
 /// back within 10% of the speed before the push by the 4th stride after it).
 struct WalkPushOutcome {
+  PushOutcome outcome = PushOutcome::kSurvived;
   double onset_s = 0, end_s = 0;     ///< s, simulation time
   double force_N = 0, duration_s = 0, direction_deg = 0;
   std::string body;
@@ -69,7 +55,7 @@ struct WalkPushOutcome {
   int recovery_strides = -1;         ///< first stride after the push within 10%; -1 none in 4
   bool fell = false;
   bool survived = false;
-  std::string failure;               ///< why not survived ("" if survived)
+  std::string failure;               ///< why not survived ("" if survived), said for a person
 };
 
 /// How the stepping stones were walked.
@@ -127,42 +113,10 @@ struct WalkRunResult {
 /// Start-up excluded from the steady figures, s.
 inline constexpr double kWalkStartup_s = 5.0;
 
-/// Builds and runs the walk on `sim` (a generated character, reset inside). Progress is
+/// Builds and runs the walk on `sim` (a generated character, reset inside): a WalkScenario with
+/// the walk metrics, the trace and (with a push) the push judge as observers. Progress is
 /// reported as a fraction. Throws sim::InvalidArgument for bad params.
 WalkRunResult run_walk(sim::Simulation* sim, const WalkRunParams& params,
                        const std::function<void(double)>& progress = {});
-
-}  // namespace biodyn::scenarios
-
-namespace biodyn::scenarios {
-
-/// The force scan of one push-sweep cell (references.md, push protocol).
-struct WalkingPushScanSettings {
-  double resolution_N = 10;    ///< N, step of the upward scan
-  double max_force_N = 1000;   ///< N, the scan stops here
-  bool bisect = true;          ///< also the bisection figure (shown beside, never instead)
-};
-
-/// One cell: direction x duration x onset phase.
-struct WalkingPushCell {
-  double direction_deg = 0, duration_s = 0, onset_phase = 0;
-  /// N, the largest force of the upward scan below its first failure: every force up to it
-  /// (at the resolution) was survived — the guaranteed envelope. Survival is not monotonic
-  /// in force, so this is the figure to quote.
-  double max_survived_N = 0;
-  double first_failure_N = -1;  ///< N, -1 if the scan reached max_force_N
-  std::string failure;          ///< why the first failure failed
-  /// N, what bisection between 0 and max_force_N would report (assumes monotonic survival:
-  /// overstates); -1 if not computed.
-  double bisection_N = -1;
-  int runs = 0;
-  bool fell_before_push = false;  ///< the walk itself failed: the cell has no figure
-};
-
-/// Scans forces resolution, 2 resolution, ... for one cell with `base`'s walk (its push
-/// field's body and settle strides are used; its force, duration, direction and phase are
-/// replaced). `progress` gets the fraction of the scan's worst case.
-WalkingPushCell scan_walking_push(sim::Simulation* sim, const WalkRunParams& base, double direction_deg,
-                                  double duration_s, double onset_phase, const WalkingPushScanSettings& scan);
 
 }  // namespace biodyn::scenarios

@@ -47,12 +47,12 @@ struct ViewerStats {
   bool fallen = false;
   int pushes = 0;
   std::vector<double> stones_plan_m;         ///< scenario stones: the plan
-  std::vector<scenarios::LiveStone> stones;  ///< and the stones stepped so far
-  scenarios::LiveScenario::TrackingReport tracking;  ///< scenario mocap --track
+  std::vector<scenarios::Stone> stones;  ///< and the stones stepped so far
+  scenarios::TrackingReport tracking;  ///< scenario mocap --track
 };
 
 /// Opens the window and runs until it is closed (or a script says quit). Throws
 /// sim::InvalidArgument for a bad script, sim::Error if no window can be opened (no display).
-ViewerStats run_viewer(scenarios::LiveConfig config, const ViewerOptions& options);
+ViewerStats run_viewer(scenarios::ScenarioConfig config, const ViewerOptions& options);
 
 }  // namespace biodyn::viewer

@@ -1,0 +1,90 @@
+#pragma once
+/// The mocap scenario: a captured motion on the character, played kinematically (no physics, no
+/// controllers; it loops) or tracked by the joint controllers (controllers/motion_tracker.h:
+/// physics, muscles within tau_max, the root moved only by muscles and contacts; once through,
+/// then holding the last frame's targets). The motion is a qpos CSV (`biodyn mocap ik` or
+/// `retarget`, for this character) or a BVH retargeted here with the first built-in joint map
+/// that fits; the part config.motion_from_s..motion_to_s is played, from 0.
+
+#include <Eigen/Core>
+#include <cmath>
+#include <memory>
+#include <optional>
+#include <vector>
+
+#include "biodyn/controllers/control_pipeline.h"
+#include "biodyn/controllers/motion_tracker.h"
+#include "biodyn/scenarios/scenario.h"
+
+namespace biodyn::scenarios {
+
+/// The tracking error over a run, sampled every 10 steps (20 ms) while upright and while the
+/// motion lasts.
+struct TrackingStats {
+  long samples = 0;
+  double joint_sum_sq_rad2 = 0, joint_max_rad = 0, root_max_m = 0;
+  double joint_rms_rad() const { return samples > 0 ? std::sqrt(joint_sum_sq_rad2 / static_cast<double>(samples)) : 0.0; }
+};
+
+/// Everything the summaries report about a tracked motion.
+struct TrackingReport {
+  bool tracked = false;
+  bool balance = false;
+  double motion_length_s = 0, lookahead_s = 0, start_lift_m = 0, fell_at_s = -1;
+  TrackingStats stats;
+  /// Did not fall while the motion lasted (after its end the targets hold its last frame).
+  bool kept_up() const { return tracked && (fell_at_s < 0 || fell_at_s > motion_length_s); }
+};
+
+class MocapScenario : public Scenario {
+ public:
+  /// Reads the motion (throws sim::InvalidArgument naming the file: unreadable, no joint map
+  /// fits, fewer than 2 solved frames in the part asked for, or unsolved frames inside a
+  /// tracked part) and builds at t = 0 on its first frame (tracked: floored, moving as it does).
+  MocapScenario(sim::Simulation* sim, ScenarioConfig config);
+  ~MocapScenario() override;
+
+  bool finished() const override { return false; }
+  /// A kinematic playback never falls; a tracked one by the walking rule.
+  bool fallen() const override;
+  const MocapScenario* mocap() const override { return this; }
+  const controllers::ControlPipeline* pipeline() const override { return pipeline_.get(); }
+  const controllers::ControllerParams* controller_params() const override;
+  void set_controller_params(const controllers::ControllerParams& params) override;
+  void set_weld_mode(controllers::WeldMode mode) override;
+  void push(int body, const Eigen::Vector3d& force_W, double duration_s) override;
+
+  /// Whether the motion is played kinematically (not tracked).
+  bool playback() const { return !config_.track; }
+  /// The tracker (nullptr for a playback) and its error now.
+  const controllers::MotionTracker* tracker() const { return tracker_.get(); }
+  controllers::MotionTracker::Error tracking_error() const;
+  TrackingReport tracking_report() const;
+  const TrackingStats& tracking_stats() const { return stats_; }
+  /// The motion's length, s.
+  double motion_length_s() const { return times_.empty() ? 0.0 : times_.back(); }
+
+  std::unique_ptr<ScenarioState> new_state() const override;
+  void save(ScenarioState* state) const override;
+  void restore(const ScenarioState& state) override;
+
+ private:
+  struct State;
+  void advance() override;
+  void after_step() override;
+  void load_motion();
+  void show_playback_frame();
+  void start_tracking();
+
+  Eigen::MatrixXd frames_;     // qpos per frame
+  std::vector<double> times_;  // s, per frame, from 0
+  controllers::TrackedMotion tracked_;
+  controllers::ControllerParams params_;
+  std::unique_ptr<controllers::ControlPipeline> pipeline_;     // tracked only
+  std::unique_ptr<controllers::MotionTracker> tracker_;        // tracked only
+  double playback_time_s_ = 0;
+  TrackingStats stats_;
+  std::unique_ptr<FallWatch> fall_;
+};
+
+}  // namespace biodyn::scenarios

@@ -1,0 +1,173 @@
+// The scenario interface and its configuration (scenario.h).
+#include "biodyn/scenarios/scenario.h"
+
+#include <cmath>
+#include <sstream>
+
+#include "biodyn/controllers/torque_walker.h"
+#include "biodyn/scenarios/registry.h"
+#include "biodyn/sim/errors.h"
+
+namespace biodyn::scenarios {
+namespace {
+
+void fail(const std::string& field, const std::string& rule, double value) {
+  std::ostringstream s;
+  s << field << ": " << rule << ", got " << value;
+  throw sim::InvalidArgument(s.str());
+}
+
+void refuse_unless(bool allowed, const std::string& what) {
+  if (!allowed) throw sim::InvalidArgument(what);
+}
+
+}  // namespace
+
+std::vector<double> paper_stepping_stones_m() { return {0.60, 0.20, 0.50, 0.16, 0.50, 0.30}; }
+
+void ScenarioConfig::validate() const {
+  check_scenario_name(scenario);
+  const bool pose = is_pose_scenario(scenario), mocap = scenario == "mocap";
+  if (reaction_time_s != 0 && !(reaction_time_s >= 0.001 && reaction_time_s <= 2.0))
+    fail("reaction-time", "must be in [0.001, 2] s", reaction_time_s);
+  // Pose scenarios.
+  if (!(pose_duration_s >= 0) || !std::isfinite(pose_duration_s)) fail("duration", "must be >= 0 s", pose_duration_s);
+  refuse_unless(pose || (pose_duration_s == 0 && !pose_push), "pose duration/push: only the pose scenarios");
+  if (pose_push) {
+    const TimedPush& p = *pose_push;
+    if (!(p.force_N >= 0) || !std::isfinite(p.force_N)) fail("push force", "must be >= 0 N", p.force_N);
+    if (!(p.duration_s > 0) || !std::isfinite(p.duration_s)) fail("push duration", "must be > 0 s", p.duration_s);
+    if (!std::isfinite(p.direction_deg)) fail("push direction", "must be finite", p.direction_deg);
+    if (!(p.onset_s >= 0)) fail("push onset", "must be >= 0 s", p.onset_s);
+  }
+  // Walking.
+  if (!(speed_m_s >= kMinWalkSpeed_m_s && speed_m_s <= kMaxWalkSpeed_m_s))
+    fail("speed", "must be in [0.3, 2] m/s", speed_m_s);
+  if (!(std::abs(heading_rate_deg_s) <= kMaxHeadingRate_deg_s))
+    fail("heading-rate", "must be within +-90 deg/s", heading_rate_deg_s);
+  refuse_unless(steps_m.empty() || scenario == "stones", "steps: only the stones scenario walks planned steps");
+  if (steps_m.size() > 1000) fail("steps", "at most 1000 step lengths", static_cast<double>(steps_m.size()));
+  controllers::TorqueWalker::validate_plan(steps_m);
+  if (!(steps_start_s >= 0) || !std::isfinite(steps_start_s)) fail("steps start", "must be a time >= 0 s", steps_start_s);
+  if (!std::isfinite(stop_at_s)) fail("stop-at", "must be finite", stop_at_s);
+  refuse_unless(walking() || (stop_at_s < 0 && !walk_push), "stop/walk push: only the walking scenarios");
+  if (walk_push) {
+    const WalkPush& p = *walk_push;
+    if (!steps_m.empty()) throw sim::InvalidArgument("steps: stepping stones and a push cannot be combined in one run");
+    if (stop_at_s >= 0) throw sim::InvalidArgument("stop: stopping and a push cannot be combined in one run");
+    if (!(p.force_N >= 0) || !std::isfinite(p.force_N)) fail("push force", "must be >= 0 N", p.force_N);
+    if (!(p.duration_s > 0) || !(p.duration_s <= 10)) fail("push duration", "must be in (0, 10] s", p.duration_s);
+    if (!std::isfinite(p.direction_deg)) fail("push direction", "must be finite", p.direction_deg);
+    if (!(p.onset_phase >= 0 && p.onset_phase < 1)) fail("push onset-phase", "must be in [0, 1)", p.onset_phase);
+    if (!(p.settle_strides >= 1 && p.settle_strides <= 100))
+      fail("push settle strides", "must be in [1, 100]", p.settle_strides);
+    if (!(p.watch_s >= 0 && p.watch_s <= 60)) fail("push watch", "must be in [0, 60] s", p.watch_s);
+  }
+  // Motion.
+  if (track && !mocap) throw sim::InvalidArgument("track: only the mocap scenario tracks a motion");
+  tracker.validate();
+  if (mocap != !motion_path.empty()) {
+    throw sim::InvalidArgument(mocap ? "scenario mocap: give the motion (--motion motion.csv or file.bvh)"
+                                     : "--motion: only the mocap scenario plays a motion");
+  }
+  if ((motion_from_s != 0 || motion_to_s >= 0) && !mocap) {
+    throw sim::InvalidArgument("motion from/to: only the mocap scenario plays a motion");
+  }
+  if (!std::isfinite(motion_from_s) || motion_from_s < 0) {
+    throw sim::InvalidArgument("motion from: must be a time >= 0 s, got " + std::to_string(motion_from_s));
+  }
+  if (!std::isfinite(motion_to_s) || (motion_to_s >= 0 && motion_to_s <= motion_from_s)) {
+    throw sim::InvalidArgument("motion to: must be after motion from (" + std::to_string(motion_from_s) + " s), got " +
+                               std::to_string(motion_to_s) + " s");
+  }
+}
+
+Scenario::Scenario(sim::Simulation* sim, ScenarioConfig config)
+    : config_(std::move(config)), sim_(sim), rig_(sim->model()) {
+  config_.validate();
+}
+
+void Scenario::step() {
+  advance();
+  ++steps_;
+  note_fall();
+  after_step();
+  for (StepObserver* o : observers_) o->on_step(*this);
+}
+
+void Scenario::run_until(double t_s) {
+  const double dt = sim_->model().opt.timestep;
+  while (sim_->data().time < t_s - 0.5 * dt) step();
+}
+
+bool Scenario::run_over() const {
+  if (finished()) return true;
+  for (const StepObserver* o : observers_)
+    if (o->done()) return true;
+  return false;
+}
+
+void Scenario::note_fall() {
+  if (fell_at_s_ < 0 && fallen()) fell_at_s_ = sim_->data().time;
+}
+
+void Scenario::save_common(CommonState* out) const {
+  sim_->save(&out->sim);
+  out->config = config_;
+  out->steps = steps_;
+  out->fell_at_s = fell_at_s_;
+}
+
+void Scenario::restore_common(const CommonState& in) {
+  sim_->restore(in.sim);
+  config_ = in.config;
+  steps_ = in.steps;
+  fell_at_s_ = in.fell_at_s;
+}
+
+controllers::ControllerParams Scenario::controller_params_from_config() const {
+  const mjModel& m = sim_->model();
+  controllers::ControllerParams p = controllers::default_params(m, rig_.groups());
+  if (!config_.controller_json.empty()) {
+    controllers::apply_params_file_json(config_.controller_json, config_.controller_source, rig_.groups(),
+                                        m.opt.timestep, &p);
+  }
+  if (config_.reaction_time_s > 0) {
+    for (controllers::JointParams& j : p.joints) j.reaction_time_s = config_.reaction_time_s;
+  }
+  return p;
+}
+
+void Scenario::set_controller_params(const controllers::ControllerParams&) {
+  throw sim::InvalidArgument("controller parameters: the " + config_.scenario + " scenario has no controllers");
+}
+
+void Scenario::set_weld_mode(controllers::WeldMode) {
+  throw sim::InvalidArgument("weld: the " + config_.scenario + " scenario has no controllers");
+}
+
+void Scenario::set_walker_params(const controllers::TorqueWalkerParams&) {
+  throw sim::InvalidArgument("walker parameters: the " + config_.scenario + " scenario does not walk");
+}
+
+void Scenario::set_speed(double) {
+  throw sim::InvalidArgument("speed: the " + config_.scenario + " scenario does not walk");
+}
+
+void Scenario::set_heading_rate(double) {
+  throw sim::InvalidArgument("heading rate: the " + config_.scenario + " scenario does not walk");
+}
+
+void Scenario::push(int body, const Eigen::Vector3d& force_W, double duration_s) {
+  if (body < 0 || body >= sim_->model().nbody) throw sim::InvalidArgument("push: no such body");
+  const double dt = sim_->model().opt.timestep;
+  sim::Push p;
+  p.body = body;
+  p.force_W = force_W;
+  // Whole steps from the next step (simulation.h).
+  p.start_s = std::ceil(sim_->data().time / dt - 1e-9) * dt;
+  p.duration_s = duration_s;
+  sim_->schedule_push(p);
+}
+
+}  // namespace biodyn::scenarios

@@ -1,0 +1,211 @@
+// The walking scenarios (walk_scenario.h).
+#include "biodyn/scenarios/walk_scenario.h"
+
+#include <cmath>
+
+#include "biodyn/sim/errors.h"
+#include "biodyn/sim/units.h"
+#include "fall_watch.h"
+
+namespace biodyn::scenarios {
+namespace {
+
+using Eigen::Vector2d;
+using Eigen::Vector3d;
+
+controllers::TorqueWalkerParams walker_params_from(const ScenarioConfig& c) {
+  controllers::TorqueWalkerParams p;
+  if (!c.gait_json.empty()) controllers::apply_torque_walker_json(c.gait_json, c.gait_source, &p);
+  return p;
+}
+
+controllers::ControlPipelineConfig pipeline_config(const ScenarioConfig& c) {
+  controllers::ControlPipelineConfig p;
+  p.kind = c.controller;
+  p.weld.mode = c.weld;
+  return p;
+}
+
+// The body a push goes through: "trunk" is the rig's trunk body (thorax, or the gait model's
+// trunk), any other name that body.
+int push_body_id(const models::Rig& rig, const std::string& body) {
+  const int id = body == "trunk" && rig.trunk_body() >= 0 ? rig.trunk_body() : rig.body(body);
+  if (id < 0) throw sim::InvalidArgument("push body: no body named '" + body + "'");
+  return id;
+}
+
+}  // namespace
+
+struct WalkScenario::State : ScenarioState {
+  CommonState common;
+  std::size_t bytes() const override { return sizeof(*this) + common.bytes(); }
+  controllers::ControlState control;
+  controllers::TorqueWalkerState walker;
+  controllers::ControllerParams params;
+  controllers::TorqueWalkerParams walker_params;
+  Run run;
+};
+
+WalkScenario::WalkScenario(sim::Simulation* sim, ScenarioConfig config)
+    : Scenario(sim, std::move(config)),
+      params_(controller_params_from_config()),
+      walker_params_(walker_params_from(config_)),
+      pipeline_(sim, rig_, params_, pipeline_config(config_)),
+      walker_(rig_, walker_params_) {
+  if (config_.scenario == "stones" && config_.steps_m.empty()) config_.steps_m = paper_stepping_stones_m();
+  run_.stones.reserve(config_.steps_m.size() + 1);  // the stop's closing step may be one more
+  sim->reset();
+  stand_pose_ = controllers::pose_scenario("stand", rig_.groups(), 0)[0];
+  pipeline_.reset_in_pose(stand_pose_);
+  walker_.reset(sim->data());
+  walker_.set_heading_rate(config_.heading_rate_deg_s / kDegPerRad);
+  walker_.set_speed(config_.speed_m_s);
+  pipeline_.set_driver(&walker_);
+  fall_ = std::make_unique<FallWatch>(rig_, kWalkingFallPelvisFraction);
+  fall_->start(sim->data());
+  if (config_.walk_push) push_body_ = push_body_id(rig_, config_.walk_push->body);
+}
+
+WalkScenario::~WalkScenario() = default;
+
+bool WalkScenario::fallen() const { return fall_->down(sim_->model(), sim_->data()); }
+
+void WalkScenario::advance() {
+  pipeline_.step();
+  const mjData& d = sim_->data();
+  // Stopping: the walker plans its last steps; once the feet are side by side the standing
+  // controller (pose and balance) takes over with both feet in stance.
+  if (config_.stop_at_s >= 0 && d.time >= config_.stop_at_s && !walker_.stopping()) walker_.request_stop();
+  if (walker_.stopped() && pipeline_.driver() == &walker_) {
+    pipeline_.set_driver(nullptr);
+    pipeline_.set_stance(0, true);
+    pipeline_.set_stance(1, true);
+    pipeline_.set_pose(stand_pose_);
+    run_.stopped_at_s = d.time;
+  }
+  if (walker_.strike_count() != run_.strikes_seen) on_strike();
+  if (!config_.steps_m.empty()) place_stone();
+}
+
+void WalkScenario::on_strike() {
+  const mjData& d = sim_->data();
+  run_.strikes_seen = walker_.strike_count();
+  const controllers::TorqueWalkerStrike& st = walker_.last_strike();
+  // A planned step ends at this strike: its length walked. Then the plan starts at the first
+  // strike at or after steps_start_s (from the swing that starts now).
+  if (!std::isnan(st.target_length_m) && !run_.stones.empty() && std::isnan(run_.stones.back().walked_m)) {
+    run_.stones.back().walked_m = st.step_length_m;
+  }
+  if (!config_.steps_m.empty() && !run_.stones_planned && d.time >= config_.steps_start_s) {
+    walker_.plan_steps(config_.steps_m);
+    run_.stones_planned = true;
+    run_.stones_start_s = d.time;
+  }
+  run_.stone_pending = run_.stones_planned;
+  if (st.side != 0) return;
+  // Strides start at left strikes. The push: at onset_phase of the stride after settle_strides.
+  run_.last_left_strike_s[0] = run_.last_left_strike_s[1];
+  run_.last_left_strike_s[1] = st.time_s;
+  ++run_.left_strikes;
+  if (!config_.walk_push || !std::isnan(run_.push_onset_s) || run_.left_strikes < config_.walk_push->settle_strides + 1)
+    return;
+  const WalkPush& wp = *config_.walk_push;
+  const double dt = sim_->model().opt.timestep;
+  const double stride_s = run_.last_left_strike_s[1] - run_.last_left_strike_s[0];
+  const double a = walker_.heading_rad() + wp.direction_deg / kDegPerRad;
+  sim::Push push;
+  push.body = push_body_;
+  push.force_W = wp.force_N * Vector3d(std::cos(a), std::sin(a), 0);
+  push.start_s = d.time + wp.onset_phase * stride_s;
+  // Whole steps: the push is on for round(duration / dt) steps from the first step at or after
+  // its start (simulation.h).
+  push.start_s = std::ceil(push.start_s / dt - 1e-9) * dt;
+  push.duration_s = wp.duration_s;
+  sim_->schedule_push(push);
+  run_.push_onset_s = push.start_s;
+  run_.push_end_s = push.start_s + push.duration_s;
+}
+
+void WalkScenario::place_stone() {
+  if (std::isnan(walker_.swing_target_m())) return;
+  // The swing's stone, from the walker's reference: the stance ankle (which rolls forward a
+  // little during the swing, so the stone follows it until the strike fixes it), along the
+  // heading by the planned length, across as far as the swing ankle was when the swing began.
+  const mjData& d = sim_->data();
+  const int swing = 1 - walker_.stance_side();
+  const int stance_body = rig_.leg(walker_.stance_side()).foot;
+  const Vector2d stance(d.xpos[3 * stance_body], d.xpos[3 * stance_body + 1]);
+  const Vector2d along(std::cos(walker_.heading_rad()), std::sin(walker_.heading_rad()));
+  const Vector2d across(-along.y(), along.x());
+  if (run_.stone_pending) {
+    run_.stone_pending = false;
+    const int swing_body = rig_.leg(swing).foot;
+    const Vector2d swing_at(d.xpos[3 * swing_body], d.xpos[3 * swing_body + 1]);
+    Stone stone;
+    stone.side = swing;
+    stone.target_m = walker_.swing_target_m();
+    stone.across_m = (swing_at - stance).dot(across);
+    run_.stones.push_back(stone);
+  }
+  Stone& stone = run_.stones.back();
+  if (!std::isnan(stone.walked_m)) return;
+  stone.heading_rad = walker_.heading_rad();
+  stone.ankle_W = stance + stone.target_m * along + stone.across_m * across;
+}
+
+void WalkScenario::set_controller_params(const controllers::ControllerParams& params) {
+  pipeline_.set_params(params);
+  params_ = params;
+}
+
+void WalkScenario::set_weld_mode(controllers::WeldMode mode) {
+  pipeline_.set_weld_mode(mode);
+  config_.weld = mode;
+}
+
+void WalkScenario::set_walker_params(const controllers::TorqueWalkerParams& params) {
+  walker_.set_params(params);
+  walker_params_ = params;
+}
+
+void WalkScenario::set_speed(double m_s) {
+  if (!(m_s >= kMinWalkSpeed_m_s && m_s <= kMaxWalkSpeed_m_s))
+    throw sim::InvalidArgument("speed: must be in [0.3, 2] m/s, got " + std::to_string(m_s));
+  walker_.set_speed(m_s);
+  config_.speed_m_s = m_s;
+}
+
+void WalkScenario::set_heading_rate(double deg_s) {
+  if (!(std::abs(deg_s) <= kMaxHeadingRate_deg_s))
+    throw sim::InvalidArgument("heading-rate: must be within +-90 deg/s, got " + std::to_string(deg_s));
+  walker_.set_heading_rate(deg_s / kDegPerRad);
+  config_.heading_rate_deg_s = deg_s;
+}
+
+std::unique_ptr<ScenarioState> WalkScenario::new_state() const { return std::make_unique<State>(); }
+
+void WalkScenario::save(ScenarioState* out) const {
+  State& s = static_cast<State&>(*out);
+  save_common(&s.common);
+  s.control = pipeline_.state();
+  s.walker = walker_.state();
+  s.params = params_;
+  s.walker_params = walker_params_;
+  s.run = run_;
+}
+
+void WalkScenario::restore(const ScenarioState& in) {
+  const State& s = static_cast<const State&>(in);
+  // The parameters of that moment first (the edits before it), then the state.
+  set_controller_params(s.params);
+  set_walker_params(s.walker_params);
+  pipeline_.set_weld_mode(s.common.config.weld);
+  restore_common(s.common);
+  pipeline_.restore(s.control);
+  walker_.restore(s.walker);
+  run_ = s.run;
+  // The standing controller drives once the stop is done.
+  pipeline_.set_driver(run_.stopped_at_s >= 0 ? nullptr : &walker_);
+}
+
+}  // namespace biodyn::scenarios
