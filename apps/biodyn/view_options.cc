@@ -7,6 +7,7 @@
 #include <sstream>
 
 #include "biodyn/sim/errors.h"
+#include "biodyn/sim/units.h"
 #include "walk_options.h"
 
 namespace biodyn::apps {
@@ -137,15 +138,14 @@ nlohmann::json stones_json(const std::vector<double>& plan_m, const std::vector<
 }
 
 nlohmann::json tracking_json(const scenarios::TrackingReport& r) {
-  constexpr double kDeg = 180.0 / 3.14159265358979323846;
   return {{"motion_length_s", r.motion_length_s},
           {"lookahead_s", r.lookahead_s},
           {"balance_feedback", r.balance},
           {"start_lift_m", r.start_lift_m},
           {"fell_at_s", r.fell_at_s >= 0 ? nlohmann::json(r.fell_at_s) : nlohmann::json(nullptr)},
           {"kept_up_through_motion", r.kept_up()},
-          {"joint_error_rms_deg", r.stats.joint_rms_rad() * kDeg},
-          {"joint_error_max_deg", r.stats.joint_max_rad * kDeg},
+          {"joint_error_rms_deg", r.stats.joint_rms_rad() * kDegPerRad},
+          {"joint_error_max_deg", r.stats.joint_max_rad * kDegPerRad},
           {"root_horizontal_error_max_m", r.stats.root_max_m},
           {"definition", "joint error: RMS over the joint groups of the rotation from the body's joint orientation "
                          "to the motion's, sampled every 20 ms while the motion lasts, until a fall; root: the pelvis's "
@@ -155,10 +155,9 @@ nlohmann::json tracking_json(const scenarios::TrackingReport& r) {
 
 std::string tracking_line(const scenarios::TrackingReport& r) {
   if (!r.tracked) return "";
-  constexpr double kDeg = 180.0 / 3.14159265358979323846;
   std::ostringstream out;
   out << std::fixed << std::setprecision(1) << "tracking" << (r.balance ? "" : " (open loop)") << ": joint error RMS "
-      << r.stats.joint_rms_rad() * kDeg << " deg (max " << r.stats.joint_max_rad * kDeg << "), root off by up to "
+      << r.stats.joint_rms_rad() * kDegPerRad << " deg (max " << r.stats.joint_max_rad * kDegPerRad << "), root off by up to "
       << std::setprecision(2) << r.stats.root_max_m << " m; ";
   if (!r.kept_up()) {
     out << "fell at " << r.fell_at_s << " s (motion " << r.motion_length_s << " s)";

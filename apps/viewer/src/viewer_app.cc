@@ -27,6 +27,7 @@
 #include "biodyn/sim/file_io.h"
 #include "biodyn/sim/queries.h"
 #include "biodyn/sim/renderer.h"
+#include "biodyn/sim/units.h"
 #include "biodyn/viewer/image_output.h"
 #include "biodyn/viewer/overlays.h"
 
@@ -34,7 +35,6 @@ namespace biodyn::viewer {
 namespace {
 
 using Clock = std::chrono::steady_clock;
-constexpr double kPi = 3.14159265358979323846;
 /// Ctrl + drag pushes: N of force per pixel dragged (a 100-pixel drag is 200 N).
 constexpr double kDragNewtonsPerPixel = 2.0;
 
@@ -436,12 +436,11 @@ void simulation_panel(Shared& sh, UiState& ui, double fps, double sim_rate) {
   ImGui::Checkbox("welds", &ui.overlays.welds);
   if (s.tracker() != nullptr) {
     // Tracked playback: how far the body is from the motion (motion_tracker.h).
-    constexpr double kDeg = 180.0 / 3.14159265358979323846;
     const controllers::MotionTracker::Error e = s.tracking_error();
     ImGui::Separator();
     ImGui::Text("Tracking (%s): joints %.1f deg off now, RMS %.1f deg",
-                s.config().tracker.balance ? "balance feedback" : "open loop", e.joint_rms_rad * kDeg,
-                s.tracking_stats().joint_rms_rad() * kDeg);
+                s.config().tracker.balance ? "balance feedback" : "open loop", e.joint_rms_rad * kDegPerRad,
+                s.tracking_stats().joint_rms_rad() * kDegPerRad);
     ImGui::Text("pelvis %.2f m from the motion's", e.root_horizontal_m);
     if (s.time_s() > s.motion_length_s()) ImGui::Text("motion over at %.2f s: holding its last frame", s.motion_length_s());
     if (s.fell_at_s() >= 0) ImGui::TextColored(ImVec4(1.0f, 0.5f, 0.3f, 1), "fell at %.2f s", s.fell_at_s());
@@ -504,9 +503,9 @@ void control_panel(Shared& sh, UiState& ui) {
             changed = true;
           }
           const auto angle = [&](const char* label, double* rad) {
-            float deg = static_cast<float>(*rad * 180.0 / kPi);
+            float deg = static_cast<float>(*rad * kDegPerRad);
             if (ImGui::SliderFloat(label, &deg, -90.0f, 120.0f, "%.1f deg")) {
-              *rad = deg * kPi / 180.0;
+              *rad = deg * kRadPerDeg;
               changed = true;
             }
           };
@@ -517,9 +516,9 @@ void control_panel(Shared& sh, UiState& ui) {
           angle("stance ankle", &st.stance_ankle_rad);
           ImGui::PopID();
         }
-        float lean = static_cast<float>(p.pelvis_pitch_rad * 180.0 / kPi);
+        float lean = static_cast<float>(p.pelvis_pitch_rad * kDegPerRad);
         if (ImGui::SliderFloat("pelvis lean", &lean, -10.0f, 30.0f, "%.1f deg")) {
-          p.pelvis_pitch_rad = lean * kPi / 180.0;
+          p.pelvis_pitch_rad = lean * kRadPerDeg;
           changed = true;
         }
         float tol = static_cast<float>(p.tolerance_fraction);
@@ -634,93 +633,116 @@ void plot_panel(Shared& sh, int window_width) {
   ImGui::End();
 }
 
-}  // namespace
+// ---------------------------------------------------------------------------------------------
+// The window's side: a GLFW window with Dear ImGui, and the frame loop around the physics thread
+// ---------------------------------------------------------------------------------------------
 
-ViewerStats run_viewer(scenarios::ScenarioConfig config, const ViewerOptions& options) {
-  const std::vector<ScriptCommand> script =
-      options.script_path.empty() ? std::vector<ScriptCommand>{} : parse_script(options.script_path);
-  scenarios::LiveScenario scenario(std::move(config));
-
-  if (!glfwInit()) {
-    throw sim::Error("view: cannot open a window (no display?): use biodyn render for headless "
-                     "output, or run under xvfb-run");
+/// The window and Dear ImGui on it, created and torn down in order.
+class Window {
+ public:
+  explicit Window(const ViewerOptions& o) {
+    if (!glfwInit()) {
+      throw sim::Error("view: cannot open a window (no display?): use biodyn render for headless "
+                       "output, or run under xvfb-run");
+    }
+    glfwWindowHint(GLFW_SAMPLES, o.msaa_samples);
+    window_ = glfwCreateWindow(o.width, o.height, "biodyn view", nullptr, nullptr);
+    if (window_ == nullptr) {
+      glfwTerminate();
+      throw sim::Error("view: cannot create a GLFW window with OpenGL");
+    }
+    glfwMakeContextCurrent(window_);
+    glfwSwapInterval(1);
+    IMGUI_CHECKVERSION();
+    ImGui::CreateContext();
+    ImGui::GetIO().IniFilename = nullptr;  // no imgui.ini written into the user's directory
+    ImGui_ImplGlfw_InitForOpenGL(window_, true);
+    ImGui_ImplOpenGL3_Init("#version 130");
   }
-  struct GlfwGuard {
-    ~GlfwGuard() { glfwTerminate(); }
-  } glfw_guard;
-  glfwWindowHint(GLFW_SAMPLES, options.msaa_samples);
-  GLFWwindow* window = glfwCreateWindow(options.width, options.height, "biodyn view", nullptr, nullptr);
-  if (window == nullptr) throw sim::Error("view: cannot create a GLFW window with OpenGL");
-  glfwMakeContextCurrent(window);
-  glfwSwapInterval(1);
+  ~Window() {
+    ImGui_ImplOpenGL3_Shutdown();
+    ImGui_ImplGlfw_Shutdown();
+    ImGui::DestroyContext();
+    glfwDestroyWindow(window_);
+    glfwTerminate();
+  }
+  Window(const Window&) = delete;
+  Window& operator=(const Window&) = delete;
+  GLFWwindow* get() const { return window_; }
 
-  Shared sh;
-  sh.scenario = &scenario;
-  sh.script = &script;
-  sh.script_path = options.script_path;
-  sh.paused = options.start_paused;
-  sim::Simulation& simulation = scenario.simulation();
-  // 12 s of history (at 2 ms steps: an entry every 10 ms).
-  const double timestep = simulation.model().opt.timestep;
-  sh.history.init(static_cast<int>(std::ceil(12.0 / (History::kEvery * timestep))), simulation.model().nq, timestep);
-  for (const char* g : {"hip_l", "knee_l", "ankle_l", "hip_r", "knee_r", "ankle_r", "lumbar"}) {
+ private:
+  GLFWwindow* window_ = nullptr;
+};
+
+/// One viewer session: the scene, panels and inputs of every frame (the main thread), the physics
+/// on its own thread; the main thread holds the lock only to copy the scene and plot samples and
+/// to run the panels.
+class Session {
+ public:
+  Session(scenarios::LiveScenario& scenario, const std::vector<ScriptCommand>& script, const ViewerOptions& options)
+      : options_(options),
+        renderer_(scenario.simulation().mutable_model(), 1920, 1080),
+        display_(scenario.simulation().model()),
+        pelvis_(scenario.rig().pelvis()) {
+    sh_.scenario = &scenario;
+    sh_.script = &script;
+    sh_.script_path = options.script_path;
+    sh_.paused = options.start_paused;
+    // 12 s of history (at 2 ms steps: an entry every 10 ms).
+    const mjModel& m = scenario.simulation().model();
+    sh_.history.init(static_cast<int>(std::ceil(12.0 / (History::kEvery * m.opt.timestep))), m.nq, m.opt.timestep);
     const auto& groups = scenario.rig().groups();
-    for (std::size_t i = 0; i < groups.size(); ++i) {
-      if (groups[i].name == g) {
-        sh.plots.groups.push_back(g);
-        sh.plots.group_index.push_back(static_cast<int>(i));
+    for (const char* g : {"hip_l", "knee_l", "ankle_l", "hip_r", "knee_r", "ankle_r", "lumbar"}) {
+      for (std::size_t i = 0; i < groups.size(); ++i) {
+        if (groups[i].name != g) continue;
+        sh_.plots.groups.push_back(g);
+        sh_.plots.group_index.push_back(static_cast<int>(i));
       }
     }
+    sh_.plots.torque_ratio.resize(sh_.plots.groups.size());
+    sim::CameraView& v = renderer_.view();
+    v.azimuth_deg = 110;
+    v.elevation_deg = -10;
+    v.distance_m = 4.0;
+    v.lookat_W.z() = 0.9;
   }
-  sh.plots.torque_ratio.resize(sh.plots.groups.size());
 
-  sim::SceneRenderer renderer(simulation.mutable_model(), 1920, 1080);
-  renderer.view().azimuth_deg = 110;
-  renderer.view().elevation_deg = -10;
-  renderer.view().distance_m = 4.0;
-  renderer.view().lookat_W.z() = 0.9;
-  const int pelvis = scenario.rig().pelvis();
-  sim::Data display(simulation.model());  // a past state shown while scrubbing
-
-  IMGUI_CHECKVERSION();
-  ImGui::CreateContext();
-  ImGui::GetIO().IniFilename = nullptr;  // no imgui.ini written into the user's directory
-  ImGui_ImplGlfw_InitForOpenGL(window, true);
-  ImGui_ImplOpenGL3_Init("#version 130");
-
-  std::thread physics([&sh] { physics_loop(sh); });
-  struct Joiner {
-    Shared& sh;
-    std::thread& t;
-    ~Joiner() {
-      {
-        std::lock_guard<std::mutex> lock(sh.mutex);
-        sh.quit = true;
+  /// Runs until the window closes or the script quits. Throws sim::InvalidArgument for a script
+  /// command the scenario refused.
+  ViewerStats run(GLFWwindow* window) {
+    std::thread physics([this] { physics_loop(sh_); });
+    struct Joiner {  // the physics thread stops however the loop ends
+      Shared& sh;
+      std::thread& t;
+      ~Joiner() {
+        {
+          std::lock_guard<std::mutex> lock(sh.mutex);
+          sh.quit = true;
+        }
+        if (t.joinable()) t.join();
       }
-      if (t.joinable()) t.join();
+    } joiner{sh_, physics};
+    start_ = fps_clock_ = last_record_ = Clock::now();
+    while (!glfwWindowShouldClose(window) && frame(window)) {
     }
-  } joiner{sh, physics};
+    if (video_) video_->finish();
+    final_stats();
+    physics.join();
+    if (!sh_.script_error.empty()) throw sim::InvalidArgument(sh_.script_error);
+    stats_.wall_s = std::chrono::duration<double>(Clock::now() - start_).count();
+    stats_.frames_per_s = stats_.frames / std::max(stats_.wall_s, 1e-9);
+    return stats_;
+  }
 
-  UiState ui;
+ private:
   struct Drag {
     int body = -1;  // the body being pushed by a ctrl + drag, -1 when none
     double start_x = 0, start_y = 0;
     Eigen::Vector3d force_W = Eigen::Vector3d::Zero();
-  } drag;
-  ViewerStats stats;
-  std::vector<sim::OverlayGeom> overlays;
-  std::vector<std::uint8_t> rgb;
-  std::optional<VideoWriter> video;
-  int shot_counter = 0;
-  double last_mouse_x = 0, last_mouse_y = 0;
-  const auto start = Clock::now();
-  auto fps_clock = start;
-  int fps_frames = 0;
-  double fps = 0, sim_rate = 0;
-  double sim_at_fps = 0;
-  auto last_record = start;
+  };
 
-  while (!glfwWindowShouldClose(window)) {
+  // One frame; false once the session quits.
+  bool frame(GLFWwindow* window) {
     glfwPollEvents();
     bool take_screenshot = false;
     std::string screenshot_path;
@@ -730,181 +752,232 @@ ViewerStats run_viewer(scenarios::ScenarioConfig config, const ViewerOptions& op
     int width = 0, height = 0;
     glfwGetFramebufferSize(window, &width, &height);
     {
-      std::lock_guard<std::mutex> lock(sh.mutex);
-      if (sh.quit) break;
-      if (sh.screenshot_requested) {
+      std::lock_guard<std::mutex> lock(sh_.mutex);
+      if (sh_.quit) return false;
+      if (sh_.screenshot_requested) {
         take_screenshot = true;
-        screenshot_path = sh.screenshot_path;
+        screenshot_path = sh_.screenshot_path;
       }
-      // Keys (not while typing into a panel; GLFW key codes: imgui 1.86's backend).
-      if (!ImGui::GetIO().WantCaptureKeyboard) {
-        if (ImGui::IsKeyPressed(GLFW_KEY_SPACE, false)) sh.paused = !sh.paused;
-        if (ImGui::IsKeyPressed(GLFW_KEY_PERIOD, false)) sh.single_steps += 1;
-        if (ImGui::IsKeyPressed(GLFW_KEY_BACKSPACE, false)) {
-          scenario.reset();
-          sh.history.count = 0;
-          sh.scrub_s = 0;
-        }
-        if (ImGui::IsKeyPressed(GLFW_KEY_P, false)) {
-          push_relative(scenario, "pelvis", ui.push_force_N, ui.push_direction_deg, ui.push_duration_s);
-        }
-        if (ImGui::IsKeyPressed(GLFW_KEY_F2, false)) take_screenshot = true;
-        if (ImGui::IsKeyPressed(GLFW_KEY_F3, false)) {
-          if (video) {
-            video->finish();
-            sh.message = "video written";
-            video.reset();
-          } else {
-            const std::string path = options.output_dir + "/biodyn_" + std::to_string(shot_counter++) + ".mp4";
-            video.emplace(path, width & ~1, height & ~1, 30.0);
-            sh.message = "recording " + path + " (F3 stops)";
-          }
-        }
-      }
-      // Mouse: orbit (left), pan (right), zoom (wheel), outside the panels.
-      double mx = 0, my = 0;
-      glfwGetCursorPos(window, &mx, &my);
-      const bool left = glfwGetMouseButton(window, GLFW_MOUSE_BUTTON_LEFT) == GLFW_PRESS;
-      const bool ctrl = glfwGetKey(window, GLFW_KEY_LEFT_CONTROL) == GLFW_PRESS ||
-                        glfwGetKey(window, GLFW_KEY_RIGHT_CONTROL) == GLFW_PRESS;
-      int win_w = 1, win_h = 1;
-      glfwGetWindowSize(window, &win_w, &win_h);
-      if (drag.body < 0 && left && ctrl && !ImGui::GetIO().WantCaptureMouse) {
-        // Ctrl + drag on a body: pick it (MuJoCo's ray selection), the drag sets the push.
-        mjtNum point[3] = {0, 0, 0};
-        int geom = -1, skin = -1;
-        const int body = mjv_select(&simulation.model(), &simulation.data(), &renderer.options(),
-                                    static_cast<mjtNum>(win_w) / win_h, mx / win_w, 1.0 - my / win_h,
-                                    &renderer.scene(), point, &geom, &skin);
-        if (body > 0) {
-          drag.body = body;
-          drag.start_x = mx;
-          drag.start_y = my;
-        }
-      }
-      if (drag.body >= 0) {
-        // Screen right and up map to the ground plane as the camera sees it.
-        const double a = renderer.view().azimuth_deg * kPi / 180.0;
-        const Eigen::Vector3d right(std::sin(a), -std::cos(a), 0), ahead(std::cos(a), std::sin(a), 0);
-        drag.force_W = kDragNewtonsPerPixel * ((mx - drag.start_x) * right - (my - drag.start_y) * ahead);
-        if (!left) {  // released: push
-          if (drag.force_W.norm() >= 1.0) {
-            const char* name = mj_id2name(&simulation.model(), mjOBJ_BODY, drag.body);
-            scenario.push(name, drag.force_W, ui.push_duration_s);
-            sh.message = std::string("pushed ") + name + " with " +
-                         std::to_string(static_cast<int>(drag.force_W.norm())) + " N for " +
-                         std::to_string(ui.push_duration_s) + " s";
-          }
-          drag.body = -1;
-        }
-      } else if (!ImGui::GetIO().WantCaptureMouse) {
-        const double dx = mx - last_mouse_x, dy = my - last_mouse_y;
-        sim::CameraView& v = renderer.view();
-        if (left) {
-          v.azimuth_deg -= 0.3 * dx;
-          v.elevation_deg = std::clamp(v.elevation_deg - 0.3 * dy, -89.0, 89.0);
-        }
-        if (glfwGetMouseButton(window, GLFW_MOUSE_BUTTON_RIGHT) == GLFW_PRESS) {
-          ui.follow = false;
-          const double a = v.azimuth_deg * kPi / 180.0, k = 0.002 * v.distance_m;
-          v.lookat_W += k * (dx * Eigen::Vector3d(std::sin(a), -std::cos(a), 0) + dy * Eigen::Vector3d(0, 0, 1));
-        }
-        const float wheel = ImGui::GetIO().MouseWheel;
-        if (wheel != 0) v.distance_m = std::clamp(v.distance_m * std::pow(0.9, wheel), 0.5, 30.0);
-      }
-      last_mouse_x = mx;
-      last_mouse_y = my;
-      renderer.follow(ui.follow ? pelvis : -1);
-
+      // Keys and the mouse not while typing into or dragging a panel.
+      if (!ImGui::GetIO().WantCaptureKeyboard) keys(width, height, &take_screenshot);
+      mouse(window);
+      renderer_.follow(ui_.follow ? pelvis_ : -1);
       // Panels read and edit the scenario under the lock (edits are only logged here).
-      simulation_panel(sh, ui, fps, sim_rate);
-      control_panel(sh, ui);
-      plot_panel(sh, width);
-      if (sh.scrub_s < 0 && sh.history.count > 0) {
-        const int back = std::clamp(static_cast<int>(std::lround(-sh.scrub_s / sh.history.entry_s)), 0, sh.history.count - 1);
-        const std::vector<double>& q = sh.history.qpos[static_cast<std::size_t>(sh.history.at(back))];
-        std::copy(q.begin(), q.end(), display->qpos);
-        mj_forward(&simulation.model(), display.get());
-        overlays.clear();
-        renderer.update_scene(simulation.model(), *display, overlays);
-      } else {
-        build_overlays(scenario, ui.overlays, &sh.overlay_buffers, &overlays);
-        if (drag.body >= 0 && drag.force_W.norm() > 0) {
-          sim::OverlayGeom g;
-          g.kind = sim::OverlayGeom::Kind::kArrow;
-          g.to_W = Eigen::Vector3d(simulation.data().xipos + 3 * drag.body);
-          g.from_W = g.to_W - ui.overlays.force_scale_m_per_N * drag.force_W;
-          g.width_m = 0.02;
-          const float yellow[4] = {1.0f, 0.85f, 0.1f, 1.0f};
-          std::copy(yellow, yellow + 4, g.rgba);
-          overlays.push_back(g);
-        }
-        renderer.update_scene(simulation.model(), simulation.data(), overlays);
-      }
-      // Rates, once a second.
-      const double since = std::chrono::duration<double>(Clock::now() - fps_clock).count();
-      ++fps_frames;
-      if (since >= 1.0) {
-        fps = fps_frames / since;
-        sim_rate = (sh.running_sim_s - sim_at_fps) / since;
-        sim_at_fps = sh.running_sim_s;
-        fps_frames = 0;
-        fps_clock = Clock::now();
-      }
-      ImGui::SetNextWindowPos(ImVec2(10, static_cast<float>(height) - 30), ImGuiCond_Always);
-      ImGui::Begin("status", nullptr, ImGuiWindowFlags_NoDecoration | ImGuiWindowFlags_AlwaysAutoResize | ImGuiWindowFlags_NoBackground);
-      ImGui::Text("%s  [space] pause  [.] step  [P] push  [ctrl+drag] push a body  [F2] screenshot  [F3] record  %s",
-                  scenario.playback() ? "playback" : controllers::to_string(scenario.config().weld), sh.message.c_str());
-      ImGui::End();
+      simulation_panel(sh_, ui_, fps_, sim_rate_);
+      control_panel(sh_, ui_);
+      plot_panel(sh_, width);
+      update_scene();
+      rates();
+      status_line(height);
     }
     // Render without the lock.
-    renderer.render_to_window(width, height);
-    if (take_screenshot) {
-      renderer.read_window(width, height, &rgb);
-      const std::string path = screenshot_path.empty()
-                                   ? options.output_dir + "/biodyn_" + std::to_string(shot_counter++) + ".png"
-                                   : screenshot_path;
-      write_png(path, width, height, rgb);
-      ++stats.screenshots;
-      std::lock_guard<std::mutex> lock(sh.mutex);
-      sh.message = "screenshot " + path;
-      sh.screenshot_requested = false;  // the physics goes on
-    }
-    if (video && std::chrono::duration<double>(Clock::now() - last_record).count() >= 1.0 / 30.0) {
-      last_record = Clock::now();
-      renderer.read_window(width & ~1, height & ~1, &rgb);
-      video->add_frame(rgb);
-    }
+    renderer_.render_to_window(width, height);
+    outputs(width, height, take_screenshot, screenshot_path);
     ImGui::Render();
     ImGui_ImplOpenGL3_RenderDrawData(ImGui::GetDrawData());
     glfwSwapBuffers(window);
-    ++stats.frames;
+    ++stats_.frames;
+    return true;
   }
-  if (video) video->finish();
-  {
-    std::lock_guard<std::mutex> lock(sh.mutex);
-    sh.quit = true;
-    stats.simulated_s = scenario.time_s();
-    const sim::CenterOfMass com = sim::center_of_mass(simulation.model(), simulation.data());
-    stats.com_x_m = com.position_W.x();
-    stats.com_y_m = com.position_W.y();
-    stats.fallen = scenario.fallen();
-    stats.pushes = static_cast<int>(scenario.pushes().size());
-    stats.stones_plan_m = scenario.config().steps_m;
-    stats.stones = scenario.stones();
-    stats.tracking = scenario.tracking_report();
-    stats.physics_steps_per_s = sh.running_wall_s > 0 ? static_cast<double>(sh.steps_run) / sh.running_wall_s : 0;
-    stats.realtime_factor = sh.running_wall_s > 0 ? sh.running_sim_s / sh.running_wall_s : 0;
+
+  // Keys (GLFW key codes: imgui 1.86's backend).
+  void keys(int width, int height, bool* take_screenshot) {
+    scenarios::LiveScenario& scenario = *sh_.scenario;
+    if (ImGui::IsKeyPressed(GLFW_KEY_SPACE, false)) sh_.paused = !sh_.paused;
+    if (ImGui::IsKeyPressed(GLFW_KEY_PERIOD, false)) sh_.single_steps += 1;
+    if (ImGui::IsKeyPressed(GLFW_KEY_BACKSPACE, false)) {
+      scenario.reset();
+      sh_.history.count = 0;
+      sh_.scrub_s = 0;
+    }
+    if (ImGui::IsKeyPressed(GLFW_KEY_P, false)) {
+      push_relative(scenario, "pelvis", ui_.push_force_N, ui_.push_direction_deg, ui_.push_duration_s);
+    }
+    if (ImGui::IsKeyPressed(GLFW_KEY_F2, false)) *take_screenshot = true;
+    if (ImGui::IsKeyPressed(GLFW_KEY_F3, false)) {
+      if (video_) {
+        video_->finish();
+        sh_.message = "video written";
+        video_.reset();
+      } else {
+        const std::string path = options_.output_dir + "/biodyn_" + std::to_string(shot_counter_++) + ".mp4";
+        video_.emplace(path, width & ~1, height & ~1, 30.0);
+        sh_.message = "recording " + path + " (F3 stops)";
+      }
+    }
   }
-  physics.join();
-  if (!sh.script_error.empty()) throw sim::InvalidArgument(sh.script_error);
-  stats.wall_s = std::chrono::duration<double>(Clock::now() - start).count();
-  stats.frames_per_s = stats.frames / std::max(stats.wall_s, 1e-9);
-  ImGui_ImplOpenGL3_Shutdown();
-  ImGui_ImplGlfw_Shutdown();
-  ImGui::DestroyContext();
-  glfwDestroyWindow(window);
-  return stats;
+
+  // Mouse: orbit (left), pan (right), zoom (wheel) outside the panels; ctrl + drag pushes a body.
+  void mouse(GLFWwindow* window) {
+    double mx = 0, my = 0;
+    glfwGetCursorPos(window, &mx, &my);
+    const bool left = glfwGetMouseButton(window, GLFW_MOUSE_BUTTON_LEFT) == GLFW_PRESS;
+    const bool ctrl = glfwGetKey(window, GLFW_KEY_LEFT_CONTROL) == GLFW_PRESS ||
+                      glfwGetKey(window, GLFW_KEY_RIGHT_CONTROL) == GLFW_PRESS;
+    int win_w = 1, win_h = 1;
+    glfwGetWindowSize(window, &win_w, &win_h);
+    sim::Simulation& simulation = sh_.scenario->simulation();
+    if (drag_.body < 0 && left && ctrl && !ImGui::GetIO().WantCaptureMouse) {
+      // Ctrl + drag on a body: pick it (MuJoCo's ray selection), the drag sets the push.
+      mjtNum point[3] = {0, 0, 0};
+      int geom = -1, skin = -1;
+      const int body = mjv_select(&simulation.model(), &simulation.data(), &renderer_.options(),
+                                  static_cast<mjtNum>(win_w) / win_h, mx / win_w, 1.0 - my / win_h, &renderer_.scene(),
+                                  point, &geom, &skin);
+      if (body > 0) drag_ = Drag{body, mx, my, Eigen::Vector3d::Zero()};
+    }
+    if (drag_.body >= 0) {
+      drag_push(mx, my, left);
+    } else if (!ImGui::GetIO().WantCaptureMouse) {
+      const double dx = mx - last_mouse_x_, dy = my - last_mouse_y_;
+      sim::CameraView& v = renderer_.view();
+      if (left) {
+        v.azimuth_deg -= 0.3 * dx;
+        v.elevation_deg = std::clamp(v.elevation_deg - 0.3 * dy, -89.0, 89.0);
+      }
+      if (glfwGetMouseButton(window, GLFW_MOUSE_BUTTON_RIGHT) == GLFW_PRESS) {
+        ui_.follow = false;
+        const double a = v.azimuth_deg * kRadPerDeg, k = 0.002 * v.distance_m;
+        v.lookat_W += k * (dx * Eigen::Vector3d(std::sin(a), -std::cos(a), 0) + dy * Eigen::Vector3d(0, 0, 1));
+      }
+      const float wheel = ImGui::GetIO().MouseWheel;
+      if (wheel != 0) v.distance_m = std::clamp(v.distance_m * std::pow(0.9, wheel), 0.5, 30.0);
+    }
+    last_mouse_x_ = mx;
+    last_mouse_y_ = my;
+  }
+
+  // A ctrl + drag in progress: screen right and up map to the ground plane as the camera sees
+  // it; released, the push is made.
+  void drag_push(double mx, double my, bool left) {
+    const double a = renderer_.view().azimuth_deg * kRadPerDeg;
+    const Eigen::Vector3d right(std::sin(a), -std::cos(a), 0), ahead(std::cos(a), std::sin(a), 0);
+    drag_.force_W = kDragNewtonsPerPixel * ((mx - drag_.start_x) * right - (my - drag_.start_y) * ahead);
+    if (left) return;
+    if (drag_.force_W.norm() >= 1.0) {
+      const char* name = mj_id2name(&sh_.scenario->simulation().model(), mjOBJ_BODY, drag_.body);
+      sh_.scenario->push(name, drag_.force_W, ui_.push_duration_s);
+      sh_.message = std::string("pushed ") + name + " with " + std::to_string(static_cast<int>(drag_.force_W.norm())) +
+                    " N for " + std::to_string(ui_.push_duration_s) + " s";
+    }
+    drag_.body = -1;
+  }
+
+  // The scene: a past state while scrubbing back, else the live one with its overlays and the
+  // drag's arrow.
+  void update_scene() {
+    sim::Simulation& simulation = sh_.scenario->simulation();
+    if (sh_.scrub_s < 0 && sh_.history.count > 0) {
+      const int back =
+          std::clamp(static_cast<int>(std::lround(-sh_.scrub_s / sh_.history.entry_s)), 0, sh_.history.count - 1);
+      const std::vector<double>& q = sh_.history.qpos[static_cast<std::size_t>(sh_.history.at(back))];
+      std::copy(q.begin(), q.end(), display_->qpos);
+      mj_forward(&simulation.model(), display_.get());
+      overlays_.clear();
+      renderer_.update_scene(simulation.model(), *display_, overlays_);
+      return;
+    }
+    build_overlays(*sh_.scenario, ui_.overlays, &sh_.overlay_buffers, &overlays_);
+    if (drag_.body >= 0 && drag_.force_W.norm() > 0) {
+      sim::OverlayGeom g;
+      g.kind = sim::OverlayGeom::Kind::kArrow;
+      g.to_W = Eigen::Vector3d(simulation.data().xipos + 3 * drag_.body);
+      g.from_W = g.to_W - ui_.overlays.force_scale_m_per_N * drag_.force_W;
+      g.width_m = 0.02;
+      const float yellow[4] = {1.0f, 0.85f, 0.1f, 1.0f};
+      std::copy(yellow, yellow + 4, g.rgba);
+      overlays_.push_back(g);
+    }
+    renderer_.update_scene(simulation.model(), simulation.data(), overlays_);
+  }
+
+  // Frame and physics rates, once a second.
+  void rates() {
+    const double since = std::chrono::duration<double>(Clock::now() - fps_clock_).count();
+    ++fps_frames_;
+    if (since < 1.0) return;
+    fps_ = fps_frames_ / since;
+    sim_rate_ = (sh_.running_sim_s - sim_at_fps_) / since;
+    sim_at_fps_ = sh_.running_sim_s;
+    fps_frames_ = 0;
+    fps_clock_ = Clock::now();
+  }
+
+  void status_line(int height) {
+    const scenarios::LiveScenario& s = *sh_.scenario;
+    ImGui::SetNextWindowPos(ImVec2(10, static_cast<float>(height) - 30), ImGuiCond_Always);
+    ImGui::Begin("status", nullptr,
+                 ImGuiWindowFlags_NoDecoration | ImGuiWindowFlags_AlwaysAutoResize | ImGuiWindowFlags_NoBackground);
+    ImGui::Text("%s  [space] pause  [.] step  [P] push  [ctrl+drag] push a body  [F2] screenshot  [F3] record  %s",
+                s.playback() ? "playback" : controllers::to_string(s.config().weld), sh_.message.c_str());
+    ImGui::End();
+  }
+
+  // Screenshots and video frames, read back from the window (without the lock).
+  void outputs(int width, int height, bool take_screenshot, const std::string& screenshot_path) {
+    if (take_screenshot) {
+      renderer_.read_window(width, height, &rgb_);
+      const std::string path = screenshot_path.empty()
+                                   ? options_.output_dir + "/biodyn_" + std::to_string(shot_counter_++) + ".png"
+                                   : screenshot_path;
+      write_png(path, width, height, rgb_);
+      ++stats_.screenshots;
+      std::lock_guard<std::mutex> lock(sh_.mutex);
+      sh_.message = "screenshot " + path;
+      sh_.screenshot_requested = false;  // the physics goes on
+    }
+    if (video_ && std::chrono::duration<double>(Clock::now() - last_record_).count() >= 1.0 / 30.0) {
+      last_record_ = Clock::now();
+      renderer_.read_window(width & ~1, height & ~1, &rgb_);
+      video_->add_frame(rgb_);
+    }
+  }
+
+  // What the session summary reports, at its end (stops the physics).
+  void final_stats() {
+    std::lock_guard<std::mutex> lock(sh_.mutex);
+    sh_.quit = true;
+    const scenarios::LiveScenario& s = *sh_.scenario;
+    stats_.simulated_s = s.time_s();
+    const sim::CenterOfMass com = sim::center_of_mass(s.simulation().model(), s.simulation().data());
+    stats_.com_x_m = com.position_W.x();
+    stats_.com_y_m = com.position_W.y();
+    stats_.fallen = s.fallen();
+    stats_.pushes = static_cast<int>(s.pushes().size());
+    stats_.stones_plan_m = s.config().steps_m;
+    stats_.stones = s.stones();
+    stats_.tracking = s.tracking_report();
+    stats_.physics_steps_per_s = sh_.running_wall_s > 0 ? static_cast<double>(sh_.steps_run) / sh_.running_wall_s : 0;
+    stats_.realtime_factor = sh_.running_wall_s > 0 ? sh_.running_sim_s / sh_.running_wall_s : 0;
+  }
+
+  const ViewerOptions& options_;
+  Shared sh_;
+  sim::SceneRenderer renderer_;
+  sim::Data display_;  // a past state shown while scrubbing
+  const int pelvis_;
+  UiState ui_;
+  Drag drag_;
+  ViewerStats stats_;
+  std::vector<sim::OverlayGeom> overlays_;
+  std::vector<std::uint8_t> rgb_;
+  std::optional<VideoWriter> video_;
+  int shot_counter_ = 0;
+  double last_mouse_x_ = 0, last_mouse_y_ = 0;
+  Clock::time_point start_, fps_clock_, last_record_;
+  int fps_frames_ = 0;
+  double fps_ = 0, sim_rate_ = 0, sim_at_fps_ = 0;
+};
+
+}  // namespace
+
+ViewerStats run_viewer(scenarios::ScenarioConfig config, const ViewerOptions& options) {
+  const std::vector<ScriptCommand> script =
+      options.script_path.empty() ? std::vector<ScriptCommand>{} : parse_script(options.script_path);
+  scenarios::LiveScenario scenario(std::move(config));
+  const Window window(options);
+  Session session(scenario, script, options);
+  return session.run(window.get());
 }
 
 }  // namespace biodyn::viewer
