@@ -8,6 +8,7 @@
 #include "biodyn/mocap_io/retarget.h"
 #include "biodyn/sim/errors.h"
 #include "biodyn/sim/model.h"
+#include "biodyn/sim/units.h"
 
 namespace biodyn::mocap_io {
 namespace {
@@ -16,7 +17,6 @@ using Eigen::Matrix3d;
 using Eigen::Vector3d;
 using sim::InvalidArgument;
 
-constexpr double kDegPerRad = 180.0 / 3.14159265358979323846;
 /// |sin| of the middle Euler angle beyond which the decomposition is treated as gimbal-locked.
 constexpr double kGimbalLockSin = 1.0 - 1e-12;
 

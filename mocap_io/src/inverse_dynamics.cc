@@ -6,6 +6,7 @@
 
 #include "biodyn/sim/errors.h"
 #include "biodyn/sim/model.h"
+#include "biodyn/sim/units.h"
 
 namespace biodyn::mocap_io {
 namespace {
@@ -20,7 +21,7 @@ constexpr double kMinPlateLoad_N = 20.0;
 
 /// One pass of the 2nd-order Butterworth low-pass (bilinear transform, pre-warped) over x.
 void butterworth_pass(std::vector<double>* x, double cutoff_hz, double rate_hz) {
-  const double k = std::tan(M_PI * cutoff_hz / rate_hz);
+  const double k = std::tan(kPi * cutoff_hz / rate_hz);
   const double norm = 1.0 / (1.0 + std::sqrt(2.0) * k + k * k);
   const double b0 = k * k * norm, b1 = 2.0 * b0, b2 = b0;
   const double a1 = 2.0 * (k * k - 1.0) * norm, a2 = (1.0 - std::sqrt(2.0) * k + k * k) * norm;

@@ -15,6 +15,7 @@
 #include "biodyn/models/mjcf.h"
 #include "biodyn/sim/errors.h"
 #include "biodyn/sim/model.h"
+#include "biodyn/sim/units.h"
 
 namespace biodyn::mocap_io {
 namespace {
@@ -115,7 +116,7 @@ double angle_about(const Vector3d& a, const Vector3d& b, const Vector3d& y) {
 }
 
 /// rad: a joint this close to an end of its range counts as held there.
-constexpr double kAtLimit_rad = 0.5 * 3.14159265358979323846 / 180.0;
+constexpr double kAtLimit_rad = 0.5 * kRadPerDeg;
 
 /// Names of the limited joints of the leg on `side` ('l' or 'r': joints on the thigh, shank, foot
 /// and toes bodies) within kAtLimit_rad of an end of their range at `qpos` (a ball joint: its

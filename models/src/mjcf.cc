@@ -10,6 +10,8 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
+#include "biodyn/sim/units.h"
+
 namespace biodyn::models {
 namespace {
 
@@ -290,7 +292,7 @@ std::string summary_json(const Character& c) {
       joints.push_back({{"name", jt.name},
                         {"type", jt.type == JointType::kBall ? "ball" : "hinge"},
                         {"axis", vec(jt.axis_B)},
-                        {"range_deg", {jt.min_rad * 180 / M_PI, jt.max_rad * 180 / M_PI}},
+                        {"range_deg", {jt.min_rad * 180 / kPi, jt.max_rad * 180 / kPi}},
                         {"tau_max_Nm", jt.type == JointType::kBall ? vec(jt.tau_max_Nm)
                                                                    : json(jt.tau_max_Nm.x())},
                         {"tau_source", jt.tau_source},
