@@ -5,10 +5,10 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
-#include <sstream>
 #include <system_error>
 
 #include "biodyn/sim/errors.h"
+#include "biodyn/sim/file_io.h"
 #include "biodyn/sim/log.h"
 
 namespace biodyn::apps {
@@ -29,17 +29,16 @@ std::pair<int, int> parse_size(const std::string& text, const std::string& optio
 }
 
 std::vector<std::string> split_commas(const std::string& text) {
-  std::vector<std::string> out;
-  std::stringstream in(text);
-  std::string part;
-  while (std::getline(in, part, ',')) out.push_back(part);
+  std::vector<std::string> out = sim::split_fields(text);
+  if (!text.empty() && text.back() == ',') out.pop_back();  // split_fields' last, empty field
   return out;
 }
 
 std::vector<double> parse_number_list(const std::string& text, const std::string& option,
                                       const std::string& expected) {
   std::vector<double> out;
-  for (const std::string& part : split_commas(text)) {
+  // A trailing comma gives an empty last item: refused like any other item that is no number.
+  for (const std::string& part : sim::split_fields(text)) {
     try {
       std::size_t used = 0;
       out.push_back(std::stod(part, &used));

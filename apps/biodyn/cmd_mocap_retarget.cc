@@ -3,9 +3,10 @@
 
 #include <algorithm>
 #include <array>
-#include <limits>
 #include <cmath>
 #include <iostream>
+#include <limits>
+#include <memory>
 #include <nlohmann/json.hpp>
 #include <sstream>
 
@@ -13,6 +14,7 @@
 #include "biodyn/models/mjcf.h"
 #include "biodyn/sim/errors.h"
 #include "biodyn/sim/model.h"
+#include "cmd_mocap.h"
 
 namespace biodyn::apps {
 namespace {
@@ -120,6 +122,126 @@ void plot_feet(const std::string& dir, const mocap_io::RetargetResult& r) {
   plot_with_gnuplot("mocap retarget", dir + "/feet.gp", dir + "/feet.png.tmp", dir + "/feet.png");
 }
 
+/// m: the slide bound a step is counted against ("steps under 1 cm").
+constexpr double kSlideBound_m = 0.01;
+
+/// The retargeting options from the command line: units from --metres-per-unit and --up over
+/// the map's. Throws sim::InvalidArgument for a bad value.
+mocap_io::RetargetOptions retarget_options(const RetargetCliOptions& o,
+                                           const mocap_io::JointMap& map) {
+  mocap_io::RetargetOptions options;
+  options.source = o.bvh;
+  options.align_start = o.align_start;
+  if (o.metres_per_unit || !o.up.empty()) {
+    mocap_io::BvhUnits units = map.units.value_or(mocap_io::BvhUnits{});
+    if (o.metres_per_unit) {
+      if (!(*o.metres_per_unit > 0 && std::isfinite(*o.metres_per_unit))) {
+        throw sim::InvalidArgument("--metres-per-unit: must be a finite number > 0, got " +
+                                   std::to_string(*o.metres_per_unit));
+      }
+      units.metres_per_unit = *o.metres_per_unit;
+    }
+    if (!o.up.empty()) {
+      if (o.up != "y" && o.up != "z") {
+        throw sim::InvalidArgument("--up: expected y or z, got '" + o.up + "'");
+      }
+      units.up = o.up == "y" ? mocap_io::UpAxis::kY : mocap_io::UpAxis::kZ;
+    }
+    options.units = units;
+  }
+  return options;
+}
+
+/// Steps whose slide is under kSlideBound_m.
+int steps_under_bound(const std::vector<mocap_io::StanceStep>& steps) {
+  int under = 0;
+  for (const mocap_io::StanceStep& step : steps) under += step.slide_m < kSlideBound_m ? 1 : 0;
+  return under;
+}
+
+/// stats.json: the run's inputs, the statistics measured on the output, the assumptions, and
+/// every stance step and contact.
+json retarget_stats(const RetargetCliOptions& o, const mocap_io::JointMap& map,
+                    const mocap_io::RetargetOptions& options, const models::CharacterSpec& spec,
+                    const mocap_io::RetargetResult& r) {
+  const mocap_io::RetargetStats& s = r.stats;
+  json steps = json::array();
+  for (const mocap_io::StanceStep& step : r.steps) {
+    steps.push_back({{"side", std::string(1, step.side)},
+                     {"first_frame", step.first_frame},
+                     {"last_frame", step.last_frame},
+                     {"slide_m", step.slide_m},
+                     {"slide_frame", step.slide_frame},
+                     {"height_error_m", step.height_error_m},
+                     {"joints_at_limit", step.joints_at_limit}});
+  }
+  json contacts = json::array();
+  for (const mocap_io::FootContact& c : r.contacts) {
+    contacts.push_back({{"side", std::string(1, c.side)}, {"point", c.point},
+                        {"first_frame", c.first_frame}, {"last_frame", c.last_frame}});
+  }
+  const mocap_io::BvhUnits units = options.units.value_or(map.units.value_or(mocap_io::BvhUnits{}));
+  return {
+      {"bvh", o.bvh},
+      {"joint_map", map.name},
+      {"bvh_units", {{"metres_per_unit", units.metres_per_unit},
+                     {"up", units.up == mocap_io::UpAxis::kY ? "y" : "z"}}},
+      {"character", {{"height_m", spec.height_m}, {"mass_kg", spec.mass_kg},
+                     {"sex", models::to_string(spec.sex)},
+                     {"detail", models::to_string(spec.detail)}}},
+      {"frames", s.frames},
+      {"unsolved_frames", s.unsolved_frames},
+      {"scale", s.scale},
+      {"bvh_leg_m", s.bvh_leg_m},
+      {"character_leg_m", s.character_leg_m},
+      {"keypoint_rms_m", s.keypoint_rms_m},
+      {"keypoint_max_m", s.keypoint_max_m},
+      {"keypoint_max", {{"keypoint", s.keypoint_max_name}, {"frame", s.keypoint_max_frame}}},
+      {"max_slide_m", s.max_slide_m},
+      {"steps_under_1cm", steps_under_bound(r.steps)},
+      {"max_penetration_m", s.max_penetration_m},
+      {"penetration", {{"frame", s.penetration_frame}, {"geom", s.penetration_geom}}},
+      {"bvh_travel_m", s.bvh_travel_m},
+      {"character_travel_m", s.character_travel_m},
+      {"released_contacts", s.released_contacts},
+      {"mean_ik_iterations", s.mean_ik_iterations},
+      {"frames_per_second", s.frames / std::max(s.total_seconds, 1e-9)},
+      {"assumptions",
+       {"kinematic: joint angles only, no dynamics (run mocap id on motion.csv for the forces "
+        "the motion needs)",
+        "foot contacts are detected on the capture (heights and speeds of heel and ball) and the "
+        "character's sole points are pinned to the floor (z = 0) where they land",
+        "a planted point the character's joint ranges cannot hold is released (the heel or toes "
+        "lift early) or slides: such steps list the leg's joints at their limits"}},
+      {"steps", steps},
+      {"contacts", contacts}};
+}
+
+/// The console summary: scale, slides, penetration and keypoint error, then each step sliding
+/// beyond the bound with the joints at their limits.
+void print_retarget(const RetargetCliOptions& o, const mocap_io::JointMap& map,
+                    const models::CharacterSpec& spec, const mocap_io::RetargetResult& r) {
+  const mocap_io::RetargetStats& s = r.stats;
+  std::cout << "mocap retarget: " << s.frames << " frames of " << o.bvh << " (map " << map.name
+            << ") on a " << spec.height_m << " m body, scale " << s.scale << " (leg "
+            << s.character_leg_m << " m / " << s.bvh_leg_m << " m)\n"
+            << "  stance-foot slide: " << steps_under_bound(r.steps) << " of " << r.steps.size()
+            << " steps under 1 cm, max " << 1000 * s.max_slide_m << " mm; ground penetration max "
+            << 1000 * s.max_penetration_m << " mm; keypoint RMS " << 1000 * s.keypoint_rms_m
+            << " mm; " << s.unsolved_frames << " unsolved frames\n";
+  for (const mocap_io::StanceStep& step : r.steps) {
+    if (step.slide_m < kSlideBound_m) continue;
+    std::string limits;
+    for (const std::string& j : step.joints_at_limit) limits += " " + j;
+    std::cout << "  step " << step.side << " frames " << step.first_frame << "-" << step.last_frame
+              << " slides " << 1000 * step.slide_m << " mm"
+              << (limits.empty() ? "" : " (at limit:" + limits + ")") << "\n";
+  }
+  std::cout << "  assumption: kinematic retarget; stance feet pinned where the capture's "
+               "contacts land (stats.json \"assumptions\")\n"
+            << "wrote " << o.output << "/{motion.csv, character.bvh, stats.json, feet.png}\n";
+}
+
 }  // namespace
 
 void RetargetCliOptions::add_to(CLI::App* cmd) {
@@ -146,110 +268,28 @@ void RetargetCliOptions::add_to(CLI::App* cmd) {
 int run_retarget(const RetargetCliOptions& o) {
   const mocap_io::BvhMotion bvh = mocap_io::read_bvh(o.bvh);
   const mocap_io::JointMap map = choose_map(o.map, bvh, o.bvh);
-  mocap_io::RetargetOptions options;
-  options.source = o.bvh;
-  options.align_start = o.align_start;
-  if (o.metres_per_unit || !o.up.empty()) {
-    mocap_io::BvhUnits units = map.units.value_or(mocap_io::BvhUnits{});
-    if (o.metres_per_unit) {
-      if (!(*o.metres_per_unit > 0 && std::isfinite(*o.metres_per_unit))) {
-        throw sim::InvalidArgument("--metres-per-unit: must be a finite number > 0, got " +
-                                   std::to_string(*o.metres_per_unit));
-      }
-      units.metres_per_unit = *o.metres_per_unit;
-    }
-    if (!o.up.empty()) {
-      if (o.up != "y" && o.up != "z") {
-        throw sim::InvalidArgument("--up: expected y or z, got '" + o.up + "'");
-      }
-      units.up = o.up == "y" ? mocap_io::UpAxis::kY : mocap_io::UpAxis::kZ;
-    }
-    options.units = units;
-  }
+  const mocap_io::RetargetOptions options = retarget_options(o, map);
   const models::CharacterSpec spec = o.character.to_spec();
   ProgressBar bar("mocap retarget: " + std::to_string(bvh.frame_count()) + " frames");
   const mocap_io::RetargetResult r =
       mocap_io::retarget_bvh(bvh, map, spec, options, [&](double f) { bar.update(f); });
   bar.finish();
-  const mocap_io::RetargetStats& s = r.stats;
-
-  json steps = json::array();
-  int under_1cm = 0;
-  for (const mocap_io::StanceStep& step : r.steps) {
-    under_1cm += step.slide_m < 0.01 ? 1 : 0;
-    steps.push_back({{"side", std::string(1, step.side)},
-                     {"first_frame", step.first_frame},
-                     {"last_frame", step.last_frame},
-                     {"slide_m", step.slide_m},
-                     {"slide_frame", step.slide_frame},
-                     {"height_error_m", step.height_error_m},
-                     {"joints_at_limit", step.joints_at_limit}});
-  }
-  json contacts = json::array();
-  for (const mocap_io::FootContact& c : r.contacts) {
-    contacts.push_back({{"side", std::string(1, c.side)}, {"point", c.point},
-                        {"first_frame", c.first_frame}, {"last_frame", c.last_frame}});
-  }
-  const mocap_io::BvhUnits units = options.units.value_or(map.units.value_or(mocap_io::BvhUnits{}));
-  json stats = {
-      {"bvh", o.bvh},
-      {"joint_map", map.name},
-      {"bvh_units", {{"metres_per_unit", units.metres_per_unit},
-                     {"up", units.up == mocap_io::UpAxis::kY ? "y" : "z"}}},
-      {"character", {{"height_m", spec.height_m}, {"mass_kg", spec.mass_kg},
-                     {"sex", models::to_string(spec.sex)},
-                     {"detail", models::to_string(spec.detail)}}},
-      {"frames", s.frames},
-      {"unsolved_frames", s.unsolved_frames},
-      {"scale", s.scale},
-      {"bvh_leg_m", s.bvh_leg_m},
-      {"character_leg_m", s.character_leg_m},
-      {"keypoint_rms_m", s.keypoint_rms_m},
-      {"keypoint_max_m", s.keypoint_max_m},
-      {"keypoint_max", {{"keypoint", s.keypoint_max_name}, {"frame", s.keypoint_max_frame}}},
-      {"max_slide_m", s.max_slide_m},
-      {"steps_under_1cm", under_1cm},
-      {"max_penetration_m", s.max_penetration_m},
-      {"penetration", {{"frame", s.penetration_frame}, {"geom", s.penetration_geom}}},
-      {"bvh_travel_m", s.bvh_travel_m},
-      {"character_travel_m", s.character_travel_m},
-      {"released_contacts", s.released_contacts},
-      {"mean_ik_iterations", s.mean_ik_iterations},
-      {"frames_per_second", s.frames / std::max(s.total_seconds, 1e-9)},
-      {"assumptions",
-       {"kinematic: joint angles only, no dynamics (run mocap id on motion.csv for the forces "
-        "the motion needs)",
-        "foot contacts are detected on the capture (heights and speeds of heel and ball) and the "
-        "character's sole points are pinned to the floor (z = 0) where they land",
-        "a planted point the character's joint ranges cannot hold is released (the heel or toes "
-        "lift early) or slides: such steps list the leg's joints at their limits"}},
-      {"steps", steps},
-      {"contacts", contacts}};
-
   write_file_atomically(o.output + "/motion.csv", mocap_io::format_motion_csv(r.motion));
   write_file_atomically(o.output + "/character.bvh", mocap_io::format_bvh(r.bvh));
-  write_file_atomically(o.output + "/stats.json", stats.dump(1) + "\n");
+  write_file_atomically(o.output + "/stats.json",
+                        retarget_stats(o, map, options, spec, r).dump(1) + "\n");
   plot_feet(o.output, r);
-
-  std::cout << "mocap retarget: " << s.frames << " frames of " << o.bvh << " (map " << map.name
-            << ") on a " << spec.height_m << " m body, scale " << s.scale << " (leg "
-            << s.character_leg_m << " m / " << s.bvh_leg_m << " m)\n"
-            << "  stance-foot slide: " << under_1cm << " of " << r.steps.size()
-            << " steps under 1 cm, max " << 1000 * s.max_slide_m << " mm; ground penetration max "
-            << 1000 * s.max_penetration_m << " mm; keypoint RMS " << 1000 * s.keypoint_rms_m
-            << " mm; " << s.unsolved_frames << " unsolved frames\n";
-  for (const mocap_io::StanceStep& step : r.steps) {
-    if (step.slide_m < 0.01) continue;
-    std::string limits;
-    for (const std::string& j : step.joints_at_limit) limits += " " + j;
-    std::cout << "  step " << step.side << " frames " << step.first_frame << "-" << step.last_frame
-              << " slides " << 1000 * step.slide_m << " mm"
-              << (limits.empty() ? "" : " (at limit:" + limits + ")") << "\n";
-  }
-  std::cout << "  assumption: kinematic retarget; stance feet pinned where the capture's "
-               "contacts land (stats.json \"assumptions\")\n"
-            << "wrote " << o.output << "/{motion.csv, character.bvh, stats.json, feet.png}\n";
+  print_retarget(o, map, spec, r);
   return kExitOk;
+}
+
+Command add_mocap_retarget_command(CLI::App* mocap) {
+  auto rt = std::make_shared<RetargetCliOptions>();
+  CLI::App* rt_cmd = mocap->add_subcommand(
+      "retarget", "A BVH motion on a generated character: qpos CSV, the character's BVH, "
+                  "foot-slide and penetration stats");
+  rt->add_to(rt_cmd);
+  return {rt_cmd, [rt]() { return run_retarget(*rt); }};
 }
 
 }  // namespace biodyn::apps

@@ -17,12 +17,11 @@
 #include "biodyn/mocap_io/errors.h"
 #include "biodyn/sim/file_io.h"
 #include "biodyn/sim/errors.h"
+#include "biodyn/sim/units.h"
 
 namespace biodyn::mocap_io {
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
-constexpr double kRadiansPerDegree = kPi / 180.0;
 /// A joint lists each of the six channels at most once.
 constexpr int kMaxChannels = 6;
 /// Longest piece of a bad token quoted in an error message.
@@ -434,7 +433,7 @@ Eigen::Matrix3d rotation_unchecked(const BvhMotion& m, int j, int f) {
   for (std::size_t k = 0; k < joint.channels.size(); ++k) {
     const BvhChannel c = joint.channels[k];
     if (is_position(c)) continue;
-    const double angle = m.values(f, joint.first_channel + static_cast<int>(k)) * kRadiansPerDegree;
+    const double angle = m.values(f, joint.first_channel + static_cast<int>(k)) * kRadPerDeg;
     // Intrinsic: each later rotation is about the axes already turned by the earlier ones.
     r = r * Eigen::AngleAxisd(angle, Eigen::Vector3d::Unit(axis_of(c))).toRotationMatrix();
   }

@@ -1,11 +1,13 @@
 #include "biodyn/mocap_io/inverse_dynamics.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <memory>
 
 #include "biodyn/sim/errors.h"
 #include "biodyn/sim/model.h"
+#include "biodyn/sim/units.h"
 
 namespace biodyn::mocap_io {
 namespace {
@@ -20,7 +22,7 @@ constexpr double kMinPlateLoad_N = 20.0;
 
 /// One pass of the 2nd-order Butterworth low-pass (bilinear transform, pre-warped) over x.
 void butterworth_pass(std::vector<double>* x, double cutoff_hz, double rate_hz) {
-  const double k = std::tan(M_PI * cutoff_hz / rate_hz);
+  const double k = std::tan(kPi * cutoff_hz / rate_hz);
   const double norm = 1.0 / (1.0 + std::sqrt(2.0) * k + k * k);
   const double b0 = k * k * norm, b1 = 2.0 * b0, b2 = b0;
   const double a1 = 2.0 * (k * k - 1.0) * norm, a2 = (1.0 - std::sqrt(2.0) * k + k * k) * norm;
@@ -45,6 +47,150 @@ bool is_quaternion_start(const mjModel& m, int q, int* joint) {
     }
   }
   return false;
+}
+
+/// s: the mean frame step of `motion`. Throws sim::InvalidArgument for fewer than 2 * trim + 1
+/// frames, a frame without a pose or frames not evenly spaced.
+double checked_frame_step(const Motion& motion, int trim) {
+  const int frames = motion.frame_count();
+  if (frames < 2 * trim + 1) {
+    throw sim::InvalidArgument("inverse dynamics: needs at least " + std::to_string(2 * trim + 1) +
+                               " frames, got " + std::to_string(frames));
+  }
+  for (int f = 0; f < frames; ++f) {
+    if (!motion.qpos.row(f).allFinite()) {
+      throw sim::InvalidArgument("inverse dynamics: frame " + std::to_string(f) + " (t = " +
+                                 std::to_string(motion.times_s[static_cast<size_t>(f)]) +
+                                 " s) has no pose (an unsolved IK frame); give a motion without "
+                                 "gaps (see longest_solved_span)");
+    }
+  }
+  const double dt = (motion.times_s.back() - motion.times_s.front()) / (frames - 1);
+  for (int f = 1; f < frames; ++f) {
+    const double step = motion.times_s[static_cast<size_t>(f)] - motion.times_s[static_cast<size_t>(f - 1)];
+    if (std::abs(step - dt) > kUnevenTolerance * dt) {
+      throw sim::InvalidArgument("inverse dynamics: frames must be evenly spaced; frame " +
+                                 std::to_string(f) + " steps " + std::to_string(step) +
+                                 " s, the mean step is " + std::to_string(dt) + " s");
+    }
+  }
+  return dt;
+}
+
+/// The model ID runs on: no joint limits or welds, no contacts unless the ground comes from
+/// them (otherwise it is measured or left in the residual) and, unless asked, no armature or
+/// joint damping.
+std::unique_ptr<mjModel, sim::ModelDeleter> model_for_inverse_dynamics(
+    const mjModel& model, const InverseDynamicsOptions& options) {
+  std::unique_ptr<mjModel, sim::ModelDeleter> m(mj_copyModel(nullptr, &model));
+  m->opt.disableflags |= options.ground == GroundForces::kContact
+                             ? (mjDSBL_LIMIT | mjDSBL_EQUALITY)
+                             : mjDSBL_CONSTRAINT;
+  if (!options.include_armature_damping) {
+    for (int v = 0; v < m->nv; ++v) {
+      m->dof_armature[v] = 0.0;
+      m->dof_damping[v] = 0.0;
+    }
+  }
+  return m;
+}
+
+/// The positions `qpos` (frames x nq) low-passed; quaternions are kept in one hemisphere first
+/// (a sign flip is no rotation but would be filtered as one) and renormalised after.
+Eigen::MatrixXd filtered_positions(const mjModel& m, const Eigen::MatrixXd& qpos, double dt,
+                                   const LowPassFilter& filter) {
+  const int frames = static_cast<int>(qpos.rows());
+  Eigen::MatrixXd q = qpos;
+  for (int c = 0; c < m.nq; ++c) {
+    int joint = -1;
+    if (!is_quaternion_start(m, c, &joint)) continue;
+    for (int f = 1; f < frames; ++f) {
+      if (q.row(f).segment<4>(c).dot(q.row(f - 1).segment<4>(c)) < 0) q.row(f).segment<4>(c) *= -1;
+    }
+  }
+  low_pass(&q, 1.0 / dt, filter);
+  for (int c = 0; c < m.nq; ++c) {
+    int joint = -1;
+    if (!is_quaternion_start(m, c, &joint)) continue;
+    for (int f = 0; f < frames; ++f) q.row(f).segment<4>(c).normalize();
+  }
+  return q;
+}
+
+/// The force plates' ground reaction at time `t_s` on the pose in `d`: each loaded plate's force
+/// and free moment, applied at its centre of pressure to the foot nearest it, is added to
+/// `qfrc_ground` (nv); returns the sum of the forces applied, N, world.
+Eigen::Vector3d apply_force_plates(const mjModel& m, mjData* d,
+                                   const std::vector<ForcePlate>& plates, double plate_rate_hz,
+                                   double t_s, const std::array<int, 2>& foot_bodies,
+                                   std::vector<mjtNum>* qfrc_ground) {
+  Eigen::Vector3d total = Eigen::Vector3d::Zero();
+  for (const ForcePlate& p : plates) {
+    const double s = t_s * plate_rate_hz;
+    const int s0 = std::clamp(static_cast<int>(std::floor(s)), 0, p.sample_count() - 1);
+    const int s1 = std::min(s0 + 1, p.sample_count() - 1);
+    const double w = std::clamp(s - s0, 0.0, 1.0);
+    // ForcePlate holds the ground reaction: the force on the subject.
+    const Eigen::Vector3d grf =
+        (1 - w) * p.force_N.row(s0).transpose() + w * p.force_N.row(s1).transpose();
+    if (std::abs(grf.z()) < kMinPlateLoad_N) continue;
+    const Eigen::Vector3d cop = (1 - w) * p.cop_m.row(s0).transpose() + w * p.cop_m.row(s1).transpose();
+    const Eigen::Vector3d free_moment = (1 - w) * p.free_moment_Nm.row(s0).transpose() +
+                                        w * p.free_moment_Nm.row(s1).transpose();
+    if (!cop.allFinite() || !free_moment.allFinite()) continue;
+    // Apply to the foot nearest the centre of pressure.
+    int body = foot_bodies[0];
+    double best = 1e9;
+    for (int b : foot_bodies) {
+      if (b < 0) continue;
+      const double dist = (Eigen::Vector3d(d->xpos + 3 * b) - cop).head<2>().norm();
+      if (dist < best) {
+        best = dist;
+        body = b;
+      }
+    }
+    if (body < 0) continue;
+    mjtNum force[3] = {grf.x(), grf.y(), grf.z()};
+    mjtNum torque[3] = {free_moment.x(), free_moment.y(), free_moment.z()};
+    mjtNum point[3] = {cop.x(), cop.y(), cop.z()};
+    mj_applyFT(&m, d, force, torque, point, body, qfrc_ground->data());
+    total += grf;
+  }
+  return total;
+}
+
+/// N, world: the sum of the floor's contact forces on the body in `d` (mj_inverse leaves them
+/// out of qfrc_inverse; they are summed for the report).
+Eigen::Vector3d contact_ground_force(const mjModel& m, const mjData* d) {
+  Eigen::Vector3d total = Eigen::Vector3d::Zero();
+  for (int c = 0; c < d->ncon; ++c) {
+    mjtNum local[6];
+    mj_contactForce(&m, d, c, local);
+    const Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>> frame(d->contact[c].frame);
+    // frame rows are the contact axes (normal first) in the world; the force is on geom2.
+    Eigen::Vector3d f_W = frame.transpose() * Eigen::Vector3d(local[0], local[1], local[2]);
+    const int floor_first = m.geom_bodyid[d->contact[c].geom1] == 0;
+    total += floor_first ? f_W : Eigen::Vector3d(-f_W);
+  }
+  return total;
+}
+
+/// Row i of the root's residual force and moment (world) from the generalised force: zero
+/// without a free root joint.
+void root_residual(const mjModel& m, const mjData* d, int root_joint, int i,
+                   InverseDynamicsResult* r) {
+  if (root_joint >= 0) {
+    const int v0 = m.jnt_dofadr[root_joint];
+    const int body = m.jnt_bodyid[root_joint];
+    const Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>> r_WB(d->xmat + 9 * body);
+    r->residual_force_N.row(i) = r->generalized_force.row(i).segment<3>(v0);
+    // Free-joint rotational DOFs are in the body frame (MuJoCo): rotate to the world.
+    r->residual_moment_Nm.row(i) =
+        (r_WB * r->generalized_force.row(i).segment<3>(v0 + 3).transpose()).transpose();
+  } else {
+    r->residual_force_N.row(i).setZero();
+    r->residual_moment_Nm.row(i).setZero();
+  }
 }
 
 }  // namespace
@@ -106,64 +252,16 @@ InverseDynamicsResult inverse_dynamics(const mjModel& model, const Motion& motio
   check_motion_matches(motion, model, "motion");
   const int frames = motion.frame_count();
   const int trim = std::max(options.trim_frames, 1);
-  if (frames < 2 * trim + 1) {
-    throw sim::InvalidArgument("inverse dynamics: needs at least " + std::to_string(2 * trim + 1) +
-                               " frames, got " + std::to_string(frames));
-  }
-  for (int f = 0; f < frames; ++f) {
-    if (!motion.qpos.row(f).allFinite()) {
-      throw sim::InvalidArgument("inverse dynamics: frame " + std::to_string(f) + " (t = " +
-                                 std::to_string(motion.times_s[static_cast<size_t>(f)]) +
-                                 " s) has no pose (an unsolved IK frame); give a motion without "
-                                 "gaps (see longest_solved_span)");
-    }
-  }
-  const double dt = (motion.times_s.back() - motion.times_s.front()) / (frames - 1);
-  for (int f = 1; f < frames; ++f) {
-    const double step = motion.times_s[static_cast<size_t>(f)] - motion.times_s[static_cast<size_t>(f - 1)];
-    if (std::abs(step - dt) > kUnevenTolerance * dt) {
-      throw sim::InvalidArgument("inverse dynamics: frames must be evenly spaced; frame " +
-                                 std::to_string(f) + " steps " + std::to_string(step) +
-                                 " s, the mean step is " + std::to_string(dt) + " s");
-    }
-  }
+  const double dt = checked_frame_step(motion, trim);
   if (options.ground == GroundForces::kForcePlates && (plates.empty() || !(plate_rate_hz > 0))) {
     throw sim::InvalidArgument("inverse dynamics: ground from force plates, but the capture has "
                                "no force plates");
   }
-
-  // The model ID runs on: no joint limits or welds, no contacts unless the ground comes from
-  // them (otherwise it is measured or left in the residual) and, unless asked, no armature or
-  // joint damping.
-  std::unique_ptr<mjModel, sim::ModelDeleter> m(mj_copyModel(nullptr, &model));
-  m->opt.disableflags |= options.ground == GroundForces::kContact
-                             ? (mjDSBL_LIMIT | mjDSBL_EQUALITY)
-                             : mjDSBL_CONSTRAINT;
-  if (!options.include_armature_damping) {
-    for (int v = 0; v < m->nv; ++v) {
-      m->dof_armature[v] = 0.0;
-      m->dof_damping[v] = 0.0;
-    }
-  }
+  const std::unique_ptr<mjModel, sim::ModelDeleter> m = model_for_inverse_dynamics(model, options);
   sim::Data data(*m);
   mjData* d = data.get();
   const int nq = m->nq, nv = m->nv;
-
-  // Filter positions (quaternions kept in one hemisphere first, renormalised after).
-  Eigen::MatrixXd q = motion.qpos;
-  for (int c = 0; c < nq; ++c) {
-    int joint = -1;
-    if (!is_quaternion_start(*m, c, &joint)) continue;
-    for (int f = 1; f < frames; ++f) {
-      if (q.row(f).segment<4>(c).dot(q.row(f - 1).segment<4>(c)) < 0) q.row(f).segment<4>(c) *= -1;
-    }
-  }
-  low_pass(&q, 1.0 / dt, options.filter);
-  for (int c = 0; c < nq; ++c) {
-    int joint = -1;
-    if (!is_quaternion_start(*m, c, &joint)) continue;
-    for (int f = 0; f < frames; ++f) q.row(f).segment<4>(c).normalize();
-  }
+  const Eigen::MatrixXd q = filtered_positions(*m, motion.qpos, dt, options.filter);
 
   // Velocities (central) and accelerations (second difference) on the configuration manifold.
   std::vector<mjtNum> qa(static_cast<size_t>(nq)), qb(static_cast<size_t>(nq)),
@@ -189,8 +287,8 @@ InverseDynamicsResult inverse_dynamics(const mjModel& model, const Motion& motio
   for (int j = 0; j < m->njnt; ++j) {
     if (m->jnt_type[j] == mjJNT_FREE) root_joint = j;
   }
-  const int foot_bodies[] = {mj_name2id(m.get(), mjOBJ_BODY, "foot_l"),
-                             mj_name2id(m.get(), mjOBJ_BODY, "foot_r")};
+  const std::array<int, 2> foot_bodies = {mj_name2id(m.get(), mjOBJ_BODY, "foot_l"),
+                                          mj_name2id(m.get(), mjOBJ_BODY, "foot_r")};
   for (int i = 0; i < out_frames; ++i) {
     const int f = i + trim;
     diff(f - 1, f, &v_back);
@@ -205,66 +303,18 @@ InverseDynamicsResult inverse_dynamics(const mjModel& model, const Motion& motio
     mj_inverse(m.get(), d);
     std::fill(qfrc_ground.begin(), qfrc_ground.end(), 0.0);
     if (options.ground == GroundForces::kForcePlates) {
-      const double t = motion.times_s[static_cast<size_t>(f)];
-      for (const ForcePlate& p : plates) {
-        const double s = t * plate_rate_hz;
-        const int s0 = std::clamp(static_cast<int>(std::floor(s)), 0, p.sample_count() - 1);
-        const int s1 = std::min(s0 + 1, p.sample_count() - 1);
-        const double w = std::clamp(s - s0, 0.0, 1.0);
-        // ForcePlate holds the ground reaction: the force on the subject.
-        const Eigen::Vector3d grf =
-            (1 - w) * p.force_N.row(s0).transpose() + w * p.force_N.row(s1).transpose();
-        if (std::abs(grf.z()) < kMinPlateLoad_N) continue;
-        const Eigen::Vector3d cop = (1 - w) * p.cop_m.row(s0).transpose() + w * p.cop_m.row(s1).transpose();
-        const Eigen::Vector3d free_moment = (1 - w) * p.free_moment_Nm.row(s0).transpose() +
-                                            w * p.free_moment_Nm.row(s1).transpose();
-        if (!cop.allFinite() || !free_moment.allFinite()) continue;
-        // Apply to the foot nearest the centre of pressure.
-        int body = foot_bodies[0];
-        double best = 1e9;
-        for (int b : foot_bodies) {
-          if (b < 0) continue;
-          const double dist = (Eigen::Vector3d(d->xpos + 3 * b) - cop).head<2>().norm();
-          if (dist < best) {
-            best = dist;
-            body = b;
-          }
-        }
-        if (body < 0) continue;
-        mjtNum force[3] = {grf.x(), grf.y(), grf.z()};
-        mjtNum torque[3] = {free_moment.x(), free_moment.y(), free_moment.z()};
-        mjtNum point[3] = {cop.x(), cop.y(), cop.z()};
-        mj_applyFT(m.get(), d, force, torque, point, body, qfrc_ground.data());
-        r.ground_force_N.row(i) += grf.transpose();
-      }
+      r.ground_force_N.row(i) =
+          apply_force_plates(*m, d, plates, plate_rate_hz, motion.times_s[static_cast<size_t>(f)],
+                             foot_bodies, &qfrc_ground)
+              .transpose();
     }
     if (options.ground == GroundForces::kContact) {
-      // mj_inverse left the contact forces out of qfrc_inverse; sum them for the report.
-      for (int c = 0; c < d->ncon; ++c) {
-        mjtNum local[6];
-        mj_contactForce(m.get(), d, c, local);
-        const Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>> frame(d->contact[c].frame);
-        // frame rows are the contact axes (normal first) in the world; the force is on geom2.
-        Eigen::Vector3d f_W = frame.transpose() * Eigen::Vector3d(local[0], local[1], local[2]);
-        const int floor_first = m->geom_bodyid[d->contact[c].geom1] == 0;
-        r.ground_force_N.row(i) += (floor_first ? f_W : Eigen::Vector3d(-f_W)).transpose();
-      }
+      r.ground_force_N.row(i) = contact_ground_force(*m, d).transpose();
     }
     for (int v = 0; v < nv; ++v) {
       r.generalized_force(i, v) = d->qfrc_inverse[v] - qfrc_ground[static_cast<size_t>(v)];
     }
-    if (root_joint >= 0) {
-      const int v0 = m->jnt_dofadr[root_joint];
-      const int body = m->jnt_bodyid[root_joint];
-      const Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>> r_WB(d->xmat + 9 * body);
-      r.residual_force_N.row(i) = r.generalized_force.row(i).segment<3>(v0);
-      // Free-joint rotational DOFs are in the body frame (MuJoCo): rotate to the world.
-      r.residual_moment_Nm.row(i) =
-          (r_WB * r.generalized_force.row(i).segment<3>(v0 + 3).transpose()).transpose();
-    } else {
-      r.residual_force_N.row(i).setZero();
-      r.residual_moment_Nm.row(i).setZero();
-    }
+    root_residual(*m, d, root_joint, i, &r);
     r.times_s.push_back(motion.times_s[static_cast<size_t>(f)]);
   }
   return r;

@@ -11,19 +11,6 @@
 #include "biodyn/sim/errors.h"
 
 namespace biodyn::mocap_io {
-namespace {
-
-std::vector<std::string> split_commas(const std::string& line) {
-  std::vector<std::string> out;
-  std::string field;
-  std::istringstream in(line);
-  while (std::getline(in, field, ',')) out.push_back(field);
-  if (!line.empty() && line.back() == ',') out.emplace_back();
-  return out;
-}
-
-}  // namespace
-
 std::vector<std::string> qpos_names(const mjModel& m) {
   std::vector<std::string> names;
   for (int j = 0; j < m.njnt; ++j) {
@@ -84,7 +71,7 @@ Motion parse_motion_csv(const std::string& text, const std::string& source) {
       motion.comments.push_back(line.substr(1));
       continue;
     }
-    const std::vector<std::string> fields = split_commas(line);
+    const std::vector<std::string> fields = sim::split_fields(line);
     if (!header) {
       if (fields.empty() || fields[0] != "time" || fields.size() < 2) {
         throw ParseError(source, ParseError::line(number), "a header 'time,<qpos names>'",

@@ -75,6 +75,140 @@ sim::Model compile(const models::Character& c) {
   return sim::Model::from_string(models::to_mjcf(c), "scaled character");
 }
 
+/// m: the stature `height_m` scaled by the mean factor of the length measurements (stature
+/// follows the segment lengths; widths are not statures), within the spec's bounds.
+double estimated_height(double height_m, const models::MarkerSet& set,
+                        const std::vector<ScaleFactor>& factors) {
+  double mean = 0.0;
+  int lengths = 0;
+  for (size_t k = 0; k < factors.size(); ++k) {
+    if (set.scaling[k].dimension == "width") continue;
+    mean += factors[k].factor;
+    ++lengths;
+  }
+  mean = lengths > 0 ? mean / lengths : 1.0;
+  return std::clamp(height_m * mean, models::CharacterSpec::kMinHeight,
+                    models::CharacterSpec::kMaxHeight);
+}
+
+/// The factors as overrides of `spec`: each measured segment's length (on `plain`) scaled, and
+/// the pelvis's width (its hip joint separation). Throws sim::InvalidArgument for a segment the
+/// character lacks or a width on another segment than the pelvis.
+void apply_factors(const models::Character& plain, const models::MarkerSet& set,
+                   const std::vector<ScaleFactor>& factors, models::CharacterSpec* spec) {
+  for (size_t k = 0; k < factors.size(); ++k) {
+    const ScaleFactor& f = factors[k];
+    for (const std::string& seg : f.segments) {
+      const models::Segment* s = plain.find(seg);
+      if (s == nullptr) {
+        throw sim::InvalidArgument("scaling: segment '" + seg + "' is not in the " +
+                                   std::string(models::to_string(spec->detail)) + " character");
+      }
+      if (set.scaling[k].dimension == "width") {
+        if (seg != "pelvis") {
+          throw sim::InvalidArgument("scaling[" + std::to_string(k) + "]: only the pelvis has a "
+                                     "width (hip joint separation), got '" + seg + "'");
+        }
+        const double hip_separation =
+            (plain.find("thigh_l")->origin_W - plain.find("thigh_r")->origin_W).norm();
+        spec->overrides[seg].width_m = f.factor * hip_separation;
+      } else {
+        spec->overrides[seg].length_m = f.factor * s->length_m;
+      }
+    }
+  }
+}
+
+/// Up to `wanted` frames spread evenly among those the IK solved. Throws sim::InvalidArgument
+/// if it solved none.
+std::vector<int> placement_frames(const MarkerIkResult& ik, int frames, int wanted) {
+  std::vector<int> solved;
+  for (int f = 0; f < frames; ++f) {
+    if (ik.frames[static_cast<size_t>(f)].solved) solved.push_back(f);
+  }
+  if (solved.empty()) {
+    throw sim::InvalidArgument("static trial: no frame has enough visible markers for IK");
+  }
+  std::vector<int> picked;
+  const int n = std::min<int>(wanted, static_cast<int>(solved.size()));
+  for (int i = 0; i < n; ++i) {
+    picked.push_back(solved[static_cast<size_t>(i * static_cast<int>(solved.size()) / n)]);
+  }
+  return picked;
+}
+
+/// The final fit's marker error over the `picked` frames into result's static_rms_m and
+/// static_max_m.
+void report_fit(const MarkerIkResult& ik, const std::vector<int>& picked, ScaleResult* result) {
+  double sum_sq = 0.0;
+  int count = 0;
+  for (int f : picked) {
+    const MarkerIkFrame& fr = ik.frames[static_cast<size_t>(f)];
+    sum_sq += fr.rms_error_m * fr.rms_error_m * fr.markers_used;
+    count += fr.markers_used;
+    result->static_max_m = std::max(result->static_max_m, fr.max_error_m);
+  }
+  result->static_rms_m = std::sqrt(sum_sq / std::max(count, 1));
+}
+
+/// Each marker of `scaled` that is not fixed, measured in its body's frame over the `picked`
+/// frames of the IK's fit: the sum of its positions (m) and how many were summed.
+struct BodyFrameSums {
+  std::map<std::string, Eigen::Vector3d> sum_B;
+  std::map<std::string, int> count_B;
+};
+
+BodyFrameSums measure_in_bodies(const mjModel& m, const models::Character& scaled,
+                                const models::MarkerSet& set, const MarkerData& static_trial,
+                                const MarkerIkResult& ik, const std::vector<int>& picked) {
+  BodyFrameSums sums;
+  sim::Data d(m);
+  for (int f : picked) {
+    for (int k = 0; k < m.nq; ++k) d->qpos[k] = ik.qpos(f, k);
+    mj_kinematics(&m, d.get());
+    for (const models::Marker& mk : scaled.markers) {
+      if (set.fixed.count(mk.name)) continue;
+      const int col = static_trial.find(mk.name);
+      if (col < 0 || !static_trial.visible(f, col)) continue;
+      const int body = mj_name2id(&m, mjOBJ_BODY, mk.segment.c_str());
+      const Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>> r_WB(d->xmat + 9 * body);
+      const Eigen::Vector3d p_W(d->xpos + 3 * body);
+      const auto [it, fresh] = sums.sum_B.try_emplace(mk.name, Eigen::Vector3d::Zero());
+      it->second += r_WB.transpose() * (static_trial.position(f, col) - p_W);
+      sums.count_B[mk.name] += 1;
+    }
+  }
+  return sums;
+}
+
+/// Marker placement: fit the static trial, move the markers that are not fixed to their mean
+/// measured position in their body's frame, refit; the last fit is reported.
+void place_markers(const models::MarkerSet& set, const MarkerData& static_trial,
+                   const ScaleOptions& options, models::CharacterSpec* spec, ScaleResult* result) {
+  const std::vector<double> weights = weights_for(set, static_trial);
+  const int frames = static_trial.frame_count();
+  for (int round = 0; round <= options.placement_iterations; ++round) {
+    const models::Character scaled = models::generate_character(*spec);
+    const sim::Model model = compile(scaled);
+    const mjModel& m = *model;
+    const MarkerIkResult ik = solve_marker_ik(m, static_trial, weights);
+    const std::vector<int> picked = placement_frames(ik, frames, options.placement_frames);
+    if (round == options.placement_iterations) {  // the final fit: report it
+      report_fit(ik, picked, result);
+      break;
+    }
+    const BodyFrameSums sums = measure_in_bodies(m, scaled, set, static_trial, ik, picked);
+    for (models::MarkerPlacement& p : spec->markers) {
+      const auto it = sums.sum_B.find(p.name);
+      if (it == sums.sum_B.end()) continue;
+      p.position_B = it->second / sums.count_B.at(p.name);
+    }
+    if (round == 0) {
+      for (const auto& [name, s] : sums.sum_B) result->placed.push_back(name);
+    }
+  }
+}
+
 }  // namespace
 
 std::map<std::string, Eigen::Vector3d> standing_marker_positions(const models::Character& c) {
@@ -95,104 +229,13 @@ ScaleResult scale_from_static(const models::CharacterSpec& base, bool height_giv
   models::Character plain = models::generate_character(spec);
   std::vector<ScaleFactor> factors = measure(plain, set, static_trial);
   if (!height_given && options.estimate_height && !factors.empty()) {
-    // Stature follows the segment lengths (widths are not statures).
-    double mean = 0.0;
-    int lengths = 0;
-    for (size_t k = 0; k < factors.size(); ++k) {
-      if (set.scaling[k].dimension == "width") continue;
-      mean += factors[k].factor;
-      ++lengths;
-    }
-    mean = lengths > 0 ? mean / lengths : 1.0;
-    spec.height_m = std::clamp(spec.height_m * mean, models::CharacterSpec::kMinHeight,
-                               models::CharacterSpec::kMaxHeight);
+    spec.height_m = estimated_height(spec.height_m, set, factors);
     plain = models::generate_character(spec);
     factors = measure(plain, set, static_trial);
   }
-  for (size_t k = 0; k < factors.size(); ++k) {
-    const ScaleFactor& f = factors[k];
-    for (const std::string& seg : f.segments) {
-      const models::Segment* s = plain.find(seg);
-      if (s == nullptr) {
-        throw sim::InvalidArgument("scaling: segment '" + seg + "' is not in the " +
-                                   std::string(models::to_string(spec.detail)) + " character");
-      }
-      if (set.scaling[k].dimension == "width") {
-        if (seg != "pelvis") {
-          throw sim::InvalidArgument("scaling[" + std::to_string(k) + "]: only the pelvis has a "
-                                     "width (hip joint separation), got '" + seg + "'");
-        }
-        const double hip_separation =
-            (plain.find("thigh_l")->origin_W - plain.find("thigh_r")->origin_W).norm();
-        spec.overrides[seg].width_m = f.factor * hip_separation;
-      } else {
-        spec.overrides[seg].length_m = f.factor * s->length_m;
-      }
-    }
-  }
+  apply_factors(plain, set, factors, &spec);
   result.factors = factors;
-
-  // Marker placement: fit the static trial, move the markers that are not fixed to their mean
-  // measured position in their body's frame, refit.
-  const std::vector<double> weights = weights_for(set, static_trial);
-  const int frames = static_trial.frame_count();
-  for (int round = 0; round <= options.placement_iterations; ++round) {
-    const models::Character scaled = models::generate_character(spec);
-    const sim::Model model = compile(scaled);
-    const mjModel& m = *model;
-    const MarkerIkResult ik = solve_marker_ik(m, static_trial, weights);
-    std::vector<int> solved;
-    for (int f = 0; f < frames; ++f) {
-      if (ik.frames[static_cast<size_t>(f)].solved) solved.push_back(f);
-    }
-    if (solved.empty()) {
-      throw sim::InvalidArgument("static trial: no frame has enough visible markers for IK");
-    }
-    // Evenly spread placement frames among the solved ones.
-    std::vector<int> picked;
-    const int n = std::min<int>(options.placement_frames, static_cast<int>(solved.size()));
-    for (int i = 0; i < n; ++i) {
-      picked.push_back(solved[static_cast<size_t>(i * static_cast<int>(solved.size()) / n)]);
-    }
-    if (round == options.placement_iterations) {  // the final fit: report it
-      double sum_sq = 0.0;
-      int count = 0;
-      for (int f : picked) {
-        const MarkerIkFrame& fr = ik.frames[static_cast<size_t>(f)];
-        sum_sq += fr.rms_error_m * fr.rms_error_m * fr.markers_used;
-        count += fr.markers_used;
-        result.static_max_m = std::max(result.static_max_m, fr.max_error_m);
-      }
-      result.static_rms_m = std::sqrt(sum_sq / std::max(count, 1));
-      break;
-    }
-    sim::Data d(m);
-    std::map<std::string, Eigen::Vector3d> sum_B;
-    std::map<std::string, int> count_B;
-    for (int f : picked) {
-      for (int k = 0; k < m.nq; ++k) d->qpos[k] = ik.qpos(f, k);
-      mj_kinematics(&m, d.get());
-      for (const models::Marker& mk : scaled.markers) {
-        if (set.fixed.count(mk.name)) continue;
-        const int col = static_trial.find(mk.name);
-        if (col < 0 || !static_trial.visible(f, col)) continue;
-        const int body = mj_name2id(&m, mjOBJ_BODY, mk.segment.c_str());
-        const Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>> r_WB(d->xmat + 9 * body);
-        const Eigen::Vector3d p_W(d->xpos + 3 * body);
-        const auto [it, fresh] = sum_B.try_emplace(mk.name, Eigen::Vector3d::Zero());
-        it->second += r_WB.transpose() * (static_trial.position(f, col) - p_W);
-        count_B[mk.name] += 1;
-      }
-    }
-    for (models::MarkerPlacement& p : spec.markers) {
-      const auto it = sum_B.find(p.name);
-      if (it == sum_B.end()) continue;
-      p.position_B = it->second / count_B.at(p.name);
-    }
-    if (round == 0) {
-      for (const auto& [name, s] : sum_B) result.placed.push_back(name);
-    }
-  }
+  place_markers(set, static_trial, options, &spec, &result);
   result.spec = spec;
   return result;
 }

@@ -94,26 +94,37 @@ std::string number_text(double v) {
   return s.str();
 }
 
-}  // namespace
+/// Line i of the file; throws ParseError (expected `expected`, found the end of the file) when
+/// the file is shorter.
+const Line& line_at(const std::vector<Line>& lines, size_t i, const std::string& expected,
+                    const std::string& source) {
+  if (i >= lines.size()) {
+    throw ParseError(source, ParseError::line(static_cast<long>(lines.size()) + 1), expected,
+                     "end of file");
+  }
+  return lines[i];
+}
 
-TrcFile parse_trc(const std::string& text, const std::string& source) {
-  const std::vector<Line> lines = split_lines(text);
-  auto line_at = [&](size_t i, const std::string& expected) -> const Line& {
-    if (i >= lines.size()) {
-      throw ParseError(source, ParseError::line(static_cast<long>(lines.size()) + 1), expected,
-                       "end of file");
-    }
-    return lines[i];
-  };
-  // Line 1: PathFileType 4 (X/Y/Z) name.
-  const Line& path_line = line_at(0, "the PathFileType line");
+/// What lines 1-3 state: the header keys' values that parse_trc uses.
+struct TrcHeader {
+  long value_line = 0;  ///< number of the values line (line 3), for errors naming a value
+  double rate_hz = 0.0;  ///< DataRate, Hz
+  double num_frames = 0.0;
+  double num_markers = 0.0;  ///< a whole number >= 1
+  std::string units;         ///< Units: mm, cm or m
+  double metres_per_unit = 1.0;
+};
+
+/// Lines 1-3: "PathFileType 4 (X/Y/Z) name", the header keys and their values. Throws
+/// ParseError for a file that is not TRC, a key missing or a value out of its range.
+TrcHeader parse_header(const std::vector<Line>& lines, const std::string& source) {
+  const Line& path_line = line_at(lines, 0, "the PathFileType line", source);
   if (path_line.text.rfind("PathFileType", 0) != 0) {
     throw ParseError(source, ParseError::line(1), "'PathFileType' (a TRC file)",
                      "'" + path_line.text.substr(0, 40) + "'");
   }
-  // Lines 2-3: header keys and their values.
-  const Line& key_line = line_at(1, "the header keys (DataRate, NumFrames, ...)");
-  const Line& value_line = line_at(2, "the header values");
+  const Line& key_line = line_at(lines, 1, "the header keys (DataRate, NumFrames, ...)", source);
+  const Line& value_line = line_at(lines, 2, "the header values", source);
   const std::vector<std::string> keys = split_fields(key_line.text);
   const std::vector<std::string> values = split_fields(value_line.text);
   if (values.size() < keys.size()) {
@@ -137,50 +148,91 @@ TrcFile parse_trc(const std::string& text, const std::string& source) {
     }
     return v;
   };
-  TrcFile file;
-  const double rate_hz = header_number("DataRate");
-  if (!(rate_hz > 0.0)) {
+  TrcHeader h;
+  h.value_line = value_line.number;
+  h.rate_hz = header_number("DataRate");
+  if (!(h.rate_hz > 0.0)) {
     throw ParseError(source, ParseError::line(value_line.number), "DataRate > 0",
-                     number_text(rate_hz));
+                     number_text(h.rate_hz));
   }
-  const double num_frames = header_number("NumFrames");
-  const double num_markers = header_number("NumMarkers");
-  if (num_markers < 1 || num_markers != std::floor(num_markers)) {
+  h.num_frames = header_number("NumFrames");
+  h.num_markers = header_number("NumMarkers");
+  if (h.num_markers < 1 || h.num_markers != std::floor(h.num_markers)) {
     throw ParseError(source, ParseError::line(value_line.number), "NumMarkers a whole number >= 1",
-                     number_text(num_markers));
+                     number_text(h.num_markers));
   }
   const auto units_it = header.find("Units");
   if (units_it == header.end()) {
     throw ParseError(source, ParseError::line(key_line.number), "the header key Units",
                      "'" + key_line.text.substr(0, 80) + "'");
   }
-  file.units = units_it->second;
-  const double scale = metres_per_unit(file.units, source, value_line.number);
+  h.units = units_it->second;
+  h.metres_per_unit = metres_per_unit(h.units, source, value_line.number);
+  return h;
+}
 
-  // Line 4: Frame# Time label (label columns are followed by two empty ones).
-  const Line& label_line = line_at(3, "the marker labels line (Frame# Time ...)");
+/// Line 4, "Frame# Time label..." (each label followed by two empty columns): the marker
+/// labels. Throws ParseError unless it has the Frame# and Time columns and `count` labels.
+std::vector<std::string> parse_labels(const std::vector<Line>& lines, int count,
+                                      const std::string& source) {
+  const Line& label_line = line_at(lines, 3, "the marker labels line (Frame# Time ...)", source);
   const std::vector<std::string> label_fields = split_fields(label_line.text);
   if (label_fields.size() < 2 || label_fields[0] != "Frame#" || label_fields[1] != "Time") {
     throw ParseError(source, ParseError::line(label_line.number), "'Frame#' and 'Time' columns",
                      "'" + label_line.text.substr(0, 40) + "'");
   }
-  MarkerData& m = file.markers;
+  std::vector<std::string> labels;
   for (size_t i = 2; i < label_fields.size(); ++i) {
-    if (!label_fields[i].empty()) m.labels.push_back(label_fields[i]);
+    if (!label_fields[i].empty()) labels.push_back(label_fields[i]);
   }
-  const int n = static_cast<int>(num_markers);
-  if (m.marker_count() != n) {
+  if (static_cast<int>(labels.size()) != count) {
     throw ParseError(source, ParseError::line(label_line.number),
-                     std::to_string(n) + " marker labels (NumMarkers)",
-                     std::to_string(m.marker_count()));
+                     std::to_string(count) + " marker labels (NumMarkers)",
+                     std::to_string(labels.size()));
   }
-  // Line 5: X1 Y1 Z1 ...; then optional blank lines before the rows.
-  line_at(4, "the coordinate names line (X1 Y1 Z1 ...)");
-  const size_t columns = 2 + 3 * static_cast<size_t>(n);
-  std::vector<std::vector<double>> rows;
-  std::vector<double> times;
-  std::vector<long> row_lines;
-  int first_frame = 1;
+  return labels;
+}
+
+/// The data rows, from line 6 on (blank lines skipped), with positions in metres.
+struct TrcRows {
+  std::vector<std::vector<double>> positions_m;  ///< per row: x, y, z per marker; NaN for a gap
+  std::vector<double> times_s;                   ///< the Time column, increasing
+  int first_frame = 1;                           ///< the first row's Frame#
+};
+
+/// One data row's marker coordinates (fields after Frame# and Time) times `scale`, in m; a
+/// marker with any coordinate missing is a gap in all three. Throws ParseError naming the
+/// marker and axis of a field that is not a number, NaN or empty.
+std::vector<double> parse_row(const std::vector<std::string>& fields,
+                              const std::vector<std::string>& labels, double scale,
+                              const Line& line, const std::string& source) {
+  std::vector<double> row(3 * labels.size());
+  for (size_t k = 0; k < row.size(); ++k) {
+    const std::string& f = fields[2 + k];
+    double v = std::numeric_limits<double>::quiet_NaN();
+    if (!f.empty() && !parse_number(f, &v)) {
+      throw ParseError(source, ParseError::line(line.number),
+                       "a number, NaN or an empty field for " + labels[k / 3] + " " +
+                           "XYZ"[k % 3],
+                       "'" + f + "'");
+    }
+    row[k] = v * scale;
+  }
+  // A gap is a gap in all three coordinates.
+  for (size_t k = 0; k < row.size(); k += 3) {
+    if (std::isnan(row[k]) || std::isnan(row[k + 1]) || std::isnan(row[k + 2])) {
+      row[k] = row[k + 1] = row[k + 2] = std::numeric_limits<double>::quiet_NaN();
+    }
+  }
+  return row;
+}
+
+/// The rows after line 5. Throws ParseError for a row with the wrong number of fields, no
+/// frame number or time, a time not after the previous row's, a bad coordinate, or no rows.
+TrcRows parse_rows(const std::vector<Line>& lines, const std::vector<std::string>& labels,
+                   double scale, const std::string& source) {
+  const size_t columns = 2 + 3 * labels.size();
+  TrcRows rows;
   for (size_t i = 5; i < lines.size(); ++i) {
     if (blank(lines[i].text)) continue;
     std::vector<std::string> fields = split_fields(lines[i].text);
@@ -197,68 +249,78 @@ TrcFile parse_trc(const std::string& text, const std::string& source) {
       throw ParseError(source, ParseError::line(lines[i].number), "a frame number and a time",
                        "'" + fields[0] + "', '" + fields[1] + "'");
     }
-    if (!times.empty() && !(time > times.back())) {
+    if (!rows.times_s.empty() && !(time > rows.times_s.back())) {
       throw ParseError(source, ParseError::line(lines[i].number),
-                       "a time later than the previous row's " + number_text(times.back()),
+                       "a time later than the previous row's " + number_text(rows.times_s.back()),
                        number_text(time));
     }
-    if (rows.empty()) first_frame = static_cast<int>(frame);
-    std::vector<double> row(3 * static_cast<size_t>(n));
-    for (size_t k = 0; k < row.size(); ++k) {
-      const std::string& f = fields[2 + k];
-      double v = std::numeric_limits<double>::quiet_NaN();
-      if (!f.empty() && !parse_number(f, &v)) {
-        throw ParseError(source, ParseError::line(lines[i].number),
-                         "a number, NaN or an empty field for " + m.labels[k / 3] + " " +
-                             "XYZ"[k % 3],
-                         "'" + f + "'");
-      }
-      row[k] = v * scale;
-    }
-    // A gap is a gap in all three coordinates.
-    for (size_t k = 0; k < row.size(); k += 3) {
-      if (std::isnan(row[k]) || std::isnan(row[k + 1]) || std::isnan(row[k + 2])) {
-        row[k] = row[k + 1] = row[k + 2] = std::numeric_limits<double>::quiet_NaN();
-      }
-    }
-    rows.push_back(std::move(row));
-    times.push_back(time);
-    row_lines.push_back(lines[i].number);
+    if (rows.positions_m.empty()) rows.first_frame = static_cast<int>(frame);
+    rows.positions_m.push_back(parse_row(fields, labels, scale, lines[i], source));
+    rows.times_s.push_back(time);
   }
-  if (rows.empty()) {
+  if (rows.positions_m.empty()) {
     throw ParseError(source, ParseError::line(static_cast<long>(lines.size()) + 1),
                      "at least one data row", "end of file");
   }
-  m.rate_hz = rate_hz;
-  m.first_frame = first_frame;
-  m.times_s = times;
-  m.positions_m.resize(static_cast<Eigen::Index>(rows.size()), 3 * n);
-  for (size_t f = 0; f < rows.size(); ++f) {
-    for (int k = 0; k < 3 * n; ++k) m.positions_m(static_cast<Eigen::Index>(f), k) = rows[f][k];
-  }
-  // Fewer rows than NumFrames is a truncated file: refused. More rows are reported and read.
-  if (num_frames > static_cast<double>(rows.size())) {
+  return rows;
+}
+
+/// Where the header and the rows disagree (the rows win); throws ParseError for fewer rows
+/// than NumFrames (a truncated file). More rows are reported and read.
+std::vector<std::string> check_rows_against_header(const TrcHeader& h, const TrcRows& rows,
+                                                   const std::vector<Line>& lines,
+                                                   const std::string& source) {
+  std::vector<std::string> inconsistencies;
+  const size_t count = rows.positions_m.size();
+  if (h.num_frames > static_cast<double>(count)) {
     throw ParseError(source, ParseError::line(static_cast<long>(lines.size()) + 1),
-                     number_text(num_frames) + " rows (NumFrames on line " +
-                         std::to_string(value_line.number) + ")",
-                     std::to_string(rows.size()) + " rows (a truncated file?)");
+                     number_text(h.num_frames) + " rows (NumFrames on line " +
+                         std::to_string(h.value_line) + ")",
+                     std::to_string(count) + " rows (a truncated file?)");
   }
-  if (num_frames < static_cast<double>(rows.size())) {
-    file.inconsistencies.push_back("NumFrames is " + number_text(num_frames) + " but there are " +
-                                   std::to_string(rows.size()) + " rows; all rows are read");
+  if (h.num_frames < static_cast<double>(count)) {
+    inconsistencies.push_back("NumFrames is " + number_text(h.num_frames) + " but there are " +
+                              std::to_string(count) + " rows; all rows are read");
   }
+  const std::vector<double>& times = rows.times_s;
   if (times.size() >= 2) {
     std::vector<double> steps;
     for (size_t i = 1; i < times.size(); ++i) steps.push_back(times[i] - times[i - 1]);
     std::nth_element(steps.begin(), steps.begin() + steps.size() / 2, steps.end());
     const double median_step = steps[steps.size() / 2];
-    if (std::abs(median_step * rate_hz - 1.0) > kRateMismatchTolerance) {
-      file.inconsistencies.push_back(
-          "DataRate is " + number_text(rate_hz) + " Hz but the Time column steps " +
+    if (std::abs(median_step * h.rate_hz - 1.0) > kRateMismatchTolerance) {
+      inconsistencies.push_back(
+          "DataRate is " + number_text(h.rate_hz) + " Hz but the Time column steps " +
           number_text(median_step) + " s (" + number_text(1.0 / median_step) +
           " Hz); each frame keeps its time from the Time column");
     }
   }
+  return inconsistencies;
+}
+
+}  // namespace
+
+TrcFile parse_trc(const std::string& text, const std::string& source) {
+  const std::vector<Line> lines = split_lines(text);
+  const TrcHeader header = parse_header(lines, source);
+  TrcFile file;
+  file.units = header.units;
+  MarkerData& m = file.markers;
+  const int n = static_cast<int>(header.num_markers);
+  m.labels = parse_labels(lines, n, source);
+  // Line 5: X1 Y1 Z1 ...; then optional blank lines before the rows.
+  line_at(lines, 4, "the coordinate names line (X1 Y1 Z1 ...)", source);
+  const TrcRows rows = parse_rows(lines, m.labels, header.metres_per_unit, source);
+  m.rate_hz = header.rate_hz;
+  m.first_frame = rows.first_frame;
+  m.times_s = rows.times_s;
+  m.positions_m.resize(static_cast<Eigen::Index>(rows.positions_m.size()), 3 * n);
+  for (size_t f = 0; f < rows.positions_m.size(); ++f) {
+    for (int k = 0; k < 3 * n; ++k) {
+      m.positions_m(static_cast<Eigen::Index>(f), k) = rows.positions_m[f][k];
+    }
+  }
+  file.inconsistencies = check_rows_against_header(header, rows, lines, source);
   return file;
 }
 

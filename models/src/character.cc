@@ -9,6 +9,7 @@
 
 #include "biodyn/models/tables.h"
 #include "biodyn/sim/errors.h"
+#include "biodyn/sim/units.h"
 
 namespace biodyn::models {
 namespace {
@@ -17,7 +18,6 @@ using Eigen::Matrix3d;
 using Eigen::Vector3d;
 using sim::InvalidArgument;
 
-constexpr double kDegToRad = M_PI / 180.0;
 // Capsule radii never exceed this share of the capsule's length (keeps short, heavy segments
 // such as the hand of a 150 kg body from turning into spheres).
 constexpr double kMaxRadiusPerLength = 0.3;
@@ -133,7 +133,7 @@ Matrix3d shifted(const Matrix3d& I, double mass, const Vector3d& d) {
 }
 
 double capsule_radius(double mass, double length, double density) {
-  const double r = std::sqrt(mass / (density * M_PI * length));
+  const double r = std::sqrt(mass / (density * kPi * length));
   return std::min(r, kMaxRadiusPerLength * length);
 }
 
@@ -567,8 +567,8 @@ Joint make_joint(const Tables& T, double torque_scale, const std::string& dof,
   j.type = jr.type;
   j.anchor_B = anchor_W;
   j.axis_B = side.empty() ? axis_left : mirror(axis_left, side_sign(side));
-  j.min_rad = jr.min_deg * kDegToRad;
-  j.max_rad = jr.max_deg * kDegToRad;
+  j.min_rad = jr.min_deg * kRadPerDeg;
+  j.max_rad = jr.max_deg * kRadPerDeg;
   j.armature = jr.armature;
   j.damping = jr.damping;
   j.tau_max_Nm = Vector3d::Constant(jr.tau_ref_Nm * torque_scale);

@@ -10,6 +10,8 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
+#include "biodyn/sim/units.h"
+
 namespace biodyn::models {
 namespace {
 
@@ -51,17 +53,8 @@ double solref_time_constant(const PhysicsOptions& o, double time_constant_s) {
   return std::max(time_constant_s, 2 * o.timestep_s);
 }
 
-}  // namespace
-
-std::vector<std::string> actuator_names(const Joint& joint) {
-  if (joint.type == JointType::kHinge) return {joint.name};
-  return {joint.name + "_x", joint.name + "_y", joint.name + "_z"};
-}
-
-std::string to_mjcf(const Character& c, const PhysicsOptions& o) {
-  tinyxml2::XMLDocument doc;
-  tinyxml2::XMLElement* root = doc.NewElement("mujoco");
-  doc.InsertEndChild(root);
+/// The model's name and the <compiler>, <option>, <size>, <visual> and <statistic> elements.
+void add_settings(tinyxml2::XMLElement* root, const Character& c, const PhysicsOptions& o) {
   std::ostringstream model_name;
   model_name << "biodyn_" << to_string(c.spec.sex) << "_" << fmt(c.spec.height_m) << "m_"
              << fmt(c.spec.mass_kg) << "kg_" << to_string(c.spec.detail);
@@ -87,7 +80,10 @@ std::string to_mjcf(const Character& c, const PhysicsOptions& o) {
   child(root, "statistic",
         {{"center", fmt(Vector3d(0, 0, 0.5 * c.standing_height_m))},
          {"extent", fmt(c.standing_height_m)}});
+}
 
+/// <asset>: the floor's checker texture and material, and the body material.
+void add_assets(tinyxml2::XMLElement* root) {
   tinyxml2::XMLElement* asset = child(root, "asset");
   child(asset, "texture",
         {{"name", "grid"},
@@ -104,7 +100,11 @@ std::string to_mjcf(const Character& c, const PhysicsOptions& o) {
          {"texuniform", "true"},
          {"reflectance", "0.1"}});
   child(asset, "material", {{"name", "body"}, {"rgba", "0.8 0.6 0.45 1"}});
+}
 
+/// <default>: body geoms' collision bits and friction, joint limits' solref, marker sites and
+/// motors.
+void add_defaults(tinyxml2::XMLElement* root, const PhysicsOptions& o) {
   tinyxml2::XMLElement* defaults = child(root, "default");
   child(defaults, "geom",
         {{"contype", std::to_string(kBodyContype)},
@@ -118,7 +118,10 @@ std::string to_mjcf(const Character& c, const PhysicsOptions& o) {
          {"group", std::to_string(kMarkerSiteGroup)},
          {"rgba", "0.1 0.3 1 1"}});
   child(defaults, "motor", {{"ctrllimited", "true"}});
+}
 
+/// <worldbody> with the light and the floor; the segments' bodies go in it.
+tinyxml2::XMLElement* add_world(tinyxml2::XMLElement* root) {
   tinyxml2::XMLElement* world = child(root, "worldbody");
   child(world, "light",
         {{"name", "sun"},
@@ -133,94 +136,137 @@ std::string to_mjcf(const Character& c, const PhysicsOptions& o) {
          {"material", "grid"},
          {"contype", std::to_string(kFloorContype)},
          {"conaffinity", std::to_string(kFloorConaffinity)}});
+  return world;
+}
 
+/// The segment's <inertial>: diagonal when the products of inertia vanish.
+void add_inertial(tinyxml2::XMLElement* body, const Segment& s) {
+  tinyxml2::XMLElement* inertial = child(body, "inertial");
+  set(inertial, "pos", fmt(s.com_B));
+  set(inertial, "mass", fmt(s.mass_kg));
+  const Matrix3d& I = s.inertia_B;
+  if (std::abs(I(0, 1)) < kOffDiagonalEpsilon && std::abs(I(0, 2)) < kOffDiagonalEpsilon &&
+      std::abs(I(1, 2)) < kOffDiagonalEpsilon) {
+    set(inertial, "diaginertia", fmt(Vector3d(I(0, 0), I(1, 1), I(2, 2))));
+  } else {
+    set(inertial, "fullinertia",
+        fmt(Vector3d(I(0, 0), I(1, 1), I(2, 2))) + " " +
+            fmt(Vector3d(I(0, 1), I(0, 2), I(1, 2))));
+  }
+}
+
+/// The segment's joints, and one motor per actuated axis in `actuators` (a ball joint's three
+/// motors turn it about x, y and z by their gears).
+void add_joints(tinyxml2::XMLElement* body, const Segment& s, tinyxml2::XMLElement* actuators) {
+  for (const Joint& j : s.joints) {
+    tinyxml2::XMLElement* je = child(body, "joint");
+    set(je, "name", j.name);
+    set(je, "type", j.type == JointType::kBall ? "ball" : "hinge");
+    set(je, "pos", fmt(j.anchor_B));
+    if (j.type == JointType::kHinge) set(je, "axis", fmt(j.axis_B));
+    set(je, "limited", "true");
+    set(je, "range", fmt(j.min_rad) + " " + fmt(j.max_rad));
+    set(je, "armature", fmt(j.armature));
+    set(je, "damping", fmt(j.damping));
+    const std::vector<std::string> names = actuator_names(j);
+    for (size_t k = 0; k < names.size(); ++k) {
+      tinyxml2::XMLElement* motor = child(actuators, "motor");
+      set(motor, "name", names[k]);
+      set(motor, "joint", j.name);
+      if (j.type == JointType::kBall) {
+        Eigen::Matrix<double, 6, 1> gear = Eigen::Matrix<double, 6, 1>::Zero();
+        gear[static_cast<int>(k)] = 1;
+        set(motor, "gear", fmt(gear.head<3>()) + " 0 0 0");
+      }
+      const double tau = j.tau_max_Nm[static_cast<int>(k)];
+      set(motor, "ctrlrange", fmt(-tau) + " " + fmt(tau));
+    }
+  }
+}
+
+/// The segment's collision geoms, named after it (the second and later with _1, _2, ...).
+void add_geoms(tinyxml2::XMLElement* body, const Segment& s) {
+  int gi = 0;
+  for (const Geom& g : s.geoms) {
+    tinyxml2::XMLElement* ge = child(body, "geom");
+    set(ge, "name", s.name + (gi ? "_" + std::to_string(gi) : std::string()));
+    ++gi;
+    switch (g.type) {
+      case GeomType::kBox:
+        set(ge, "type", "box");
+        set(ge, "pos", fmt(g.center_B));
+        set(ge, "size", fmt(g.half_extents));
+        break;
+      case GeomType::kSphere:
+        set(ge, "type", "sphere");
+        set(ge, "pos", fmt(g.center_B));
+        set(ge, "size", fmt(g.radius));
+        break;
+      case GeomType::kCapsule:
+        set(ge, "type", "capsule");
+        set(ge, "fromto", fmt(g.from_B) + " " + fmt(g.to_B));
+        set(ge, "size", fmt(g.radius));
+        break;
+    }
+  }
+}
+
+/// The body of segment `s` in `parent_el` (relative to its parent's origin; the root with the
+/// tracking camera and the free joint): inertial, joints (motors into `actuators`), geoms and
+/// the character's marker sites on it.
+tinyxml2::XMLElement* add_body(tinyxml2::XMLElement* parent_el, const Segment& s,
+                               const Segment* parent, const std::vector<Marker>& markers,
+                               tinyxml2::XMLElement* actuators) {
+  tinyxml2::XMLElement* body = child(parent_el, "body");
+  set(body, "name", s.name);
+  const Vector3d pos = parent == nullptr ? s.origin_W : s.origin_W - parent->origin_W;
+  set(body, "pos", fmt(pos));
+  if (parent == nullptr) {
+    // Follows the character's centre of mass, looking at it from its left-front.
+    child(body, "camera",
+          {{"name", "tracking"},
+           {"mode", "trackcom"},
+           {"pos", fmt(Vector3d(2.5, 2.5, 0.6))},
+           {"xyaxes", "-1 1 0 -0.1 -0.1 1"}});
+    child(body, "freejoint", {{"name", "root"}});
+  }
+  add_inertial(body, s);
+  add_joints(body, s, actuators);
+  add_geoms(body, s);
+  for (const Marker& m : markers) {
+    if (m.segment != s.name) continue;
+    tinyxml2::XMLElement* site = child(body, "site");
+    set(site, "name", "marker_" + m.name);
+    set(site, "pos", fmt(m.position_B));
+  }
+  return body;
+}
+
+}  // namespace
+
+std::vector<std::string> actuator_names(const Joint& joint) {
+  if (joint.type == JointType::kHinge) return {joint.name};
+  return {joint.name + "_x", joint.name + "_y", joint.name + "_z"};
+}
+
+std::string to_mjcf(const Character& c, const PhysicsOptions& o) {
+  tinyxml2::XMLDocument doc;
+  tinyxml2::XMLElement* root = doc.NewElement("mujoco");
+  doc.InsertEndChild(root);
+  add_settings(root, c, o);
+  add_assets(root);
+  add_defaults(root, o);
+  tinyxml2::XMLElement* world = add_world(root);
+
+  // Segments come parents first: each body nests in its parent's.
   std::map<std::string, tinyxml2::XMLElement*> body_elements;
   std::map<std::string, const Segment*> by_name;
   for (const Segment& s : c.segments) by_name[s.name] = &s;
   tinyxml2::XMLElement* actuators = child(root, "actuator");
-
   for (const Segment& s : c.segments) {
     tinyxml2::XMLElement* parent_el = s.parent.empty() ? world : body_elements.at(s.parent);
-    tinyxml2::XMLElement* body = child(parent_el, "body");
-    body_elements[s.name] = body;
-    set(body, "name", s.name);
-    const Vector3d pos =
-        s.parent.empty() ? s.origin_W : s.origin_W - by_name.at(s.parent)->origin_W;
-    set(body, "pos", fmt(pos));
-    if (s.parent.empty()) {
-      // Follows the character's centre of mass, looking at it from its left-front.
-      child(body, "camera",
-            {{"name", "tracking"},
-             {"mode", "trackcom"},
-             {"pos", fmt(Vector3d(2.5, 2.5, 0.6))},
-             {"xyaxes", "-1 1 0 -0.1 -0.1 1"}});
-      child(body, "freejoint", {{"name", "root"}});
-    }
-    tinyxml2::XMLElement* inertial = child(body, "inertial");
-    set(inertial, "pos", fmt(s.com_B));
-    set(inertial, "mass", fmt(s.mass_kg));
-    const Matrix3d& I = s.inertia_B;
-    if (std::abs(I(0, 1)) < kOffDiagonalEpsilon && std::abs(I(0, 2)) < kOffDiagonalEpsilon &&
-        std::abs(I(1, 2)) < kOffDiagonalEpsilon) {
-      set(inertial, "diaginertia", fmt(Vector3d(I(0, 0), I(1, 1), I(2, 2))));
-    } else {
-      set(inertial, "fullinertia",
-          fmt(Vector3d(I(0, 0), I(1, 1), I(2, 2))) + " " +
-              fmt(Vector3d(I(0, 1), I(0, 2), I(1, 2))));
-    }
-    for (const Joint& j : s.joints) {
-      tinyxml2::XMLElement* je = child(body, "joint");
-      set(je, "name", j.name);
-      set(je, "type", j.type == JointType::kBall ? "ball" : "hinge");
-      set(je, "pos", fmt(j.anchor_B));
-      if (j.type == JointType::kHinge) set(je, "axis", fmt(j.axis_B));
-      set(je, "limited", "true");
-      set(je, "range", fmt(j.min_rad) + " " + fmt(j.max_rad));
-      set(je, "armature", fmt(j.armature));
-      set(je, "damping", fmt(j.damping));
-      const std::vector<std::string> names = actuator_names(j);
-      for (size_t k = 0; k < names.size(); ++k) {
-        tinyxml2::XMLElement* motor = child(actuators, "motor");
-        set(motor, "name", names[k]);
-        set(motor, "joint", j.name);
-        if (j.type == JointType::kBall) {
-          Eigen::Matrix<double, 6, 1> gear = Eigen::Matrix<double, 6, 1>::Zero();
-          gear[static_cast<int>(k)] = 1;
-          set(motor, "gear", fmt(gear.head<3>()) + " 0 0 0");
-        }
-        const double tau = j.tau_max_Nm[static_cast<int>(k)];
-        set(motor, "ctrlrange", fmt(-tau) + " " + fmt(tau));
-      }
-    }
-    int gi = 0;
-    for (const Geom& g : s.geoms) {
-      tinyxml2::XMLElement* ge = child(body, "geom");
-      set(ge, "name", s.name + (gi ? "_" + std::to_string(gi) : std::string()));
-      ++gi;
-      switch (g.type) {
-        case GeomType::kBox:
-          set(ge, "type", "box");
-          set(ge, "pos", fmt(g.center_B));
-          set(ge, "size", fmt(g.half_extents));
-          break;
-        case GeomType::kSphere:
-          set(ge, "type", "sphere");
-          set(ge, "pos", fmt(g.center_B));
-          set(ge, "size", fmt(g.radius));
-          break;
-        case GeomType::kCapsule:
-          set(ge, "type", "capsule");
-          set(ge, "fromto", fmt(g.from_B) + " " + fmt(g.to_B));
-          set(ge, "size", fmt(g.radius));
-          break;
-      }
-    }
-    for (const Marker& m : c.markers) {
-      if (m.segment != s.name) continue;
-      tinyxml2::XMLElement* site = child(body, "site");
-      set(site, "name", "marker_" + m.name);
-      set(site, "pos", fmt(m.position_B));
-    }
+    const Segment* parent = s.parent.empty() ? nullptr : by_name.at(s.parent);
+    body_elements[s.name] = add_body(parent_el, s, parent, c.markers, actuators);
   }
 
   // Foot-contact welds (paper §4.1), off until a controller switches one on at foot strike
@@ -290,7 +336,7 @@ std::string summary_json(const Character& c) {
       joints.push_back({{"name", jt.name},
                         {"type", jt.type == JointType::kBall ? "ball" : "hinge"},
                         {"axis", vec(jt.axis_B)},
-                        {"range_deg", {jt.min_rad * 180 / M_PI, jt.max_rad * 180 / M_PI}},
+                        {"range_deg", {jt.min_rad * 180 / kPi, jt.max_rad * 180 / kPi}},
                         {"tau_max_Nm", jt.type == JointType::kBall ? vec(jt.tau_max_Nm)
                                                                    : json(jt.tau_max_Nm.x())},
                         {"tau_source", jt.tau_source},

@@ -5,6 +5,7 @@
 #include <sstream>
 
 #include "biodyn/sim/errors.h"
+#include "biodyn/sim/file_io.h"
 
 namespace biodyn::models {
 namespace embedded {
@@ -29,7 +30,7 @@ class CsvReader {
       ++number;
       if (!line.empty() && line.back() == '\r') line.pop_back();
       if (line.empty() || line[0] == '#') continue;
-      std::vector<std::string> fields = split(line);
+      std::vector<std::string> fields = sim::split_fields(line);
       if (!header_seen) {
         header_seen = true;
         if (fields != columns_) fail(number, "header", join(columns_), line);
@@ -69,14 +70,6 @@ class CsvReader {
     std::vector<std::string> fields;
   };
 
-  static std::vector<std::string> split(const std::string& line) {
-    std::vector<std::string> out;
-    std::string field;
-    std::istringstream in(line);
-    while (std::getline(in, field, ',')) out.push_back(field);
-    if (!line.empty() && line.back() == ',') out.emplace_back();
-    return out;
-  }
   static std::string join(const std::vector<std::string>& v) {
     std::string s;
     for (size_t i = 0; i < v.size(); ++i) s += (i ? "," : "") + v[i];

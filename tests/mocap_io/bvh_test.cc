@@ -10,6 +10,7 @@
 #include "biodyn/mocap_io/bvh.h"
 #include "biodyn/mocap_io/errors.h"
 #include "biodyn/sim/errors.h"
+#include "biodyn/sim/units.h"
 #include "test_support.h"
 
 using namespace biodyn;
@@ -23,7 +24,6 @@ using mocap_io::UpAxis;
 namespace {
 
 constexpr double kExact = 1e-12;  // hand-computed poses: exact up to rounding
-constexpr double kPi = 3.14159265358979323846;
 /// File axes and units unchanged, so expected positions are the hand-computed file coordinates.
 const BvhUnits kFileUnits{1.0, UpAxis::kZ};
 

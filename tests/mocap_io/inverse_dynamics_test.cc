@@ -7,6 +7,7 @@
 
 #include "biodyn/models/mjcf.h"
 #include "biodyn/sim/errors.h"
+#include "biodyn/sim/units.h"
 #include "test_support.h"
 
 using namespace biodyn;
@@ -31,7 +32,7 @@ double torque(const mjModel& m, int a, double t, unsigned seed, double amp) {
   std::uniform_real_distribution<double> u(0.0, 1.0);
   const double f1 = 0.5 + 2 * u(rng), f2 = 2 + 4 * u(rng), p1 = 6.28 * u(rng), p2 = 6.28 * u(rng);
   const double limit = m.actuator_ctrlrange[2 * a + 1];
-  return amp * limit * (0.6 * std::sin(2 * M_PI * f1 * t + p1) + 0.4 * std::sin(2 * M_PI * f2 * t + p2));
+  return amp * limit * (0.6 * std::sin(2 * kPi * f1 * t + p1) + 0.4 * std::sin(2 * kPi * f2 * t + p2));
 }
 
 }  // namespace
@@ -97,12 +98,12 @@ mocap_io::Motion swing_motion(const mjModel& m) {
     motion.times_s.push_back(t);
     for (int i = 0; i < m.nq; ++i) motion.qpos(f, i) = m.qpos0[i];
     motion.qpos(f, 0) = 1.2 * t;  // root walks forward and bobs
-    motion.qpos(f, 2) = 0.95 + 0.02 * std::sin(2 * M_PI * 1.8 * t);
+    motion.qpos(f, 2) = 0.95 + 0.02 * std::sin(2 * kPi * 1.8 * t);
     for (int j = 0; j < m.njnt; ++j) {
       if (m.jnt_type[j] != mjJNT_HINGE) continue;
       const double lo = m.jnt_range[2 * j], hi = m.jnt_range[2 * j + 1];
       motion.qpos(f, m.jnt_qposadr[j]) =
-          0.5 * (lo + hi) + 0.3 * (hi - lo) * std::sin(2 * M_PI * 0.9 * t + j);
+          0.5 * (lo + hi) + 0.3 * (hi - lo) * std::sin(2 * kPi * 0.9 * t + j);
     }
   }
   return motion;
@@ -155,8 +156,8 @@ TEST_CASE("The zero-lag low-pass keeps slow signals and removes fast ones", "[mo
   Eigen::MatrixXd x(1000, 2);
   for (int i = 0; i < 1000; ++i) {
     const double t = i / rate;
-    x(i, 0) = std::sin(2 * M_PI * 1.0 * t);   // 1 Hz: kept
-    x(i, 1) = std::sin(2 * M_PI * 40.0 * t);  // 40 Hz: removed
+    x(i, 0) = std::sin(2 * kPi * 1.0 * t);   // 1 Hz: kept
+    x(i, 1) = std::sin(2 * kPi * 40.0 * t);  // 40 Hz: removed
   }
   Eigen::MatrixXd y = x;
   mocap_io::low_pass(&y, rate, {6.0});

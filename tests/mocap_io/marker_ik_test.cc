@@ -8,13 +8,13 @@
 
 #include "biodyn/models/marker_set.h"
 #include "biodyn/models/mjcf.h"
+#include "biodyn/sim/units.h"
 #include "test_support.h"
 
 using namespace biodyn;
 
 namespace {
 
-constexpr double kDeg = M_PI / 180.0;
 constexpr double kNoise_m = 0.002;      // the 2 mm, per coordinate
 constexpr double kRate_hz = 100.0;      // synthetic capture rate
 constexpr int kFrames = 300;            // 3 s
@@ -83,7 +83,7 @@ Eigen::MatrixXd random_motion(const mjModel& m, unsigned seed) {
         w.amp = 0.25 * u(rng);
       }
       w.freq = 0.3 + 1.2 * u(rng);
-      w.phase = 2 * M_PI * u(rng);
+      w.phase = 2 * kPi * u(rng);
       waves[static_cast<size_t>(j)].push_back(w);
     }
   }
@@ -93,13 +93,13 @@ Eigen::MatrixXd random_motion(const mjModel& m, unsigned seed) {
       const int a = m.jnt_qposadr[j];
       const auto& w = waves[static_cast<size_t>(j)];
       auto val = [&](size_t k) {
-        return w[k].centre + w[k].amp * std::sin(2 * M_PI * w[k].freq * t + w[k].phase);
+        return w[k].centre + w[k].amp * std::sin(2 * kPi * w[k].freq * t + w[k].phase);
       };
       switch (m.jnt_type[j]) {
         case mjJNT_FREE: {
           q(f, a) = 1.0 * t;
-          q(f, a + 1) = 0.05 * std::sin(2 * M_PI * 0.9 * t);
-          q(f, a + 2) = 0.95 + 0.03 * std::sin(2 * M_PI * 1.8 * t);
+          q(f, a + 1) = 0.05 * std::sin(2 * kPi * 0.9 * t);
+          q(f, a + 2) = 0.95 + 0.03 * std::sin(2 * kPi * 1.8 * t);
           const Eigen::Quaterniond r(Eigen::AngleAxisd(0.4 * t, Eigen::Vector3d::UnitZ()) *
                                      Eigen::AngleAxisd(0.1 * std::sin(3 * t), Eigen::Vector3d::UnitX()));
           q(f, a + 3) = r.w();
@@ -198,12 +198,12 @@ Recovery recover(const std::string& marker_set, double noise_m, unsigned seed) {
       sq += e * e;
       worst = std::max(worst, e);
     }
-    const double rms_deg = std::sqrt(sq / kFrames) / kDeg;
+    const double rms_deg = std::sqrt(sq / kFrames) / kRadPerDeg;
     if (rms_deg > r.worst_joint_rms_deg) {
       r.worst_joint_rms_deg = rms_deg;
       r.worst_joint = mj_id2name(&m, mjOBJ_JOINT, j);
     }
-    r.worst_joint_max_deg = std::max(r.worst_joint_max_deg, worst / kDeg);
+    r.worst_joint_max_deg = std::max(r.worst_joint_max_deg, worst / kRadPerDeg);
   }
   return r;
 }

@@ -10,6 +10,7 @@
 #include "biodyn/models/mjcf.h"
 #include "biodyn/models/tables.h"
 #include "biodyn/sim/simulation.h"
+#include "biodyn/sim/units.h"
 #include "model_checks.h"
 #include "test_support.h"
 
@@ -192,7 +193,7 @@ TEST_CASE("Joint ranges, torque limits and markers come from the tables", "[mode
 
   const int knee = mj_name2id(&m, mjOBJ_JOINT, "knee_flexion_l");
   REQUIRE(knee >= 0);
-  CHECK(std::abs(m.jnt_range[2 * knee + 1] - t.joint("knee_flexion").max_deg * M_PI / 180) < 1e-9);
+  CHECK(std::abs(m.jnt_range[2 * knee + 1] - t.joint("knee_flexion").max_deg * kPi / 180) < 1e-9);
   const int knee_motor = mj_name2id(&m, mjOBJ_ACTUATOR, "knee_flexion_l");
   REQUIRE(knee_motor >= 0);
   CHECK(std::abs(m.actuator_ctrlrange[2 * knee_motor + 1] - 600 * scale) < 1e-6);  // Table 2

@@ -1,0 +1,334 @@
+// biodyn mocap id: inverse dynamics of a motion (qpos CSV from mocap ik or retarget) on a
+// generated character: joint torques, root residuals and ground forces (issue 5;
+// inverse_dynamics.h).
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <iostream>
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "biodyn/mocap_io/bvh.h"
+#include "biodyn/mocap_io/c3d.h"
+#include "biodyn/mocap_io/inverse_dynamics.h"
+#include "biodyn/mocap_io/motion_csv.h"
+#include "biodyn/models/mjcf.h"
+#include "biodyn/sim/errors.h"
+#include "biodyn/sim/model.h"
+#include "cli_common.h"
+#include "cmd_mocap.h"
+
+namespace biodyn::apps {
+namespace {
+
+using nlohmann::json;
+
+struct IdOptions {
+  std::string motion, grf = "none", c3d, output, lab_up = "z";
+  CharacterOptions character;
+  double cutoff_hz = 6.0;
+};
+
+/// Rotates force plates into biodyn's world (z up) when the lab's vertical is y.
+void to_z_up(std::vector<mocap_io::ForcePlate>* plates, const std::string& lab_up) {
+  if (lab_up == "z") return;
+  const Eigen::Matrix3d r = mocap_io::file_to_world(mocap_io::UpAxis::kY);
+  for (mocap_io::ForcePlate& p : *plates) {
+    p.corners_m = r * p.corners_m;
+    for (Eigen::MatrixXd* m : {&p.force_N, &p.moment_origin_Nm, &p.cop_m, &p.free_moment_Nm}) {
+      *m = *m * r.transpose();  // rows are vectors: v' R'
+    }
+  }
+}
+
+/// The longest run of frames with a pose (IK leaves unsolved frames as NaN rows).
+mocap_io::Motion longest_solved_span(const mocap_io::Motion& motion, int* first) {
+  int best_start = 0, best_len = 0, start = 0;
+  for (int f = 0; f <= motion.frame_count(); ++f) {
+    const bool ok = f < motion.frame_count() && motion.qpos.row(f).allFinite();
+    if (ok) continue;
+    if (f - start > best_len) {
+      best_len = f - start;
+      best_start = start;
+    }
+    start = f + 1;
+  }
+  mocap_io::Motion out = motion;
+  out.qpos = motion.qpos.middleRows(best_start, best_len);
+  out.times_s.assign(motion.times_s.begin() + best_start,
+                     motion.times_s.begin() + best_start + best_len);
+  *first = best_start;
+  return out;
+}
+
+/// Heel strikes of one foot: times its body origin comes down to within kStrikeHeight_m of its
+/// lowest height in the motion after being higher than kLiftHeight_m above it.
+std::vector<double> foot_strikes(const mjModel& m, const mocap_io::Motion& motion,
+                                 const char* foot) {
+  constexpr double kStrikeHeight_m = 0.02;  // a planted foot is within 2 cm of its lowest
+  constexpr double kLiftHeight_m = 0.05;    // swing lifts the ankle by more than 5 cm
+  const int body = mj_name2id(&m, mjOBJ_BODY, foot);
+  if (body < 0) return {};
+  sim::Data d(m);
+  std::vector<double> z(static_cast<size_t>(motion.frame_count()));
+  for (int f = 0; f < motion.frame_count(); ++f) {
+    for (int k = 0; k < m.nq; ++k) d->qpos[k] = motion.qpos(f, k);
+    mj_kinematics(&m, d.get());
+    z[static_cast<size_t>(f)] = d->xpos[3 * body + 2];
+  }
+  const double lowest = *std::min_element(z.begin(), z.end());
+  std::vector<double> strikes;
+  bool lifted = false;
+  for (size_t f = 0; f < z.size(); ++f) {
+    if (z[f] > lowest + kLiftHeight_m) lifted = true;
+    if (lifted && z[f] < lowest + kStrikeHeight_m) {
+      strikes.push_back(motion.times_s[f]);
+      lifted = false;
+    }
+  }
+  return strikes;
+}
+
+/// gnuplot script and data plotting the sagittal torques of hip, knee and ankle over the gait
+/// cycle (left heel strike to left heel strike; over time when there is no full cycle).
+void plot_torques(const std::string& dir, const mocap_io::InverseDynamicsResult& id,
+                  const std::vector<double>& strikes, double mass_kg) {
+  const std::vector<std::pair<std::string, std::string>> panels = {
+      {"hip_l_y", "hip flexion-extension (left, about y)"},
+      {"knee_flexion_l", "knee flexion (left)"},
+      {"ankle_dorsiflexion_l", "ankle dorsiflexion (left)"},
+      {"hip_r_y", "hip flexion-extension (right, about y)"},
+      {"knee_flexion_r", "knee flexion (right)"},
+      {"ankle_dorsiflexion_r", "ankle dorsiflexion (right)"}};
+  const bool cycles = strikes.size() >= 2;
+  std::ostringstream data;
+  data.precision(6);
+  for (const auto& [dof, title] : panels) {
+    const auto it = std::find(id.dof_names.begin(), id.dof_names.end(), dof);
+    data << "# " << dof << "\n";
+    if (it != id.dof_names.end()) {
+      const Eigen::Index col = it - id.dof_names.begin();
+      for (size_t i = 0; i < id.times_s.size(); ++i) {
+        const double t = id.times_s[i];
+        double x = t;
+        if (cycles) {
+          const auto next = std::upper_bound(strikes.begin(), strikes.end(), t);
+          if (next == strikes.begin() || next == strikes.end()) continue;
+          const double t0 = *(next - 1), t1 = *next;
+          x = 100.0 * (t - t0) / (t1 - t0);
+          if (i > 0 && id.times_s[i - 1] < t0) data << "\n";  // a new cycle: a new line
+        }
+        data << x << " " << id.generalized_force(static_cast<Eigen::Index>(i), col) / mass_kg
+             << "\n";
+      }
+    }
+    data << "\n\n";
+  }
+  write_file_atomically(dir + "/torques_plot.dat", data.str());
+  std::ostringstream gp;
+  gp << "set terminal pngcairo size 1400,800 font 'sans,10'\n"
+     << "set output '" << dir << "/torques.png.tmp'\n"
+     << "set multiplot layout 2,3 title 'Joint torques per kg of body mass (" << mass_kg
+     << " kg)'\n"
+     << "set grid\nset xlabel '"
+     << (cycles ? "% of the gait cycle (left heel strike to left heel strike)" : "time (s)")
+     << "'\nset ylabel 'N m / kg'\n";
+  for (size_t p = 0; p < panels.size(); ++p) {
+    gp << "set title '" << panels[p].second << "'\n"
+       << "plot '" << dir << "/torques_plot.dat' index " << p << " with lines lw 1.5 notitle\n";
+  }
+  gp << "unset multiplot\n";
+  write_file_atomically(dir + "/torques.gp", gp.str());
+  plot_with_gnuplot("mocap id", dir + "/torques.gp", dir + "/torques.png.tmp",
+                    dir + "/torques.png");
+}
+
+/// The ground forces --grf asks for; from-c3d: the force plates of --c3d (z up, `plates`) and
+/// their sample rate (`plate_rate_hz`).
+mocap_io::GroundForces ground_forces(const IdOptions& o, std::vector<mocap_io::ForcePlate>* plates,
+                                     double* plate_rate_hz) {
+  if (o.grf == "none") return mocap_io::GroundForces::kNone;
+  if (o.grf == "contact") return mocap_io::GroundForces::kContact;
+  if (o.grf != "from-c3d") {
+    throw sim::InvalidArgument("--grf: expected none, from-c3d or contact, got '" + o.grf + "'");
+  }
+  if (o.c3d.empty()) {
+    throw sim::InvalidArgument("--grf from-c3d: give the capture with --c3d FILE");
+  }
+  const mocap_io::C3dFile c3d = mocap_io::read_c3d(o.c3d);
+  if (c3d.force_plates.empty()) {
+    throw sim::InvalidArgument("--c3d " + o.c3d + ": has no force plates");
+  }
+  if (o.lab_up != "z" && o.lab_up != "y") {
+    throw sim::InvalidArgument("--lab-up: expected z or y, got '" + o.lab_up + "'");
+  }
+  *plates = c3d.force_plates;
+  to_z_up(plates, o.lab_up);
+  *plate_rate_hz = c3d.analog.rate_hz;
+  return mocap_io::GroundForces::kForcePlates;
+}
+
+/// torques.csv: time and the generalised force of every DOF, per frame.
+std::string torques_csv(const mocap_io::InverseDynamicsResult& id) {
+  std::ostringstream torques;
+  torques.precision(9);
+  torques << "time";
+  for (const std::string& n : id.dof_names) torques << "," << n;
+  torques << "\n";
+  for (size_t i = 0; i < id.times_s.size(); ++i) {
+    const Eigen::Index r = static_cast<Eigen::Index>(i);
+    torques << id.times_s[i];
+    for (Eigen::Index c = 0; c < id.generalized_force.cols(); ++c) {
+      torques << "," << id.generalized_force(r, c);
+    }
+    torques << "\n";
+  }
+  return torques.str();
+}
+
+/// residuals.csv: time, the root's residual force and moment and the ground force, per frame.
+std::string residuals_csv(const mocap_io::InverseDynamicsResult& id) {
+  std::ostringstream residuals;
+  residuals.precision(9);
+  residuals << "time,residual_fx,residual_fy,residual_fz,residual_mx,residual_my,"
+               "residual_mz,ground_fx,ground_fy,ground_fz\n";
+  for (size_t i = 0; i < id.times_s.size(); ++i) {
+    const Eigen::Index r = static_cast<Eigen::Index>(i);
+    residuals << id.times_s[i];
+    for (int k = 0; k < 3; ++k) residuals << "," << id.residual_force_N(r, k);
+    for (int k = 0; k < 3; ++k) residuals << "," << id.residual_moment_Nm(r, k);
+    for (int k = 0; k < 3; ++k) residuals << "," << id.ground_force_N(r, k);
+    residuals << "\n";
+  }
+  return residuals.str();
+}
+
+/// Per frame, the norm of each row of `x` (N or N m).
+Eigen::VectorXd row_norms(const Eigen::MatrixXd& x) { return x.rowwise().norm(); }
+
+/// summary.json: what was run on what, the residuals' peaks and RMS, the heel strikes and each
+/// DOF's peak torque.
+json id_summary(const IdOptions& o, const mocap_io::InverseDynamicsResult& id, int first_used,
+                const models::CharacterSpec& spec, double body_weight_N,
+                const std::vector<double>& strikes) {
+  const Eigen::VectorXd fn = row_norms(id.residual_force_N), mn = row_norms(id.residual_moment_Nm);
+  json peaks = json::object();
+  for (size_t c = 0; c < id.dof_names.size(); ++c) {
+    peaks[id.dof_names[c]] =
+        id.generalized_force.col(static_cast<Eigen::Index>(c)).cwiseAbs().maxCoeff();
+  }
+  return {{"motion", o.motion},
+          {"frames_used", id.times_s.size()},
+          {"first_frame_used", first_used},
+          {"time_span_s", {id.times_s.front(), id.times_s.back()}},
+          {"character",
+           {{"height_m", spec.height_m},
+            {"mass_kg", spec.mass_kg},
+            {"sex", models::to_string(spec.sex)},
+            {"detail", models::to_string(spec.detail)}}},
+          {"ground", o.grf},
+          {"ground_caveat",
+           o.grf == "contact"
+               ? "MuJoCo's soft contact inverted on kinematic data: forces swing strongly "
+                 "with sub-millimetre penetration; an estimate only"
+           : o.grf == "none" ? "no ground force: the root residual is the whole "
+                               "ground reaction"
+                             : "measured force plates"},
+          {"filter",
+           {{"type", "Butterworth 2nd order, forward-backward (zero lag)"},
+            {"cutoff_hz", o.cutoff_hz}}},
+          {"armature_and_damping", "left out (simulation stabilisers, not body properties)"},
+          {"residual_force_peak_N", fn.maxCoeff()},
+          {"residual_force_rms_N", std::sqrt(fn.squaredNorm() / static_cast<double>(fn.size()))},
+          {"residual_moment_peak_Nm", mn.maxCoeff()},
+          {"residual_moment_rms_Nm", std::sqrt(mn.squaredNorm() / static_cast<double>(mn.size()))},
+          {"body_weight_N", body_weight_N},
+          {"left_heel_strikes_s", strikes},
+          {"peak_torques", peaks}};
+}
+
+/// The console summary: residual peaks against the body weight, and what the ground model means.
+void print_id(const IdOptions& o, const mocap_io::InverseDynamicsResult& id,
+              mocap_io::GroundForces ground, const models::CharacterSpec& spec,
+              double body_weight_N) {
+  const Eigen::VectorXd fn = row_norms(id.residual_force_N), mn = row_norms(id.residual_moment_Nm);
+  std::cout << "mocap id: " << id.times_s.size() << " frames on " << spec.height_m << " m / "
+            << spec.mass_kg << " kg, ground " << o.grf << ": residual force peak " << fn.maxCoeff()
+            << " N (body weight " << body_weight_N << " N), moment peak " << mn.maxCoeff()
+            << " N m\n";
+  if (ground == mocap_io::GroundForces::kNone) {
+    std::cout << "  --grf none: the residual is the whole ground reaction the motion "
+                 "needs, not a modelling error\n";
+  }
+  if (ground == mocap_io::GroundForces::kContact) {
+    // Measured on the CMU walk retargeted to 2 m: peaks of 10^4-10^5 N where a
+    // kinematic foot or knee sits a fraction of a millimetre in the floor.
+    Eigen::Index peak = 0;
+    fn.maxCoeff(&peak);
+    std::cout << "  --grf contact: MuJoCo's soft contact inverted on kinematic data; its "
+                 "forces swing strongly with sub-millimetre penetration (peak at t = "
+              << id.times_s[static_cast<std::size_t>(peak)]
+              << " s): an estimate only; force plates (--grf from-c3d) are the "
+                 "measurement\n";
+  }
+  std::cout << "wrote " << o.output
+            << "/{torques.csv, residuals.csv, summary.json, "
+               "torques.png}\n";
+}
+
+int run_id(const IdOptions& o) {
+  mocap_io::InverseDynamicsOptions options;
+  options.filter.cutoff_hz = o.cutoff_hz;
+  std::vector<mocap_io::ForcePlate> plates;
+  double plate_rate = 0.0;
+  options.ground = ground_forces(o, &plates, &plate_rate);
+  const mocap_io::Motion all = mocap_io::read_motion_csv(o.motion);
+  models::CharacterSpec spec = o.character.to_spec();
+  const models::Character character = models::generate_character(spec);
+  const sim::Model model = sim::Model::from_string(models::to_mjcf(character), "character");
+  mocap_io::check_motion_matches(all, *model, o.motion);
+  int first = 0;
+  const mocap_io::Motion motion = longest_solved_span(all, &first);
+  ProgressBar bar("mocap id: " + std::to_string(motion.frame_count()) + " frames");
+  const mocap_io::InverseDynamicsResult id =
+      mocap_io::inverse_dynamics(*model, motion, options, plates, plate_rate);
+  bar.finish();
+  std::filesystem::create_directories(o.output);
+  const std::vector<double> strikes = foot_strikes(*model, motion, "foot_l");
+  const double body_weight_N = character.total_mass_kg() * 9.81;
+  const json summary = id_summary(o, id, first + options.trim_frames, spec, body_weight_N, strikes);
+  write_file_atomically(o.output + "/torques.csv", torques_csv(id));
+  write_file_atomically(o.output + "/residuals.csv", residuals_csv(id));
+  write_file_atomically(o.output + "/summary.json", summary.dump(1) + "\n");
+  plot_torques(o.output, id, strikes, spec.mass_kg);
+  print_id(o, id, options.ground, spec, body_weight_N);
+  return kExitOk;
+}
+
+}  // namespace
+
+Command add_mocap_id_command(CLI::App* mocap) {
+  auto idopt = std::make_shared<IdOptions>();
+  CLI::App* id_cmd = mocap->add_subcommand(
+      "id", "Inverse dynamics of a motion (qpos CSV) on a body: joint torques and residuals");
+  id_cmd->add_option("--motion", idopt->motion, "motion CSV (from mocap ik or retarget)")
+      ->required();
+  idopt->character.add_to(id_cmd);
+  id_cmd
+      ->add_option("--grf", idopt->grf,
+                   "ground reaction: none (all in the root residual), from-c3d (the "
+                   "capture's force plates; needs --c3d), contact (MuJoCo's floor contact)")
+      ->capture_default_str();
+  id_cmd->add_option("--c3d", idopt->c3d, "the C3D the motion came from (force plates)");
+  id_cmd
+      ->add_option("--lab-up", idopt->lab_up,
+                   "vertical axis of the capture lab (as given to mocap ik): z or y")
+      ->capture_default_str();
+  id_cmd->add_option("--cutoff", idopt->cutoff_hz, "low-pass cut-off, Hz (0: no filter)")
+      ->capture_default_str();
+  id_cmd->add_option("-o,--output", idopt->output, "output directory")->required();
+  return {id_cmd, [idopt]() { return run_id(*idopt); }};
+}
+
+}  // namespace biodyn::apps

@@ -1,0 +1,292 @@
+// biodyn mocap ik: marker IK of a C3D or TRC capture on a generated character, scaled by height
+// or from a static trial (issue 5; marker_ik.h, scaling.h).
+#include <algorithm>
+#include <cmath>
+#include <iostream>
+#include <memory>
+#include <nlohmann/json.hpp>
+
+#include "biodyn/mocap_io/bvh.h"
+#include "biodyn/mocap_io/c3d.h"
+#include "biodyn/mocap_io/marker_ik.h"
+#include "biodyn/mocap_io/motion_csv.h"
+#include "biodyn/mocap_io/scaling.h"
+#include "biodyn/mocap_io/trc.h"
+#include "biodyn/models/marker_set.h"
+#include "biodyn/models/mjcf.h"
+#include "biodyn/sim/errors.h"
+#include "biodyn/sim/model.h"
+#include "cli_common.h"
+#include "cmd_mocap.h"
+
+namespace biodyn::apps {
+namespace {
+
+using nlohmann::json;
+
+struct IkOptions {
+  std::string c3d, trc, markerset, static_trial, output, json_path, lab_up = "z";
+  CharacterOptions character;
+  int max_iterations = 15;
+};
+
+/// Marker trajectories (and what else the file had) from a C3D or TRC file.
+struct MarkerFile {
+  mocap_io::MarkerData markers;
+  std::vector<std::string> inconsistencies;
+};
+
+MarkerFile read_markers(const std::string& path, const std::string& option) {
+  switch (format_of(path, option)) {
+    case Format::kC3d: {
+      mocap_io::C3dFile f = mocap_io::read_c3d(path);
+      return {std::move(f.markers), std::move(f.inconsistencies)};
+    }
+    case Format::kTrc: {
+      mocap_io::TrcFile f = mocap_io::read_trc(path);
+      return {std::move(f.markers), std::move(f.inconsistencies)};
+    }
+    default:
+      throw sim::InvalidArgument(option + ": expected a .c3d or .trc marker file, got '" + path +
+                                 "'");
+  }
+}
+
+/// Rotates lab-frame markers into biodyn's world (z up) when the lab's vertical is y.
+void to_z_up(mocap_io::MarkerData* m, const std::string& lab_up) {
+  if (lab_up == "z") return;
+  const Eigen::Matrix3d r = mocap_io::file_to_world(mocap_io::UpAxis::kY);
+  for (int f = 0; f < m->frame_count(); ++f) {
+    for (int i = 0; i < m->marker_count(); ++i) {
+      const Eigen::Vector3d p = r * m->position(f, i);
+      m->positions_m.row(f).segment<3>(3 * i) = p.transpose();
+    }
+  }
+}
+
+/// The marker set: --markerset (a built-in name or a JSON file), else the built-in one sharing
+/// the most labels with the capture. Throws sim::InvalidArgument if none shares one.
+models::MarkerSet choose_marker_set(const std::string& given, const mocap_io::MarkerData& markers,
+                                    const std::string& capture_path) {
+  models::MarkerSet set;
+  if (given.empty()) {
+    size_t best = 0;
+    for (const std::string& name : models::builtin_marker_set_names()) {
+      const models::MarkerSet candidate = models::builtin_marker_set(name);
+      size_t shared = 0;
+      for (const models::MarkerPlacement& p : candidate.markers) {
+        shared += markers.find(p.name) >= 0 ? 1 : 0;
+      }
+      if (shared > best) {
+        best = shared;
+        set = candidate;
+      }
+    }
+    if (best == 0) {
+      throw sim::InvalidArgument(capture_path +
+                                 ": no built-in marker set shares a label "
+                                 "with this capture; give --markerset FILE.json");
+    }
+  } else if (given.find(".json") != std::string::npos) {
+    set = models::parse_marker_set(read_file(given), given);
+  } else {
+    set = models::builtin_marker_set(given);
+  }
+  return set;
+}
+
+/// Scales `spec` from the static trial and places its markers (OpenSim's ScaleTool); returns
+/// the "scaling" statistics.
+json scale_to_static(const IkOptions& o, bool height_given, const models::MarkerSet& set,
+                     models::CharacterSpec* spec) {
+  MarkerFile stat = read_markers(o.static_trial, "--static");
+  to_z_up(&stat.markers, o.lab_up);
+  const mocap_io::ScaleResult scaled =
+      mocap_io::scale_from_static(*spec, height_given, set, stat.markers);
+  *spec = scaled.spec;
+  json factors = json::array();
+  for (const mocap_io::ScaleFactor& f : scaled.factors) {
+    factors.push_back({{"segments", f.segments},
+                       {"measured_m", f.measured_m},
+                       {"model_m", f.model_m},
+                       {"factor", f.factor},
+                       {"frames", f.frames}});
+  }
+  return {{"static_trial", o.static_trial},     {"height_m", spec->height_m},
+          {"height_estimated", !height_given},  {"factors", factors},
+          {"placed_markers", scaled.placed},    {"static_rms_m", scaled.static_rms_m},
+          {"static_max_m", scaled.static_max_m}};
+}
+
+/// The marker errors over the solved frames.
+struct IkErrors {
+  int solved = 0;
+  double rms_sum = 0.0, rms_max = 0.0, max_error = 0.0;  ///< m
+  std::string max_marker;
+  json per_frame = json::array();
+};
+
+IkErrors frame_errors(const mocap_io::MarkerIkResult& result, const mocap_io::MarkerData& markers) {
+  IkErrors e;
+  for (int f = 0; f < markers.frame_count(); ++f) {
+    const mocap_io::MarkerIkFrame& fr = result.frames[static_cast<size_t>(f)];
+    e.per_frame.push_back({{"solved", fr.solved},
+                           {"rms", fr.rms_error_m},
+                           {"max", fr.max_error_m},
+                           {"markers", fr.markers_used},
+                           {"iterations", fr.iterations}});
+    if (!fr.solved) continue;
+    ++e.solved;
+    e.rms_sum += fr.rms_error_m;
+    e.rms_max = std::max(e.rms_max, fr.rms_error_m);
+    if (fr.max_error_m > e.max_error) {
+      e.max_error = fr.max_error_m;
+      e.max_marker = markers.labels[static_cast<size_t>(fr.max_error_marker)];
+    }
+  }
+  return e;
+}
+
+/// Per-marker error over the solved frames (which markers the body cannot follow).
+json marker_errors(const sim::Model& model, const mocap_io::MarkerData& markers,
+                   const std::vector<double>& weights, const mocap_io::MarkerIkOptions& options,
+                   const mocap_io::MarkerIkResult& result) {
+  json per_marker = json::object();
+  mocap_io::MarkerIk probe(*model, markers.labels, weights, options);
+  const int n = markers.marker_count();
+  std::vector<double> sq(static_cast<size_t>(n), 0.0), worst(static_cast<size_t>(n), 0.0);
+  std::vector<int> seen(static_cast<size_t>(n), 0);
+  std::vector<double> q(static_cast<size_t>(model->nq));
+  for (int f = 0; f < markers.frame_count(); ++f) {
+    if (!result.frames[static_cast<size_t>(f)].solved) continue;
+    for (int k = 0; k < model->nq; ++k) q[static_cast<size_t>(k)] = result.qpos(f, k);
+    const Eigen::Matrix3Xd sites = probe.marker_positions(q.data());
+    for (int i = 0; i < n; ++i) {
+      if (!markers.visible(f, i) || !sites.col(i).allFinite()) continue;
+      const double e = (sites.col(i) - markers.position(f, i)).norm();
+      sq[static_cast<size_t>(i)] += e * e;
+      worst[static_cast<size_t>(i)] = std::max(worst[static_cast<size_t>(i)], e);
+      ++seen[static_cast<size_t>(i)];
+    }
+  }
+  for (int i = 0; i < n; ++i) {
+    if (seen[static_cast<size_t>(i)] == 0) continue;
+    per_marker[markers.labels[static_cast<size_t>(i)]] = {
+        {"rms", std::sqrt(sq[static_cast<size_t>(i)] / seen[static_cast<size_t>(i)])},
+        {"max", worst[static_cast<size_t>(i)]},
+        {"frames", seen[static_cast<size_t>(i)]}};
+  }
+  return per_marker;
+}
+
+/// The solved motion, timed as the capture, with comments naming the capture and character.
+mocap_io::Motion ik_motion(const sim::Model& model, const mocap_io::MarkerIkResult& result,
+                           const mocap_io::MarkerData& markers, const std::string& capture_path,
+                           const models::MarkerSet& set, const models::CharacterSpec& spec) {
+  mocap_io::Motion motion;
+  motion.columns = mocap_io::qpos_names(*model);
+  motion.qpos = result.qpos;
+  for (int f = 0; f < markers.frame_count(); ++f) motion.times_s.push_back(markers.time_s(f));
+  motion.comments = {" biodyn mocap ik of " + capture_path + " (marker set " + set.name + ")",
+                     " character: " + std::string(models::to_string(spec.sex)) + ", " +
+                         std::to_string(spec.height_m) + " m, " + std::to_string(spec.mass_kg) +
+                         " kg, detail " + models::to_string(spec.detail)};
+  return motion;
+}
+
+int run_ik(const IkOptions& o, bool height_given) {
+  if (o.c3d.empty() == o.trc.empty()) {
+    throw sim::InvalidArgument("mocap ik: give exactly one of --c3d FILE or --trc FILE");
+  }
+  if (o.lab_up != "z" && o.lab_up != "y") {
+    throw sim::InvalidArgument("--lab-up: expected z or y, got '" + o.lab_up + "'");
+  }
+  const std::string capture_path = o.c3d.empty() ? o.trc : o.c3d;
+  MarkerFile capture = read_markers(capture_path, o.c3d.empty() ? "--trc" : "--c3d");
+  to_z_up(&capture.markers, o.lab_up);
+  const mocap_io::MarkerData& markers = capture.markers;
+  const models::MarkerSet set = choose_marker_set(o.markerset, markers, capture_path);
+  models::CharacterSpec spec = o.character.to_spec();
+  spec.markers = set.markers;
+  json stats;
+  if (!o.static_trial.empty()) stats["scaling"] = scale_to_static(o, height_given, set, &spec);
+  const models::Character character = models::generate_character(spec);
+  const sim::Model model = sim::Model::from_string(models::to_mjcf(character), "character");
+  std::vector<double> weights;
+  for (const std::string& label : markers.labels) weights.push_back(set.weight(label));
+  mocap_io::MarkerIkOptions options;
+  options.max_iterations = o.max_iterations;
+  ProgressBar bar("mocap ik: " + std::to_string(markers.frame_count()) + " frames");
+  const mocap_io::MarkerIkResult result = mocap_io::solve_marker_ik(
+      *model, markers, weights, options, {},
+      [](double fraction, void* user) { static_cast<ProgressBar*>(user)->update(fraction); }, &bar);
+  bar.finish();
+  const IkErrors e = frame_errors(result, markers);
+  if (e.solved == 0) {
+    throw sim::InvalidArgument(capture_path +
+                               ": no frame has enough visible markers "
+                               "of the marker set '" +
+                               set.name + "' for IK");
+  }
+  stats["per_marker"] = marker_errors(model, markers, weights, options, result);
+  const mocap_io::Motion motion = ik_motion(model, result, markers, capture_path, set, spec);
+  stats["frames"] = markers.frame_count();
+  stats["frames_solved"] = e.solved;
+  stats["rms_mean"] = e.rms_sum / e.solved;
+  stats["rms_max"] = e.rms_max;
+  stats["max_error"] = e.max_error;
+  stats["max_error_marker"] = e.max_marker;
+  stats["frames_per_second"] = markers.frame_count() / std::max(result.seconds, 1e-9);
+  stats["marker_set"] = set.name;
+  stats["unmapped_labels"] = json::array();
+  for (const std::string& l : markers.labels) {
+    if (mj_name2id(model.get(), mjOBJ_SITE, ("marker_" + l).c_str()) < 0) {
+      stats["unmapped_labels"].push_back(l);
+    }
+  }
+  stats["inconsistencies"] = capture.inconsistencies;
+  stats["character"] = {{"height_m", spec.height_m},
+                        {"mass_kg", spec.mass_kg},
+                        {"sex", models::to_string(spec.sex)},
+                        {"detail", models::to_string(spec.detail)}};
+  stats["per_frame"] = e.per_frame;
+  write_file_atomically(o.output, mocap_io::format_motion_csv(motion));
+  if (!o.json_path.empty()) write_file_atomically(o.json_path, stats.dump(1) + "\n");
+  std::cout << "mocap ik: " << e.solved << "/" << markers.frame_count()
+            << " frames solved (marker set " << set.name << "), marker RMS mean "
+            << 1000 * e.rms_sum / e.solved << " mm, worst frame " << 1000 * e.rms_max << " mm, max "
+            << 1000 * e.max_error << " mm (" << e.max_marker << "), "
+            << static_cast<long>(stats["frames_per_second"].get<double>()) << " frames/s\n";
+  for (const std::string& s : capture.inconsistencies) {
+    std::cout << "  note: header and contents disagree: " << s << "\n";
+  }
+  std::cout << "wrote " << o.output << (o.json_path.empty() ? "" : " and " + o.json_path) << "\n";
+  return kExitOk;
+}
+
+}  // namespace
+
+Command add_mocap_ik_command(CLI::App* mocap) {
+  auto ik = std::make_shared<IkOptions>();
+  CLI::App* ik_cmd = mocap->add_subcommand(
+      "ik", "Marker IK of a capture on a generated character: joint trajectories (qpos CSV)");
+  auto* c3d_opt = ik_cmd->add_option("--c3d", ik->c3d, "C3D capture");
+  auto* trc_opt = ik_cmd->add_option("--trc", ik->trc, "TRC capture");
+  c3d_opt->excludes(trc_opt);
+  ik_cmd->add_option("--markerset", ik->markerset,
+                     "built-in set (thesis26, full40, opensim_walking5) or a JSON file; default: "
+                     "the built-in set sharing the most labels with the capture");
+  ik_cmd->add_option("--static", ik->static_trial,
+                     "static trial (.c3d/.trc) to scale the character and place markers from "
+                     "(OpenSim's ScaleTool); without it the character is scaled by height");
+  ik_cmd->add_option("--lab-up", ik->lab_up, "vertical axis of the capture lab: z or y")
+      ->capture_default_str();
+  ik->character.add_to(ik_cmd);
+  ik_cmd->add_option("--max-iterations", ik->max_iterations, "LM iterations per frame")
+      ->capture_default_str();
+  ik_cmd->add_option("-o,--output", ik->output, "motion CSV to write (qpos per frame)")->required();
+  ik_cmd->add_option("--json", ik->json_path, "statistics JSON to write");
+  return {ik_cmd, [ik, ik_cmd]() { return run_ik(*ik, ik_cmd->count("--height") > 0); }};
+}
+
+}  // namespace biodyn::apps
