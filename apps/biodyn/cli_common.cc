@@ -28,12 +28,6 @@ std::pair<int, int> parse_size(const std::string& text, const std::string& optio
   }
 }
 
-std::vector<std::string> split_commas(const std::string& text) {
-  std::vector<std::string> out = sim::split_fields(text);
-  if (!text.empty() && text.back() == ',') out.pop_back();  // split_fields' last, empty field
-  return out;
-}
-
 std::vector<double> parse_number_list(const std::string& text, const std::string& option,
                                       const std::string& expected) {
   std::vector<double> out;

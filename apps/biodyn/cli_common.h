@@ -28,11 +28,6 @@ struct CharacterOptions {
   models::CharacterSpec to_spec() const;
 };
 
-/// Splits "a,b,c" at the commas (sim::split_fields) but drops the empty item a trailing comma
-/// gives (an empty text gives no items): stand-push's --welds has always ignored a trailing
-/// comma. New lists use sim::split_fields, which keeps it.
-std::vector<std::string> split_commas(const std::string& text);
-
 /// Numbers separated by commas, e.g. "150,0.2,0"; throws sim::InvalidArgument
 /// "<option>: expected <expected>, got '<text>'" on anything else (an empty item too, as a
 /// trailing comma gives).

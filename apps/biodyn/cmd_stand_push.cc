@@ -9,6 +9,7 @@
 #include "biodyn/models/mjcf.h"
 #include "biodyn/scenarios/pose.h"
 #include "biodyn/sim/errors.h"
+#include "biodyn/sim/file_io.h"
 #include "biodyn/sim/model.h"
 #include "cli_common.h"
 #include "commands.h"
@@ -74,7 +75,7 @@ Command add_stand_push_command(CLI::App* app) {
             }
             const std::vector<double> directions = parse_directions(o->directions);
             std::vector<controllers::WeldMode> welds;
-            for (const std::string& w : split_commas(o->welds))
+            for (const std::string& w : sim::split_fields(o->welds))
               welds.push_back(controllers::parse_weld_mode(w, "--welds"));
             if (welds.empty()) throw sim::InvalidArgument("--welds: at least one mode");
             base.validate();
