@@ -14,6 +14,7 @@
 #include "biodyn/mocap_io/inverse_dynamics.h"
 #include "biodyn/mocap_io/motion_csv.h"
 #include "biodyn/models/mjcf.h"
+#include "biodyn/models/rig.h"
 #include "biodyn/sim/errors.h"
 #include "biodyn/sim/model.h"
 #include "cli_common.h"
@@ -64,11 +65,9 @@ mocap_io::Motion longest_solved_span(const mocap_io::Motion& motion, int* first)
 
 /// Heel strikes of one foot: times its body origin comes down to within kStrikeHeight_m of its
 /// lowest height in the motion after being higher than kLiftHeight_m above it.
-std::vector<double> foot_strikes(const mjModel& m, const mocap_io::Motion& motion,
-                                 const char* foot) {
+std::vector<double> foot_strikes(const mjModel& m, const mocap_io::Motion& motion, int body) {
   constexpr double kStrikeHeight_m = 0.02;  // a planted foot is within 2 cm of its lowest
   constexpr double kLiftHeight_m = 0.05;    // swing lifts the ankle by more than 5 cm
-  const int body = mj_name2id(&m, mjOBJ_BODY, foot);
   if (body < 0) return {};
   sim::Data d(m);
   std::vector<double> z(static_cast<size_t>(motion.frame_count()));
@@ -295,7 +294,7 @@ int run_id(const IdOptions& o) {
       mocap_io::inverse_dynamics(*model, motion, options, plates, plate_rate);
   bar.finish();
   std::filesystem::create_directories(o.output);
-  const std::vector<double> strikes = foot_strikes(*model, motion, "foot_l");
+  const std::vector<double> strikes = foot_strikes(*model, motion, models::Rig(*model).leg(models::kLeft).foot);
   const double body_weight_N = character.total_mass_kg() * 9.81;
   const json summary = id_summary(o, id, first + options.trim_frames, spec, body_weight_N, strikes);
   write_file_atomically(o.output + "/torques.csv", torques_csv(id));

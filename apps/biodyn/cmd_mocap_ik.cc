@@ -14,6 +14,7 @@
 #include "biodyn/mocap_io/trc.h"
 #include "biodyn/models/marker_set.h"
 #include "biodyn/models/mjcf.h"
+#include "biodyn/models/rig.h"
 #include "biodyn/sim/errors.h"
 #include "biodyn/sim/model.h"
 #include "cli_common.h"
@@ -239,8 +240,9 @@ int run_ik(const IkOptions& o, bool height_given) {
   stats["frames_per_second"] = markers.frame_count() / std::max(result.seconds, 1e-9);
   stats["marker_set"] = set.name;
   stats["unmapped_labels"] = json::array();
+  const models::Rig rig(*model);
   for (const std::string& l : markers.labels) {
-    if (mj_name2id(model.get(), mjOBJ_SITE, ("marker_" + l).c_str()) < 0) {
+    if (rig.marker_site(l) < 0) {
       stats["unmapped_labels"].push_back(l);
     }
   }

@@ -7,6 +7,7 @@
 #include <functional>
 
 #include "biodyn/mocap_io/retarget.h"
+#include "biodyn/models/rig.h"
 #include "biodyn/sim/errors.h"
 #include "biodyn/sim/model.h"
 #include "biodyn/sim/units.h"
@@ -169,8 +170,9 @@ BvhMotion character_bvh(const models::Character& c, const mjModel& model,
                           std::to_string(units.metres_per_unit));
   }
   std::vector<int> body(c.segments.size());
+  const models::Rig rig(model);
   for (size_t i = 0; i < c.segments.size(); ++i) {
-    body[i] = mj_name2id(&model, mjOBJ_BODY, c.segments[i].name.c_str());
+    body[i] = rig.body(c.segments[i].name);
     if (body[i] < 0) {
       throw InvalidArgument("character BVH: the model has no body '" + c.segments[i].name +
                             "' (a model of another character)");

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <memory>
 
+#include "biodyn/models/rig.h"
 #include "biodyn/sim/errors.h"
 #include "biodyn/sim/model.h"
 #include "biodyn/sim/units.h"
@@ -287,8 +288,8 @@ InverseDynamicsResult inverse_dynamics(const mjModel& model, const Motion& motio
   for (int j = 0; j < m->njnt; ++j) {
     if (m->jnt_type[j] == mjJNT_FREE) root_joint = j;
   }
-  const std::array<int, 2> foot_bodies = {mj_name2id(m.get(), mjOBJ_BODY, "foot_l"),
-                                          mj_name2id(m.get(), mjOBJ_BODY, "foot_r")};
+  const models::Rig rig(*m);
+  const std::array<int, 2> foot_bodies = {rig.leg(models::kLeft).foot, rig.leg(models::kRight).foot};
   for (int i = 0; i < out_frames; ++i) {
     const int f = i + trim;
     diff(f - 1, f, &v_back);

@@ -7,6 +7,7 @@
 #include <cmath>
 #include <limits>
 
+#include "biodyn/models/rig.h"
 #include "biodyn/sim/errors.h"
 
 namespace biodyn::mocap_io {
@@ -69,8 +70,9 @@ MarkerIk::MarkerIk(const mjModel& model, const std::vector<std::string>& labels,
     : m_(model), data_(model), options_(options) {
   options_.validate();
   check_weights(weights, labels.size(), [&](size_t i) { return labels[i]; });
+  const models::Rig rig(model);
   for (size_t i = 0; i < labels.size(); ++i) {
-    const int site = mj_name2id(&m_, mjOBJ_SITE, ("marker_" + labels[i]).c_str());
+    const int site = rig.marker_site(labels[i]);
     site_of_.push_back(site);
     weight_.push_back(weights[i]);
     if (site < 0) {

@@ -5,6 +5,7 @@
 
 #include "biodyn/mocap_io/marker_ik.h"
 #include "biodyn/models/mjcf.h"
+#include "biodyn/models/rig.h"
 #include "biodyn/sim/errors.h"
 #include "biodyn/sim/model.h"
 
@@ -162,6 +163,7 @@ BodyFrameSums measure_in_bodies(const mjModel& m, const models::Character& scale
                                 const models::MarkerSet& set, const MarkerData& static_trial,
                                 const MarkerIkResult& ik, const std::vector<int>& picked) {
   BodyFrameSums sums;
+  const models::Rig rig(m);
   sim::Data d(m);
   for (int f : picked) {
     for (int k = 0; k < m.nq; ++k) d->qpos[k] = ik.qpos(f, k);
@@ -170,7 +172,7 @@ BodyFrameSums measure_in_bodies(const mjModel& m, const models::Character& scale
       if (set.fixed.count(mk.name)) continue;
       const int col = static_trial.find(mk.name);
       if (col < 0 || !static_trial.visible(f, col)) continue;
-      const int body = mj_name2id(&m, mjOBJ_BODY, mk.segment.c_str());
+      const int body = rig.body(mk.segment);
       const Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>> r_WB(d->xmat + 9 * body);
       const Eigen::Vector3d p_W(d->xpos + 3 * body);
       const auto [it, fresh] = sums.sum_B.try_emplace(mk.name, Eigen::Vector3d::Zero());

@@ -180,7 +180,7 @@ TEST_CASE("Result digests: biodyn push and push-sweep", "[regression][digests][s
   });
 }
 
-TEST_CASE("Result digests: biodyn mocap ik, retarget and id", "[regression][digests][slow]") {
+TEST_CASE("Result digests: biodyn mocap ik retarget and id", "[regression][digests][slow]") {
   check_cases({
       {"mocap",
        "mocap ik --c3d data/c3d/opensim_walking5.c3d --static data/c3d/opensim_walking5.c3d -o motion.csv "
