@@ -19,6 +19,7 @@ packages=(
   ffmpeg                             # MP4 videos (biodyn render), fed frames through a pipe
   libglfw3-dev libimgui-dev          # the interactive viewer's window and panels
   xvfb xauth xdotool                 # the viewer's tests: a virtual display, and a mouse to drag with
+  clang-format pmccabe               # the house check (scripts/check_house.sh): format, function length
 )
 
 missing=()
