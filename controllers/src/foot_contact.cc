@@ -21,7 +21,6 @@ Matrix3d rotation_at(const mjtNum* xmat) {
   return R;
 }
 
-Vector3d vec_at(const mjtNum* v) { return Vector3d(v[0], v[1], v[2]); }
 
 // A weld in tension by less than this fraction of body weight is numerical noise of the
 // constraint solver (tolerance 1e-8), not adhesion.
@@ -120,7 +119,7 @@ void FootWelds::engage(mjModel& m, const mjData& d, const Foot& f) {
   // Anchor: the sole centre. eq_data (2.2.2): [0:3] anchor in body2 (world) frame, [3:6] the
   // same point in body1 (foot) frame, [6:10] neg(q_foot) * q_world, [10] torque scale.
   const Vector3d p_B = f.sole.centre_B();
-  const Vector3d p_W = vec_at(d.xpos + 3 * f.body) + rotation_at(d.xmat + 9 * f.body) * p_B;
+  const Vector3d p_W = sim::vec3_at(d.xpos + 3 * f.body) + rotation_at(d.xmat + 9 * f.body) * p_B;
   mjtNum* data = m.eq_data + mjNEQDATA * f.eq;
   for (int k = 0; k < 3; ++k) {
     data[k] = p_W[k];
@@ -160,7 +159,7 @@ int FootWelds::measure(const mjModel& m, const mjData& d) {
     out = WeldWrench{};
     if (f.eq < 0) continue;
     const Matrix3d R_f = rotation_at(d.xmat + 9 * f.body);
-    const Vector3d c_W = vec_at(d.xpos + 3 * f.body) + R_f * f.sole.centre_B();
+    const Vector3d c_W = sim::vec3_at(d.xpos + 3 * f.body) + R_f * f.sole.centre_B();
     bool has_rows = false;  // a weld switched on in this step acts from the next one
     if (m.eq_active[f.eq]) {
       // Generalized force of this weld's rows; on the free root it is the net wrench.
@@ -175,7 +174,7 @@ int FootWelds::measure(const mjModel& m, const mjData& d) {
       const auto q = [&](int i) { return qfrc_[static_cast<std::size_t>(root_dof_ + i)]; };
       out.force_W = Vector3d(q(0), q(1), q(2));
       const Vector3d tau_root = rotation_at(d.xmat + 9 * root_body_) * Vector3d(q(3), q(4), q(5));
-      out.moment_W = tau_root + (vec_at(d.xpos + 3 * root_body_) - c_W).cross(out.force_W);
+      out.moment_W = tau_root + (sim::vec3_at(d.xpos + 3 * root_body_) - c_W).cross(out.force_W);
     }
     // Together with the foot's (and toes') contacts, is it a wrench the ground could give
     // through the sole? Only the net wrench moves the foot, and any net wrench inside this

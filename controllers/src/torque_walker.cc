@@ -23,8 +23,6 @@ constexpr double kPlacedLandingReach_m = 0.02;
 // The longest leg a placed step lands with, as a fraction of thigh + shank.
 constexpr double kPlacedReachFraction = 0.97;  // the IK's most flexed knee (the joint allows 2.36)
 
-Vector3d vec_at(const mjtNum* p) { return {p[0], p[1], p[2]}; }
-Quaterniond quat_at(const mjtNum* q) { return {q[0], q[1], q[2], q[3]}; }
 using Eigen::Vector2d;
 
 using json_fields::check;
@@ -267,7 +265,7 @@ void TorqueWalker::reset(const mjData& d) {
   // double support's push-off has nothing to push off from yet).
   while (params_.phases[static_cast<std::size_t>(state_.phase)].swing_foot_down) ++state_.phase;
   state_.phase_start_s = state_.start_s = d.time;
-  const Vector3d forward = quat_at(d.xquat + 4 * rig_->pelvis()) * Vector3d::UnitX();
+  const Vector3d forward = sim::quat_at(d.xquat + 4 * rig_->pelvis()) * Vector3d::UnitX();
   state_.heading.reset(std::atan2(forward.y(), forward.x()), d.time);
   // Ankle height above the floor with the sole flat (the character starts standing).
   state_.ankle_height_m =
@@ -315,7 +313,7 @@ double TorqueWalker::hinge_pd(ControlFrame* f, const mjModel& m, const mjData& d
 void TorqueWalker::hip_torque(ControlFrame* f, const mjData& d, int side, const Vector3d& torque_W) const {
   // Ball-joint DOFs act in the child's (thigh's) frame.
   const models::RigLeg& leg = rig_->leg(side);
-  const Vector3d t_B = quat_at(d.xquat + 4 * leg.thigh).conjugate() * torque_W;
+  const Vector3d t_B = sim::quat_at(d.xquat + 4 * leg.thigh).conjugate() * torque_W;
   const int dof = rig_->groups()[static_cast<std::size_t>(leg.hip)].dof_begin;
   for (int k = 0; k < 3; ++k) f->set_torque(dof + k, t_B[k]);
 }
@@ -335,7 +333,7 @@ void TorqueWalker::drive(const ControlInput& in, ControlFrame* frame) {
   // The balance feedback's inputs (SIMBICON): CoM relative to the stance ankle, and its
   // velocity, in the heading frame.
   const models::RigLeg& stance_leg = rig_->leg(stance);
-  const Vector3d rel = state_.heading.to_heading(Vector3d(com.position_W - vec_at(d.xpos + 3 * stance_leg.foot)));
+  const Vector3d rel = state_.heading.to_heading(Vector3d(com.position_W - sim::vec3_at(d.xpos + 3 * stance_leg.foot)));
   const Vector3d vel = state_.heading.to_heading(com.velocity_W);
   if (params_.base_polygon_rule && !state_.stopped && !ph.swing_foot_down && std::isnan(state_.swing_target_m))
     apply_base_polygon_rule(m, d, com.position_W, vel);
@@ -353,8 +351,8 @@ void TorqueWalker::drive(const ControlInput& in, ControlFrame* frame) {
   const Quaterniond q_heading = state_.heading.rotation();
   const Quaterniond q_thigh_goal = q_heading * Quaterniond(AngleAxisd(-pitch_roll.x(), Vector3d::UnitY())) *
                                    Quaterniond(AngleAxisd(pitch_roll.y(), Vector3d::UnitX()));
-  const Vector3d w_pelvis = vec_at(d.cvel + 6 * rig_->pelvis());
-  const Vector3d w_thigh = vec_at(d.cvel + 6 * rig_->leg(swing).thigh);
+  const Vector3d w_pelvis = sim::vec3_at(d.cvel + 6 * rig_->pelvis());
+  const Vector3d w_thigh = sim::vec3_at(d.cvel + 6 * rig_->leg(swing).thigh);
   const TorqueWalkerParams& p = params_;
   const double k_hip = p.hip_kp * gain_scale_;
   // A placed step's thigh follows the IK pitch's rate in the world; a free one is damped
@@ -362,7 +360,7 @@ void TorqueWalker::drive(const ControlInput& in, ControlFrame* frame) {
   const Vector3d w_damped = placed ? Vector3d(w_thigh - q_heading * Vector3d(0, -state_.ik_pitch_rate, 0))
                                    : Vector3d(w_thigh - w_pelvis);
   const Vector3d tau_swing =
-      k_hip * rotation_vector(q_thigh_goal * quat_at(d.xquat + 4 * rig_->leg(swing).thigh).conjugate()) -
+      k_hip * rotation_vector(q_thigh_goal * sim::quat_at(d.xquat + 4 * rig_->leg(swing).thigh).conjugate()) -
       k_hip * p.damping_time_s * w_damped;
 
   // Pelvis in the world by the virtual torso torque; the stance hip makes it (Coros 2010).
@@ -371,7 +369,7 @@ void TorqueWalker::drive(const ControlInput& in, ControlFrame* frame) {
   const Quaterniond q_pelvis_goal = q_heading * Quaterniond(AngleAxisd(lean, Vector3d::UnitY()));
   const double k_torso = p.torso_kp * gain_scale_;
   const Vector3d tau_torso =
-      k_torso * rotation_vector(q_pelvis_goal * quat_at(d.xquat + 4 * rig_->pelvis()).conjugate()) -
+      k_torso * rotation_vector(q_pelvis_goal * sim::quat_at(d.xquat + 4 * rig_->pelvis()).conjugate()) -
       k_torso * p.damping_time_s * w_pelvis;
   hip_torque(frame, d, swing, tau_swing);
   hip_torque(frame, d, stance, -tau_torso - tau_swing - tau_lumbar);
@@ -390,7 +388,7 @@ void TorqueWalker::advance_phases(const mjModel& m, const mjData& d, const sim::
       // otherwise be overtaken by the hip).
       const Vector2d along = state_.heading.along();
       const Vector3d delta =
-          vec_at(d.xpos + 3 * rig_->leg(swing).foot) - vec_at(d.xpos + 3 * rig_->leg(state_.stance).foot);
+          sim::vec3_at(d.xpos + 3 * rig_->leg(swing).foot) - sim::vec3_at(d.xpos + 3 * rig_->leg(state_.stance).foot);
       done = along.x() * delta.x() + along.y() * delta.y() >= state_.swing_target_m - kPlacedLandingReach_m;
     }
     if (done) {
@@ -406,7 +404,7 @@ void TorqueWalker::advance_phases(const mjModel& m, const mjData& d, const sim::
 void TorqueWalker::on_strike(const mjData& d, const sim::CenterOfMass& com, int swing) {
   const TorqueWalkerParams& p = params_;
   TorqueWalkerState& st = state_;
-  const Vector3d delta = vec_at(d.xpos + 3 * rig_->leg(swing).foot) - vec_at(d.xpos + 3 * rig_->leg(st.stance).foot);
+  const Vector3d delta = sim::vec3_at(d.xpos + 3 * rig_->leg(swing).foot) - sim::vec3_at(d.xpos + 3 * rig_->leg(st.stance).foot);
   const double ch = std::cos(st.heading.heading_rad()), sh = std::sin(st.heading.heading_rad());
   // Speed regulation: the step's mean CoM speed along the heading against the command
   // (not during the start from standing, and not before there was a step).
@@ -463,7 +461,7 @@ Vector3d TorqueWalker::hold_upper_body(ControlFrame* f, const mjModel& m, const 
     if (!jg.ball) {
       for (int k = 0; k < jg.dof_count; ++k) {
         const double tau = hinge_pd(f, m, d, jg.dof_begin + k, 0.0, kp_[g]);
-        if (static_cast<int>(g) == lumbar_) tau_lumbar += tau * vec_at(d.xaxis + 3 * m.dof_jntid[jg.dof_begin + k]);
+        if (static_cast<int>(g) == lumbar_) tau_lumbar += tau * sim::vec3_at(d.xaxis + 3 * m.dof_jntid[jg.dof_begin + k]);
       }
       continue;
     }
@@ -487,8 +485,8 @@ LegTriangle TorqueWalker::placed_step_ik(const mjData& d, const TorqueWalkerPhas
   const models::RigLeg& leg = rig_->leg(swing);
   const double target = st.swing_target_m;
   const bool landing = ph.ends_at_strike;
-  const Vector3d stance_ankle = st.heading.to_heading(vec_at(d.xpos + 3 * rig_->leg(st.stance).foot));
-  const Vector3d hip = st.heading.to_heading(vec_at(d.xpos + 3 * leg.thigh));
+  const Vector3d stance_ankle = st.heading.to_heading(sim::vec3_at(d.xpos + 3 * rig_->leg(st.stance).foot));
+  const Vector3d hip = st.heading.to_heading(sim::vec3_at(d.xpos + 3 * leg.thigh));
   const double reach = kPlacedReachFraction * (leg.thigh_length_m + leg.shank_length_m);
   const auto reach_ahead = [reach](double dz) { return reach > std::abs(dz) ? std::sqrt(reach * reach - dz * dz) : 0.0; };
   double dx = stance_ankle.x() + target - hip.x();
@@ -500,7 +498,7 @@ LegTriangle TorqueWalker::placed_step_ik(const mjData& d, const TorqueWalkerPhas
   {
     // Outer loop on the ankle's place (the PD lags): aim short of the target by
     // placement_gain x the overshoot, and in late swing by the shortfall too.
-    const Vector3d ankle = st.heading.to_heading(vec_at(d.xpos + 3 * leg.foot));
+    const Vector3d ankle = st.heading.to_heading(sim::vec3_at(d.xpos + 3 * leg.foot));
     const double overshoot = ankle.x() - (stance_ankle.x() + target);
     if (landing || overshoot > 0) dx -= p.placement_gain * overshoot;
   }
@@ -542,7 +540,7 @@ void TorqueWalker::leg_joints(ControlFrame* f, const mjModel& m, const mjData& d
              !stance && placed ? state_.ik_knee_rate : 0.0);
     double dorsiflexion = stance ? ph.stance_ankle_rad : ph.swing_ankle_rad;
     if (!stance && !ph.swing_foot_down) {
-      dorsiflexion = level_sole_dorsiflexion(state_.heading, quat_at(d.xquat + 4 * leg.shank), ph.swing_ankle_rad,
+      dorsiflexion = level_sole_dorsiflexion(state_.heading, sim::quat_at(d.xquat + 4 * leg.shank), ph.swing_ankle_rad,
                                              p.toe_up_rad);
     }
     hinge_pd(f, m, d, ankle.dof_begin, dorsiflexion, p.ankle_kp);
@@ -571,7 +569,7 @@ Vector2d TorqueWalker::swing_thigh_angles(const mjData& d, const TorqueWalkerPha
   };
   const bool rule_moves = !placed && (!std::isnan(st.rule_length_m) || !std::isnan(st.rule_width_m));
   const Vector3d hip =
-      st.heading.to_heading(Vector3d(vec_at(d.xpos + 3 * leg.thigh) - vec_at(d.xpos + 3 * rig_->leg(st.stance).foot)));
+      st.heading.to_heading(Vector3d(sim::vec3_at(d.xpos + 3 * leg.thigh) - sim::vec3_at(d.xpos + 3 * rig_->leg(st.stance).foot)));
   if (placed && closing_step()) {
     // The closing step of a stop puts the feet side by side at the standing width (the hips'
     // spacing), where the standing controller's pose expects them; the balance feedback's

@@ -6,6 +6,7 @@
 
 #include "biodyn/controllers/ankle_window.h"
 #include "biodyn/sim/errors.h"
+#include "biodyn/sim/queries.h"
 #include "biodyn/sim/units.h"
 
 namespace biodyn::controllers {
@@ -22,8 +23,6 @@ constexpr double kGravity = 9.81;
 constexpr double kSoleTracking_s = 0.05;
 constexpr double kClearanceTracking_s = 0.03;
 
-Vector3d vec_at(const mjtNum* p) { return {p[0], p[1], p[2]}; }
-Quaterniond quat_at(const mjtNum* q) { return {q[0], q[1], q[2], q[3]}; }
 
 }  // namespace
 
@@ -124,10 +123,10 @@ void VelocityWalker::reset(const mjModel& m, const mjData& d) {
   st.phase_start_s = d.time;
   st.last_time_s = d.time;
   const sim::CenterOfMass com = sim::center_of_mass(m, d);
-  const Vector3d forward = quat_at(d.xquat + 4 * rig_->pelvis()) * Vector3d::UnitX();
+  const Vector3d forward = sim::quat_at(d.xquat + 4 * rig_->pelvis()) * Vector3d::UnitX();
   st.heading.reset(std::atan2(forward.y(), forward.x()), d.time);
   st.speed_now_m_s = std::max(0.0, st.heading.to_heading(Vector2d(com.velocity_W.head<2>())).x());
-  st.planned_foot_W = vec_at(d.xpos + 3 * rig_->leg(models::kRight).foot);
+  st.planned_foot_W = sim::vec3_at(d.xpos + 3 * rig_->leg(models::kRight).foot);
 }
 
 void VelocityWalker::advance(const mjData& d) {
@@ -157,8 +156,8 @@ void VelocityWalker::advance(const mjData& d) {
   e.index = static_cast<int>(st.strike_count);
   e.time_s = d.time;
   e.side = swing;
-  e.foot_W = vec_at(d.xpos + 3 * rig_->leg(swing).foot);
-  e.other_W = vec_at(d.xpos + 3 * rig_->leg(st.stance).foot);
+  e.foot_W = sim::vec3_at(d.xpos + 3 * rig_->leg(swing).foot);
+  e.other_W = sim::vec3_at(d.xpos + 3 * rig_->leg(st.stance).foot);
   const Vector2d delta = st.heading.to_heading(Vector2d((e.foot_W - e.other_W).head<2>()));
   e.step_length_m = delta.x();
   e.step_width_m = std::abs(delta.y());
@@ -235,10 +234,10 @@ void VelocityWalker::set_targets(ControlFrame* f, const mjData& d) {
       (params_.posture.pelvis_pitch_deg + params_.posture.pelvis_pitch_deg_per_m_s * st.speed_now_m_s) * kRadPerDeg;
   const Quaterniond q_pelvis_goal = q_heading * Quaterniond(Eigen::AngleAxisd(pitch, Vector3d::UnitY()));
   const models::RigLeg& stance_leg = rig_->leg(st.stance);
-  const Quaterniond q_stance_thigh = quat_at(d.xquat + 4 * stance_leg.thigh);
+  const Quaterniond q_stance_thigh = sim::quat_at(d.xquat + 4 * stance_leg.thigh);
   f->set_target(stance_leg.hip, q_pelvis_goal.conjugate() * q_stance_thigh, tracking_at);
-  const Quaterniond q_pelvis = quat_at(d.xquat + 4 * rig_->pelvis());
-  const Vector3d w_pelvis = vec_at(d.cvel + 6 * rig_->pelvis());  // world angular velocities
+  const Quaterniond q_pelvis = sim::quat_at(d.xquat + 4 * rig_->pelvis());
+  const Vector3d w_pelvis = sim::vec3_at(d.cvel + 6 * rig_->pelvis());  // world angular velocities
   if (st.foot_touches[static_cast<std::size_t>(st.stance)]) {
     // The pelvis's world angular velocity goes to e/t (e its world orientation error); the
     // hip's relative velocity that gives it feeds the thigh's own rotation forward. Only
@@ -246,7 +245,7 @@ void VelocityWalker::set_targets(ControlFrame* f, const mjData& d) {
     // feeding its rotation forward would spin it up.
     const Vector3d w_wanted =
         rotation_vector(q_pelvis_goal * q_pelvis.conjugate()) / params_.posture.world_tracking_time_s;
-    const Vector3d w_thigh = vec_at(d.cvel + 6 * stance_leg.thigh);
+    const Vector3d w_thigh = sim::vec3_at(d.cvel + 6 * stance_leg.thigh);
     f->set_velocity(stance_leg.hip, q_stance_thigh.conjugate() * (w_thigh - w_wanted));
   }
 
@@ -259,7 +258,7 @@ void VelocityWalker::set_targets(ControlFrame* f, const mjData& d) {
   if (ph.foot_placement) {
     // Paper §4.2: the IK triangle hip - knee - ankle for the planned strike.
     const double sigma = swing == 0 ? 1.0 : -1.0;
-    const Vector3d hip_W = vec_at(d.xpos + 3 * swing_leg.thigh);
+    const Vector3d hip_W = sim::vec3_at(d.xpos + 3 * swing_leg.thigh);
     Vector3d r = st.planned_foot_W + Vector3d(0, 0, ankle_height_) - hip_W;
     const Vector2d r_h = st.heading.to_heading(Vector2d(r.head<2>()));
     r = Vector3d(r_h.x(), r_h.y(), r.z());
@@ -277,7 +276,7 @@ void VelocityWalker::set_targets(ControlFrame* f, const mjData& d) {
     const Quaterniond q_thigh_goal = q_heading * orientation_from_angles(hip, thigh_angles);
     f->set_target(swing_leg.hip, q_pelvis.conjugate() * q_thigh_goal, reach_at);
     // Same in the world frame: the thigh's world velocity to e/t_go, the pelvis's fed forward.
-    const Quaterniond q_thigh = quat_at(d.xquat + 4 * swing_leg.thigh);
+    const Quaterniond q_thigh = sim::quat_at(d.xquat + 4 * swing_leg.thigh);
     const double t_go = std::max(reach_at - d.time, params_.posture.world_tracking_time_s);
     const Vector3d w_wanted = rotation_vector(q_thigh_goal * q_thigh.conjugate()) / t_go;
     f->set_velocity(swing_leg.hip, q_thigh.conjugate() * (w_wanted - w_pelvis));
@@ -293,7 +292,7 @@ void VelocityWalker::set_swing_foot(ControlFrame* f, const mjData& d) {
   const models::RigLeg& leg = rig_->leg(swing);
   if (!ph.swing_foot_down && !st.foot_touches[static_cast<std::size_t>(swing)]) {
     // The swing sole level in the heading frame, toes up (gait core, as the torque walker's).
-    const double dorsiflexion = level_sole_dorsiflexion(st.heading, quat_at(d.xquat + 4 * leg.shank), 0.0,
+    const double dorsiflexion = level_sole_dorsiflexion(st.heading, sim::quat_at(d.xquat + 4 * leg.shank), 0.0,
                                                         params_.placement.swing_toe_up_deg * kRadPerDeg);
     f->set_joint_angles(leg.ankle, Vector3d(dorsiflexion, 0, 0), d.time + kSoleTracking_s);
   }
@@ -305,8 +304,8 @@ void VelocityWalker::set_swing_foot(ControlFrame* f, const mjData& d) {
     const double c0 = params_.placement.swing_clearance_m;
     const double phase = std::clamp((d.time - st.phase_start_s) / phase_duration(st.phase), 0.0, 1.0);
     const double clearance = ph.ends_at_strike ? c0 * (1 - phase) : c0;
-    const Vector3d hip_W = vec_at(d.xpos + 3 * leg.thigh);
-    const Vector3d knee_W = vec_at(d.xpos + 3 * leg.shank);
+    const Vector3d hip_W = sim::vec3_at(d.xpos + 3 * leg.thigh);
+    const Vector3d knee_W = sim::vec3_at(d.xpos + 3 * leg.shank);
     const Vector2d thigh_h = st.heading.to_heading(Vector2d((knee_W - hip_W).head<2>()));
     const double alpha = std::atan2(thigh_h.x(), hip_W.z() - knee_W.z());
     const double ratio = (knee_W.z() - ankle_height_ - clearance) / leg.shank_length_m;

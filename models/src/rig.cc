@@ -7,6 +7,7 @@
 #include <utility>
 
 #include "biodyn/models/mjcf.h"
+#include "biodyn/sim/queries.h"
 
 namespace biodyn::models {
 namespace {
@@ -28,7 +29,6 @@ const char* const kTrunkBodies[] = {"thorax", "trunk", "lumbar"};  // what a "tr
 
 constexpr const char* kHowToGetOne = " (a generated character has it: biodyn model)";
 
-Vector3d vec_at(const mjtNum* v) { return Vector3d(v[0], v[1], v[2]); }
 
 int id_or_none(const std::map<std::string, int>& ids, const std::string& name) {
   const auto it = ids.find(name);
@@ -43,11 +43,11 @@ Sole find_sole(const mjModel& m, int foot_body) {
   s.x_max = s.y_max = -std::numeric_limits<double>::max();
   for (int b = 0; b < m.nbody; ++b) {
     if (b != foot_body && m.body_parentid[b] != foot_body) continue;
-    const Vector3d offset = b == foot_body ? Vector3d::Zero() : vec_at(m.body_pos + 3 * b);
+    const Vector3d offset = b == foot_body ? Vector3d::Zero() : sim::vec3_at(m.body_pos + 3 * b);
     for (int g = m.body_geomadr[b]; g < m.body_geomadr[b] + m.body_geomnum[b]; ++g) {
       if (m.geom_type[g] != mjGEOM_BOX) continue;
-      const Vector3d c = offset + vec_at(m.geom_pos + 3 * g);
-      const Vector3d h = vec_at(m.geom_size + 3 * g);
+      const Vector3d c = offset + sim::vec3_at(m.geom_pos + 3 * g);
+      const Vector3d h = sim::vec3_at(m.geom_size + 3 * g);
       s.x_min = std::min(s.x_min, c.x() - h.x());
       s.x_max = std::max(s.x_max, c.x() + h.x());
       s.y_min = std::min(s.y_min, c.y() - h.y());
@@ -110,7 +110,7 @@ std::vector<JointGroup> find_joint_groups(const mjModel& m) {
         const double inf = std::numeric_limits<double>::infinity();
         g.range_rad.push_back(m.jnt_limited[j] ? Eigen::Vector2d(m.jnt_range[2 * j], m.jnt_range[2 * j + 1])
                                                : Eigen::Vector2d(-inf, inf));
-        g.axes_B.push_back(vec_at(m.jnt_axis + 3 * j).normalized());
+        g.axes_B.push_back(sim::vec3_at(m.jnt_axis + 3 * j).normalized());
       } else {
         throw sim::InvalidArgument("joint groups: joint '" + joint_name +
                                    "' is neither a hinge nor a ball joint");
@@ -182,8 +182,8 @@ Rig::Rig(const mjModel& m) : groups_(find_joint_groups(m)), foot_part_(static_ca
       }
     }
     if (leg.toes >= 0) foot_part_[static_cast<std::size_t>(leg.toes)] = 1;
-    if (leg.shank >= 0) leg.thigh_length_m = vec_at(m.body_pos + 3 * leg.shank).norm();
-    if (leg.foot >= 0) leg.shank_length_m = vec_at(m.body_pos + 3 * leg.foot).norm();
+    if (leg.shank >= 0) leg.thigh_length_m = sim::vec3_at(m.body_pos + 3 * leg.shank).norm();
+    if (leg.foot >= 0) leg.shank_length_m = sim::vec3_at(m.body_pos + 3 * leg.foot).norm();
   }
   if (legs_[0].thigh >= 0 && legs_[1].thigh >= 0) {
     hip_spacing_m_ = std::abs(m.body_pos[3 * legs_[0].thigh + 1] - m.body_pos[3 * legs_[1].thigh + 1]);

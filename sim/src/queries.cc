@@ -9,7 +9,6 @@
 namespace biodyn::sim {
 namespace {
 
-Eigen::Quaterniond quat_from(const mjtNum* q) { return Eigen::Quaterniond(q[0], q[1], q[2], q[3]); }
 
 }  // namespace
 
@@ -85,7 +84,7 @@ Pose body_pose(const mjModel& m, const mjData& d, int body) {
   }
   Pose p;
   p.position_W = Eigen::Vector3d(d.xpos[3 * body], d.xpos[3 * body + 1], d.xpos[3 * body + 2]);
-  p.orientation_W = quat_from(d.xquat + 4 * body);
+  p.orientation_W = quat_at(d.xquat + 4 * body);
   return p;
 }
 
@@ -95,8 +94,8 @@ Eigen::Quaterniond relative_orientation(const mjModel& m, const mjData& d, int b
                           " out of range [1, " + std::to_string(m.nbody) + ")");
   }
   const int parent = m.body_parentid[body];
-  const Eigen::Quaterniond q_parent = quat_from(d.xquat + 4 * parent);
-  const Eigen::Quaterniond q_body = quat_from(d.xquat + 4 * body);
+  const Eigen::Quaterniond q_parent = quat_at(d.xquat + 4 * parent);
+  const Eigen::Quaterniond q_body = quat_at(d.xquat + 4 * body);
   return (q_parent.conjugate() * q_body).normalized();
 }
 
@@ -106,8 +105,8 @@ Eigen::Quaterniond joint_quaternion(const mjModel& m, const mjData& d, int joint
   }
   const int type = m.jnt_type[joint];
   const int adr = m.jnt_qposadr[joint];
-  if (type == mjJNT_BALL) return quat_from(d.qpos + adr).normalized();
-  if (type == mjJNT_FREE) return quat_from(d.qpos + adr + 3).normalized();
+  if (type == mjJNT_BALL) return quat_at(d.qpos + adr).normalized();
+  if (type == mjJNT_FREE) return quat_at(d.qpos + adr + 3).normalized();
   throw InvalidArgument("joint_quaternion: joint " + std::to_string(joint) +
                         " is not a ball or free joint");
 }

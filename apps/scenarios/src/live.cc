@@ -118,15 +118,13 @@ void LiveScenario::set_gait_params(const controllers::TorqueWalkerParams& params
 
 void LiveScenario::set_speed(double m_s) {
   if (!walk_) throw sim::InvalidArgument("speed: the scenario does not walk");
-  if (!(m_s >= kMinWalkSpeed_m_s && m_s <= kMaxWalkSpeed_m_s))
-    throw sim::InvalidArgument("speed: must be in [0.3, 2] m/s, got " + std::to_string(m_s));
+  check_walk_speed(m_s);
   record([m_s](Scenario& s) { s.set_speed(m_s); });
 }
 
 void LiveScenario::set_heading_rate(double deg_s) {
   if (!walk_) throw sim::InvalidArgument("heading rate: the scenario does not walk");
-  if (!(std::abs(deg_s) <= kMaxHeadingRate_deg_s))
-    throw sim::InvalidArgument("heading-rate: must be within +-90 deg/s, got " + std::to_string(deg_s));
+  check_heading_rate(deg_s);
   record([deg_s](Scenario& s) { s.set_heading_rate(deg_s); });
 }
 

@@ -6,15 +6,10 @@
 #include <sstream>
 
 #include "biodyn/sim/errors.h"
+#include "checks.h"
 
 namespace biodyn::scenarios {
 namespace {
-
-void fail(const std::string& field, const std::string& rule, double v) {
-  std::ostringstream s;
-  s << field << ": " << rule << ", got " << v;
-  throw sim::InvalidArgument(s.str());
-}
 
 // One run of `cell` with a push of `force_N`.
 WalkRunResult run_once(sim::Simulation* sim, const PushSweepSpec& spec, const PushSweepCell& cell, double force_N) {

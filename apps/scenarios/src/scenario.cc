@@ -7,21 +7,24 @@
 #include "biodyn/controllers/torque_walker.h"
 #include "biodyn/scenarios/registry.h"
 #include "biodyn/sim/errors.h"
+#include "checks.h"
 
 namespace biodyn::scenarios {
 namespace {
-
-void fail(const std::string& field, const std::string& rule, double value) {
-  std::ostringstream s;
-  s << field << ": " << rule << ", got " << value;
-  throw sim::InvalidArgument(s.str());
-}
 
 void refuse_unless(bool allowed, const std::string& what) {
   if (!allowed) throw sim::InvalidArgument(what);
 }
 
 }  // namespace
+
+void check_walk_speed(double m_s) {
+  if (!(m_s >= kMinWalkSpeed_m_s && m_s <= kMaxWalkSpeed_m_s)) fail("speed", "must be in [0.3, 2] m/s", m_s);
+}
+
+void check_heading_rate(double deg_s) {
+  if (!(std::abs(deg_s) <= kMaxHeadingRate_deg_s)) fail("heading-rate", "must be within +-90 deg/s", deg_s);
+}
 
 std::vector<double> paper_stepping_stones_m() { return {0.60, 0.20, 0.50, 0.16, 0.50, 0.30}; }
 
@@ -41,10 +44,8 @@ void ScenarioConfig::validate() const {
     if (!(p.onset_s >= 0)) fail("push onset", "must be >= 0 s", p.onset_s);
   }
   // Walking.
-  if (!(speed_m_s >= kMinWalkSpeed_m_s && speed_m_s <= kMaxWalkSpeed_m_s))
-    fail("speed", "must be in [0.3, 2] m/s", speed_m_s);
-  if (!(std::abs(heading_rate_deg_s) <= kMaxHeadingRate_deg_s))
-    fail("heading-rate", "must be within +-90 deg/s", heading_rate_deg_s);
+  check_walk_speed(speed_m_s);
+  check_heading_rate(heading_rate_deg_s);
   refuse_unless(steps_m.empty() || scenario == "stones", "steps: only the stones scenario walks planned steps");
   if (steps_m.size() > 1000) fail("steps", "at most 1000 step lengths", static_cast<double>(steps_m.size()));
   controllers::TorqueWalker::validate_plan(steps_m);

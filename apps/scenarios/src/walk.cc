@@ -9,6 +9,7 @@
 
 #include "biodyn/scenarios/walk_scenario.h"
 #include "biodyn/sim/errors.h"
+#include "checks.h"
 #include "biodyn/sim/queries.h"
 #include "biodyn/sim/units.h"
 
@@ -31,12 +32,6 @@ constexpr double kPushJudgeCap_s = 20.0;
 constexpr double kStandingSpeed_m_s = 0.05;
 // Strides to find the push onset in before giving up (the walker stopped striking).
 constexpr double kMaxSettle_s = 120.0;
-
-void fail(const std::string& field, const std::string& rule, double v) {
-  std::ostringstream s;
-  s << field << ": " << rule << ", got " << v;
-  throw sim::InvalidArgument(s.str());
-}
 
 Vector2d com_xy(const mjModel& m, const mjData& d) { return sim::center_of_mass(m, d).position_W.head<2>(); }
 

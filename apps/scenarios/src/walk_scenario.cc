@@ -169,15 +169,13 @@ void WalkScenario::set_walker_params(const controllers::TorqueWalkerParams& para
 }
 
 void WalkScenario::set_speed(double m_s) {
-  if (!(m_s >= kMinWalkSpeed_m_s && m_s <= kMaxWalkSpeed_m_s))
-    throw sim::InvalidArgument("speed: must be in [0.3, 2] m/s, got " + std::to_string(m_s));
+  check_walk_speed(m_s);
   walker_.set_speed(m_s);
   config_.speed_m_s = m_s;
 }
 
 void WalkScenario::set_heading_rate(double deg_s) {
-  if (!(std::abs(deg_s) <= kMaxHeadingRate_deg_s))
-    throw sim::InvalidArgument("heading-rate: must be within +-90 deg/s, got " + std::to_string(deg_s));
+  check_heading_rate(deg_s);
   walker_.set_heading_rate(deg_s / kDegPerRad);
   config_.heading_rate_deg_s = deg_s;
 }

@@ -12,6 +12,11 @@
 
 namespace biodyn::sim {
 
+/// The 3-vector at `v` (a row of xpos, xipos, cvel, body_pos, ...), as Eigen.
+inline Eigen::Vector3d vec3_at(const mjtNum* v) { return {v[0], v[1], v[2]}; }
+/// The quaternion (w, x, y, z) at `q` (a row of xquat, qpos, body_quat, ...), as it is.
+inline Eigen::Quaterniond quat_at(const mjtNum* q) { return {q[0], q[1], q[2], q[3]}; }
+
 /// Whole-body centre of mass.
 struct CenterOfMass {
   Eigen::Vector3d position_W = Eigen::Vector3d::Zero();  ///< m, world frame

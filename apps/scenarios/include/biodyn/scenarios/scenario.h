@@ -40,6 +40,10 @@ class FallWatch;  // src/fall_watch.h
 inline constexpr double kMinWalkSpeed_m_s = 0.3, kMaxWalkSpeed_m_s = 2.0;
 /// deg/s, the commanded turning rate's bound.
 inline constexpr double kMaxHeadingRate_deg_s = 90.0;
+/// Throw sim::InvalidArgument naming the value when a commanded speed (m/s) or turning rate
+/// (deg/s) is outside those bounds: the config, the walk scenario's and the viewer's edits.
+void check_walk_speed(double m_s);
+void check_heading_rate(double deg_s);
 /// Fallen = a body other than the feet touches the floor, or the pelvis is below this fraction
 /// of its standing height: references.md (>= 0.7 x nominal is upright while walking) ...
 inline constexpr double kWalkingFallPelvisFraction = 0.7;
