@@ -24,16 +24,20 @@ function(biodyn_add_library module)
   biodyn_target_warnings(biodyn_${module})
 endfunction()
 
-# biodyn_add_test(<name> SOURCES ... DEPS ...): one Catch2 executable registered with ctest.
-# Every test links biodyn_test_support (Catch2 main + the MuJoCo warning guard).
+# biodyn_add_test(<name> SOURCES ... DEPS ...): one Catch2 executable whose test cases ctest
+# discovers one by one after each build ("<name>: <test case>"), so `ctest -j` spreads them over
+# the cores and `ctest -R '^<name>:'` runs one module's. Cases tagged [slow] get the label `slow`
+# and a high COST, so ctest starts them first; `ctest -LE slow` runs the quick ones. Every test
+# links biodyn_test_support (Catch2's main, the MuJoCo warning guard, the source and build
+# directories). `--warn NoTests` fails a test whose name matches no case. Names must not contain ';' (a CMake list separator).
 function(biodyn_add_test name)
   cmake_parse_arguments(ARG "" "" "SOURCES;DEPS" ${ARGN})
   add_executable(${name} ${ARG_SOURCES})
   target_link_libraries(${name} PRIVATE biodyn_test_support ${ARG_DEPS})
   biodyn_target_warnings(${name})
-  add_test(NAME ${name} COMMAND ${name} --reporter compact)
-  set_tests_properties(${name} PROPERTIES ENVIRONMENT
-                       "BIODYN_SOURCE_DIR=${PROJECT_SOURCE_DIR};BIODYN_BINARY_DIR=${PROJECT_BINARY_DIR}")
+  catch_discover_tests(${name} TEST_SPEC "~[slow]" TEST_PREFIX "${name}: " EXTRA_ARGS --reporter compact --warn NoTests)
+  catch_discover_tests(${name} TEST_SPEC "[slow]" TEST_PREFIX "${name}: " EXTRA_ARGS --reporter compact --warn NoTests
+                       PROPERTIES LABELS slow COST 100)
 endfunction()
 
 # biodyn_embed_files(<target> <namespace> FILES ...): compiles data files into <target> as

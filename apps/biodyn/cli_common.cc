@@ -24,7 +24,8 @@ std::pair<int, int> parse_size(const std::string& text, const std::string& optio
     if (used != text.size() - x - 1) throw std::invalid_argument("height");
     return {width, height};
   } catch (const std::logic_error&) {
-    throw sim::InvalidArgument(option + ": expected WIDTHxHEIGHT, e.g. 1280x720, got '" + text + "'");
+    throw sim::InvalidArgument(option + ": expected WIDTHxHEIGHT, e.g. 1280x720, got '" + text +
+                               "'");
   }
 }
 
@@ -69,8 +70,6 @@ models::CharacterSpec CharacterOptions::to_spec() const {
   }
   return spec;
 }
-
-
 
 void plot_with_gnuplot(const std::string& command, const std::string& script_path,
                        const std::string& png_tmp, const std::string& png) {

@@ -8,10 +8,10 @@
 #include <sstream>
 
 #include "biodyn/controllers/control_pipeline.h"
-#include "biodyn/models/rig.h"
 #include "biodyn/models/mjcf.h"
-#include "biodyn/sim/model.h"
+#include "biodyn/models/rig.h"
 #include "biodyn/sim/errors.h"
+#include "biodyn/sim/model.h"
 #include "biodyn/sim/snapshot.h"
 #include "cli_common.h"
 #include "commands.h"
@@ -49,7 +49,8 @@ Command add_bench_command(CLI::App* app) {
             config.weld.mode = controllers::parse_weld_mode(o->weld, "--weld");
             const models::Rig rig(m);
             const auto& groups = rig.groups();
-            controllers::ControlPipeline ctrl(&sim, rig, controllers::default_params(m, groups), config);
+            controllers::ControlPipeline ctrl(&sim, rig, controllers::default_params(m, groups),
+                                              config);
             ctrl.reset_in_pose(controllers::pose_scenario("stand", groups, 0).front());
             const int steps = static_cast<int>(o->duration_s / m.opt.timestep);
 
@@ -85,7 +86,8 @@ Command add_bench_command(CLI::App* app) {
                 std::copy(f.begin(), f.end(), d.qfrc_applied);
                 const auto t0 = std::chrono::steady_clock::now();
                 mj_step(&m, &d);
-                bare_s += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+                bare_s +=
+                    std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
                 if (s % 100 == 0) bar.update(static_cast<double>(s + 1) / steps);
               }
             }
@@ -94,8 +96,8 @@ Command add_bench_command(CLI::App* app) {
             out << std::fixed << std::setprecision(1) << "biodyn bench: " << to_string(spec.detail)
                 << " character (" << m.nv << " DOF), " << o->controller << " controller, weld "
                 << o->weld << ", " << steps << " steps of quiet standing\n"
-                << "  bare mj_step:        " << std::setprecision(0) << bare_rate
-                << " steps/s (" << std::setprecision(1) << 1e6 / bare_rate << " us/step)\n"
+                << "  bare mj_step:        " << std::setprecision(0) << bare_rate << " steps/s ("
+                << std::setprecision(1) << 1e6 / bare_rate << " us/step)\n"
                 << "  step + controller:   " << std::setprecision(0) << controlled_rate
                 << " steps/s (" << std::setprecision(1) << 1e6 / controlled_rate << " us/step)\n"
                 << "  ratio:               " << std::setprecision(2) << controlled_rate / bare_rate

@@ -294,7 +294,8 @@ int run_id(const IdOptions& o) {
       mocap_io::inverse_dynamics(*model, motion, options, plates, plate_rate);
   bar.finish();
   std::filesystem::create_directories(o.output);
-  const std::vector<double> strikes = foot_strikes(*model, motion, models::Rig(*model).leg(models::kLeft).foot);
+  const std::vector<double> strikes =
+      foot_strikes(*model, motion, models::Rig(*model).leg(models::kLeft).foot);
   const double body_weight_N = character.total_mass_kg() * 9.81;
   const json summary = id_summary(o, id, first + options.trim_frames, spec, body_weight_N, strikes);
   write_file_atomically(o.output + "/torques.csv", torques_csv(id));

@@ -37,7 +37,8 @@ mocap_io::JointMap choose_map(const std::string& given, const mocap_io::BvhMotio
       tried += std::string("\n  ") + e.what();
     }
   }
-  throw sim::InvalidArgument(bvh_path + ": no built-in joint map fits this BVH; give --map "
+  throw sim::InvalidArgument(bvh_path +
+                             ": no built-in joint map fits this BVH; give --map "
                              "FILE.json (see mocap_io/README.md, \"Retargeting\"). Tried:" +
                              tried);
 }
@@ -66,7 +67,8 @@ std::array<std::vector<double>, 2> sole_heights(const mocap_io::RetargetResult& 
       double low = std::numeric_limits<double>::quiet_NaN();
       if (solved) {
         low = std::numeric_limits<double>::infinity();
-        for (int site : sites[static_cast<size_t>(s)]) low = std::min(low, data->site_xpos[3 * site + 2]);
+        for (int site : sites[static_cast<size_t>(s)])
+          low = std::min(low, data->site_xpos[3 * site + 2]);
       }
       out[static_cast<size_t>(s)].push_back(low);
     }
@@ -81,8 +83,9 @@ void plot_feet(const std::string& dir, const mocap_io::RetargetResult& r) {
   std::ostringstream data;
   data.precision(6);
   for (int f = 0; f < r.motion.frame_count(); ++f) {
-    data << r.motion.times_s[static_cast<size_t>(f)] << " " << 1000 * heights[0][static_cast<size_t>(f)]
-         << " " << 1000 * heights[1][static_cast<size_t>(f)] << "\n";
+    data << r.motion.times_s[static_cast<size_t>(f)] << " "
+         << 1000 * heights[0][static_cast<size_t>(f)] << " "
+         << 1000 * heights[1][static_cast<size_t>(f)] << "\n";
   }
   data << "\n\n";
   for (size_t i = 0; i < r.steps.size(); ++i) {
@@ -106,7 +109,8 @@ void plot_feet(const std::string& dir, const mocap_io::RetargetResult& r) {
        << s.last_frame * dt << ", graph 1 fc rgb '" << (s.side == 'l' ? "#3060c0" : "#c03030")
        << "' fs solid " << (s.side == 'l' ? 0.08 : 0.12) << " noborder behind\n";
   }
-  gp << "plot '" << dir << "/feet_plot.dat' index 0 using 1:2 with lines lw 1.5 lc rgb '#3060c0' "
+  gp << "plot '" << dir
+     << "/feet_plot.dat' index 0 using 1:2 with lines lw 1.5 lc rgb '#3060c0' "
         "title 'left', '' index 0 using 1:3 with lines lw 1.5 lc rgb '#c03030' title 'right', "
         "-5 with lines dt 2 lc rgb 'black' title 'penetration bound (5 mm)'\n"
      << "unset object\n"
@@ -114,7 +118,8 @@ void plot_feet(const std::string& dir, const mocap_io::RetargetResult& r) {
         "point)'\n"
      << "set xlabel 'step (in order of touch-down)'\nset ylabel 'slide (mm)'\n"
      << "set style fill solid 0.7\nset boxwidth 0.7\nset xrange [0:" << r.steps.size() + 1 << "]\n"
-     << "plot '" << dir << "/feet_plot.dat' index 1 using 1:($3==0?$2:1/0) with boxes lc rgb "
+     << "plot '" << dir
+     << "/feet_plot.dat' index 1 using 1:($3==0?$2:1/0) with boxes lc rgb "
         "'#3060c0' title 'left', '' index 1 using 1:($3==1?$2:1/0) with boxes lc rgb '#c03030' "
         "title 'right', 10 with lines dt 2 lc rgb 'black' title '1 cm'\n"
      << "unset multiplot\n";
@@ -177,18 +182,23 @@ json retarget_stats(const RetargetCliOptions& o, const mocap_io::JointMap& map,
   }
   json contacts = json::array();
   for (const mocap_io::FootContact& c : r.contacts) {
-    contacts.push_back({{"side", std::string(1, c.side)}, {"point", c.point},
-                        {"first_frame", c.first_frame}, {"last_frame", c.last_frame}});
+    contacts.push_back({{"side", std::string(1, c.side)},
+                        {"point", c.point},
+                        {"first_frame", c.first_frame},
+                        {"last_frame", c.last_frame}});
   }
   const mocap_io::BvhUnits units = options.units.value_or(map.units.value_or(mocap_io::BvhUnits{}));
   return {
       {"bvh", o.bvh},
       {"joint_map", map.name},
-      {"bvh_units", {{"metres_per_unit", units.metres_per_unit},
-                     {"up", units.up == mocap_io::UpAxis::kY ? "y" : "z"}}},
-      {"character", {{"height_m", spec.height_m}, {"mass_kg", spec.mass_kg},
-                     {"sex", models::to_string(spec.sex)},
-                     {"detail", models::to_string(spec.detail)}}},
+      {"bvh_units",
+       {{"metres_per_unit", units.metres_per_unit},
+        {"up", units.up == mocap_io::UpAxis::kY ? "y" : "z"}}},
+      {"character",
+       {{"height_m", spec.height_m},
+        {"mass_kg", spec.mass_kg},
+        {"sex", models::to_string(spec.sex)},
+        {"detail", models::to_string(spec.detail)}}},
       {"frames", s.frames},
       {"unsolved_frames", s.unsolved_frames},
       {"scale", s.scale},
@@ -247,14 +257,14 @@ void print_retarget(const RetargetCliOptions& o, const mocap_io::JointMap& map,
 void RetargetCliOptions::add_to(CLI::App* cmd) {
   cmd->add_option("--bvh", bvh, "BVH motion to retarget")->required();
   character.add_to(cmd);
-  cmd->add_option("--map", map,
-                  "joint map: a built-in name (" + [] {
-                    std::string names;
-                    for (const std::string& n : mocap_io::builtin_joint_map_names()) {
-                      names += (names.empty() ? "" : ", ") + n;
-                    }
-                    return names;
-                  }() + ") or a JSON file; default: the first built-in map the BVH fits");
+  cmd->add_option(
+      "--map", map, "joint map: a built-in name (" + [] {
+        std::string names;
+        for (const std::string& n : mocap_io::builtin_joint_map_names()) {
+          names += (names.empty() ? "" : ", ") + n;
+        }
+        return names;
+      }() + ") or a JSON file; default: the first built-in map the BVH fits");
   cmd->add_option("--metres-per-unit", metres_per_unit,
                   "BVH length unit in metres (default: the map's, e.g. CMU 0.056444; else 0.01)");
   cmd->add_option("--up", up, "BVH vertical axis: y or z (default: the map's, else y)");
@@ -285,9 +295,10 @@ int run_retarget(const RetargetCliOptions& o) {
 
 Command add_mocap_retarget_command(CLI::App* mocap) {
   auto rt = std::make_shared<RetargetCliOptions>();
-  CLI::App* rt_cmd = mocap->add_subcommand(
-      "retarget", "A BVH motion on a generated character: qpos CSV, the character's BVH, "
-                  "foot-slide and penetration stats");
+  CLI::App* rt_cmd =
+      mocap->add_subcommand("retarget",
+                            "A BVH motion on a generated character: qpos CSV, the character's BVH, "
+                            "foot-slide and penetration stats");
   rt->add_to(rt_cmd);
   return {rt_cmd, [rt]() { return run_retarget(*rt); }};
 }

@@ -35,8 +35,10 @@ struct SweepOptions {
 };
 
 // Runs every cell on `threads` workers, each on its own copy of the model; a progress bar.
-std::vector<scenarios::PushCellResult> run_cells(const scenarios::PushSweepSpec& spec, const std::string& mjcf,
-                                                 const std::vector<scenarios::PushSweepCell>& cells, int threads) {
+std::vector<scenarios::PushCellResult> run_cells(const scenarios::PushSweepSpec& spec,
+                                                 const std::string& mjcf,
+                                                 const std::vector<scenarios::PushSweepCell>& cells,
+                                                 int threads) {
   std::vector<scenarios::PushCellResult> results(cells.size());
   std::atomic<std::size_t> next{0}, done{0};
   std::mutex error_mutex;
@@ -67,22 +69,26 @@ std::vector<scenarios::PushCellResult> run_cells(const scenarios::PushSweepSpec&
 }
 
 // results.csv: one line per cell.
-std::string results_csv(const scenarios::PushSweepSpec& spec, const std::vector<scenarios::PushCellResult>& results,
-                        double mass) {
+std::string results_csv(const scenarios::PushSweepSpec& spec,
+                        const std::vector<scenarios::PushCellResult>& results, double mass) {
   std::ostringstream csv;
   csv << std::setprecision(10);
   csv << "direction_deg,duration_s,onset_phase,max_survived_N,first_failure_N,bisection_N,"
-         "max_survived_impulse_N_s,max_survived_delta_v_m_s,fixed_force_N,fixed_survived,failure,runs\n";
+         "max_survived_impulse_N_s,max_survived_delta_v_m_s,fixed_force_N,fixed_survived,failure,"
+         "runs\n";
   for (const scenarios::PushCellResult& r : results) {
     const scenarios::PushSweepCell& c = r.cell;
     csv << c.direction_deg << ',' << c.duration_s << ',' << c.onset_phase << ',';
     if (spec.fixed_force_N > 0) {
-      csv << ",,,,," << spec.fixed_force_N << ',' << (r.outcome == scenarios::PushOutcome::kSurvived ? 1 : 0) << ",\""
-          << r.failure << "\"," << r.runs << '\n';
+      csv << ",,,,," << spec.fixed_force_N << ','
+          << (r.outcome == scenarios::PushOutcome::kSurvived ? 1 : 0) << ",\"" << r.failure << "\","
+          << r.runs << '\n';
     } else {
       csv << r.max_survived_N << ',' << r.first_failure_N << ',' << r.bisection_N << ','
-          << r.max_survived_N * c.duration_s << ',' << r.max_survived_N * c.duration_s / mass << ",,,\""
-          << (r.fell_before_push ? std::string(to_string(scenarios::PushOutcome::kFellBeforePush)) : r.failure)
+          << r.max_survived_N * c.duration_s << ',' << r.max_survived_N * c.duration_s / mass
+          << ",,,\""
+          << (r.fell_before_push ? std::string(to_string(scenarios::PushOutcome::kFellBeforePush))
+                                 : r.failure)
           << "\"," << r.runs << '\n';
     }
   }
@@ -91,8 +97,9 @@ std::string results_csv(const scenarios::PushSweepSpec& spec, const std::vector<
 
 // summary.json's cells, and the polar plot's data (each duration's curve closed by its first
 // direction again).
-nlohmann::json summary_cells(const scenarios::PushSweepSpec& spec, const scenarios::PushSweepSummary& summary,
-                             double mass, std::string* plot_data, double* plot_max) {
+nlohmann::json summary_cells(const scenarios::PushSweepSpec& spec,
+                             const scenarios::PushSweepSummary& summary, double mass,
+                             std::string* plot_data, double* plot_max) {
   nlohmann::json cells = nlohmann::json::array();
   std::ostringstream plot;
   const bool fixed = spec.fixed_force_N > 0;
@@ -106,11 +113,13 @@ nlohmann::json summary_cells(const scenarios::PushSweepSpec& spec, const scenari
              << 100.0 * g.survived_phases / g.phases << '\n';
         *plot_max = 100;
       } else {
-        plot << g.direction_deg << ' ' << g.max_survived_worst_N << ' ' << g.max_survived_mean_N << '\n';
+        plot << g.direction_deg << ' ' << g.max_survived_worst_N << ' ' << g.max_survived_mean_N
+             << '\n';
         *plot_max = std::max(*plot_max, g.max_survived_mean_N);
       }
       if (k == per_duration) continue;
-      nlohmann::json c = {{"direction_deg", g.direction_deg}, {"duration_s", g.duration_s}, {"phases", g.phases}};
+      nlohmann::json c = {
+          {"direction_deg", g.direction_deg}, {"duration_s", g.duration_s}, {"phases", g.phases}};
       if (fixed) {
         c["force_N"] = spec.fixed_force_N;
         c["survived_phases"] = g.survived_phases;
@@ -144,7 +153,8 @@ void plot_polar(const SweepOptions& o, const std::string& dir, double plot_max) 
      << "set grid polar 45\nset rtics\nset rrange [0:" << std::max(1.1 * plot_max, 1.0) << "]\n"
      << "set key outside bottom center horizontal\n"
      << "set title \""
-     << (fixed ? "Share of onset phases surviving a " + std::to_string(static_cast<int>(spec.fixed_force_N)) + " N push, %"
+     << (fixed ? "Share of onset phases surviving a " +
+                     std::to_string(static_cast<int>(spec.fixed_force_N)) + " N push, %"
                : std::string("Largest push force survived (upward scan), N"))
      << "\\n0 deg = forward, 90 deg = left; " << o.body << ", weld " << o.walk.weld << ", "
      << spec.walk.config.speed_m_s << " m/s\"\n"
@@ -152,13 +162,14 @@ void plot_polar(const SweepOptions& o, const std::string& dir, double plot_max) 
   for (std::size_t i = 0; i < spec.durations_s.size(); ++i) {
     const double duration = spec.durations_s[i];
     if (fixed) {
-      gp << (i ? ", " : "") << "'" << dir << "/polar.dat' index " << i << " using 1:2 with linespoints lw 2 title '"
-         << duration << " s: % of phases survived'";
+      gp << (i ? ", " : "") << "'" << dir << "/polar.dat' index " << i
+         << " using 1:2 with linespoints lw 2 title '" << duration << " s: % of phases survived'";
       continue;
     }
-    gp << (i ? ", " : "") << "'" << dir << "/polar.dat' index " << i << " using 1:2 with linespoints lw 2 title '"
-       << duration << " s, worst phase', '" << dir << "/polar.dat' index " << i
-       << " using 1:3 with lines dt 2 title '" << duration << " s, mean'";
+    gp << (i ? ", " : "") << "'" << dir << "/polar.dat' index " << i
+       << " using 1:2 with linespoints lw 2 title '" << duration << " s, worst phase', '" << dir
+       << "/polar.dat' index " << i << " using 1:3 with lines dt 2 title '" << duration
+       << " s, mean'";
   }
   gp << "\n";
   write_file_atomically(dir + "/polar.gp", gp.str());
@@ -166,40 +177,46 @@ void plot_polar(const SweepOptions& o, const std::string& dir, double plot_max) 
 }
 
 // A few lines a person reads.
-void print_summary(const SweepOptions& o, const nlohmann::json& cells, const scenarios::PushSweepSummary& summary,
-                   std::size_t cell_count, const std::string& dir) {
+void print_summary(const SweepOptions& o, const nlohmann::json& cells,
+                   const scenarios::PushSweepSummary& summary, std::size_t cell_count,
+                   const std::string& dir) {
   const bool fixed = o.spec.fixed_force_N > 0;
   std::cout << std::fixed << std::setprecision(0);
   for (const auto& c : cells) {
-    std::cout << "  " << std::setw(4) << c["direction_deg"].get<double>() << " deg, " << std::setprecision(2)
-              << c["duration_s"].get<double>() << " s: " << std::setprecision(0);
+    std::cout << "  " << std::setw(4) << c["direction_deg"].get<double>() << " deg, "
+              << std::setprecision(2) << c["duration_s"].get<double>()
+              << " s: " << std::setprecision(0);
     if (fixed) {
-      std::cout << c["survived_phases"].get<int>() << "/" << c["phases"].get<int>() << " phases survived\n";
+      std::cout << c["survived_phases"].get<int>() << "/" << c["phases"].get<int>()
+                << " phases survived\n";
     } else {
-      std::cout << "max survived " << c["max_survived_N_worst_phase"].get<double>() << " N worst phase, "
-                << c["max_survived_N_mean"].get<double>() << " N mean";
-      if (o.spec.scan.bisect) std::cout << " (bisection: " << c["bisection_N_mean"].get<double>() << " N mean)";
+      std::cout << "max survived " << c["max_survived_N_worst_phase"].get<double>()
+                << " N worst phase, " << c["max_survived_N_mean"].get<double>() << " N mean";
+      if (o.spec.scan.bisect)
+        std::cout << " (bisection: " << c["bisection_N_mean"].get<double>() << " N mean)";
       std::cout << "\n";
     }
   }
   if (fixed) {
     std::cout << std::setprecision(1) << "  survived "
-              << 100.0 * static_cast<double>(summary.pushes_survived) / static_cast<double>(cell_count) << "% of "
-              << cell_count << " pushes of " << o.spec.fixed_force_N << " N\n";
+              << 100.0 * static_cast<double>(summary.pushes_survived) /
+                     static_cast<double>(cell_count)
+              << "% of " << cell_count << " pushes of " << o.spec.fixed_force_N << " N\n";
   }
   if (summary.groups_with_failed_walks > 0) {
     std::cout << "  WARNING: the walk fell before the push in " << summary.groups_with_failed_walks
               << " direction/duration groups\n";
   }
-  std::cout << "  results:  " << dir << "/results.csv\n  summary:  " << dir << "/summary.json\n  plot:     " << dir
-            << "/polar.png\n";
+  std::cout << "  results:  " << dir << "/results.csv\n  summary:  " << dir
+            << "/summary.json\n  plot:     " << dir << "/polar.png\n";
 }
 
 int run_sweep(SweepOptions& o) {
   if (o.body != "pelvis" && o.body != "trunk")
     throw sim::InvalidArgument("--body: expected pelvis or trunk, got '" + o.body + "'");
   scenarios::PushSweepSpec& spec = o.spec;
-  spec.durations_s = parse_number_list(o.durations, "--durations", "durations in s separated by commas");
+  spec.durations_s =
+      parse_number_list(o.durations, "--durations", "durations in s separated by commas");
   spec.scan.bisect = !o.no_bisect;
   spec.walk = o.walk.to_params();
   scenarios::WalkPush push;
@@ -208,15 +225,17 @@ int run_sweep(SweepOptions& o) {
   spec.walk.config.walk_push = push;
   spec.validate();  // before any worker starts
   const std::vector<scenarios::PushSweepCell> cells = scenarios::push_sweep_cells(spec);
-  int threads = o.threads > 0 ? o.threads : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  int threads = o.threads > 0 ? o.threads
+                              : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
   threads = std::min<int>(threads, static_cast<int>(cells.size()));
   const models::CharacterSpec character_spec = o.walk.character.to_spec();
   const models::Character character = models::generate_character(character_spec);
   const std::string mjcf = models::to_mjcf(character, o.walk.physics());
   const double mass = character.total_mass_kg();
-  std::cout << "biodyn push-sweep: " << cells.size() << " cells (" << spec.directions << " directions x "
-            << spec.durations_s.size() << " durations x " << spec.phases << " phases) on " << threads << " threads; "
-            << o.body << " pushes after " << o.settle_strides << " steady strides, speed " << spec.walk.config.speed_m_s
+  std::cout << "biodyn push-sweep: " << cells.size() << " cells (" << spec.directions
+            << " directions x " << spec.durations_s.size() << " durations x " << spec.phases
+            << " phases) on " << threads << " threads; " << o.body << " pushes after "
+            << o.settle_strides << " steady strides, speed " << spec.walk.config.speed_m_s
             << " m/s, weld " << o.walk.weld << ", timestep " << 1000 * o.walk.timestep_s << " ms\n"
             << "  " << weld_assumption(o.walk.weld) << "\n";
   const std::vector<scenarios::PushCellResult> results = run_cells(spec, mjcf, cells, threads);
@@ -228,9 +247,12 @@ int run_sweep(SweepOptions& o) {
   nlohmann::json j = {
       {"cells", cell_json},
       {"protocol",
-       "references.md: horizontal push through the body's CoM, direction relative to the heading, onset "
-       "spread over the stride after the settle strides; survived = only the feet touch the ground for "
-       "5 s after the push, pelvis >= 0.7 x standing height, stride speed back within 10% by the 4th "
+       "references.md: horizontal push through the body's CoM, direction relative to the heading, "
+       "onset "
+       "spread over the stride after the settle strides; survived = only the feet touch the ground "
+       "for "
+       "5 s after the push, pelvis >= 0.7 x standing height, stride speed back within 10% by the "
+       "4th "
        "stride. max_survived_N: the force below the first failure of an upward scan (every smaller "
        "force at the resolution survived); bisection_N assumes monotonic survival and overstates."},
       {"weld", o.walk.weld},
@@ -244,7 +266,8 @@ int run_sweep(SweepOptions& o) {
   j["inputs"]["settle_strides"] = o.settle_strides;
   if (spec.fixed_force_N > 0) {
     j["fixed_force_N"] = spec.fixed_force_N;
-    j["survived_fraction"] = static_cast<double>(summary.pushes_survived) / static_cast<double>(results.size());
+    j["survived_fraction"] =
+        static_cast<double>(summary.pushes_survived) / static_cast<double>(results.size());
   }
   j["cells_where_the_walk_failed_before_the_push"] = summary.groups_with_failed_walks;
 
@@ -263,21 +286,29 @@ int run_sweep(SweepOptions& o) {
 Command add_push_sweep_command(CLI::App* app) {
   auto o = std::make_shared<SweepOptions>();
   CLI::App* cmd = app->add_subcommand(
-      "push-sweep", "Push protocol during steady walking: per direction x duration x phase, upward force scans");
-  cmd->add_option("--directions", o->spec.directions, "Directions, evenly spaced from forward")->capture_default_str();
+      "push-sweep",
+      "Push protocol during steady walking: per direction x duration x phase, upward force scans");
+  cmd->add_option("--directions", o->spec.directions, "Directions, evenly spaced from forward")
+      ->capture_default_str();
   cmd->add_option("--durations", o->durations, "Push durations, s")->capture_default_str();
-  cmd->add_option("--phases", o->spec.phases, "Onsets spread over one stride")->capture_default_str();
-  cmd->add_option("--resolution", o->spec.scan.resolution_N, "Force step of the upward scan, N")->capture_default_str();
-  cmd->add_option("--max-force", o->spec.scan.max_force_N, "Largest force tried, N")->capture_default_str();
-  cmd->add_flag("--no-bisect", o->no_bisect, "Skip the bisection figure (reported beside the scan)");
-  cmd->add_option("--fixed-force", o->spec.fixed_force_N,
-                  "Instead of scanning: one push of this force per cell; reports the share survived");
+  cmd->add_option("--phases", o->spec.phases, "Onsets spread over one stride")
+      ->capture_default_str();
+  cmd->add_option("--resolution", o->spec.scan.resolution_N, "Force step of the upward scan, N")
+      ->capture_default_str();
+  cmd->add_option("--max-force", o->spec.scan.max_force_N, "Largest force tried, N")
+      ->capture_default_str();
+  cmd->add_flag("--no-bisect", o->no_bisect,
+                "Skip the bisection figure (reported beside the scan)");
+  cmd->add_option(
+      "--fixed-force", o->spec.fixed_force_N,
+      "Instead of scanning: one push of this force per cell; reports the share survived");
   cmd->add_option("--body", o->body, "Pushed body: pelvis | trunk")->capture_default_str();
   cmd->add_option("--settle-strides", o->settle_strides, "Steady strides before the push's stride")
       ->capture_default_str();
   cmd->add_option("--threads", o->threads, "Worker threads (default: all cores)");
   o->walk.add_to(cmd);
-  cmd->add_option("--out", o->out, "Output directory (results.csv, summary.json, polar.png)")->required();
+  cmd->add_option("--out", o->out, "Output directory (results.csv, summary.json, polar.png)")
+      ->required();
   return {cmd, [o]() { return run_sweep(*o); }};
 }
 

@@ -2,9 +2,9 @@
 // run summary.
 #include <iostream>
 #include <memory>
+#include <nlohmann/json.hpp>
 #include <sstream>
 #include <tuple>
-#include <nlohmann/json.hpp>
 
 #include "biodyn/sim/errors.h"
 #include "biodyn/viewer/render_job.h"
@@ -25,15 +25,18 @@ Command add_render_command(CLI::App* app) {
   CLI::App* cmd = app->add_subcommand(
       "render", "Film a scenario headless (no display needed): MP4 video and/or a PNG frame");
   o->view.add_to(cmd);
-  cmd->add_option("--duration", o->render.duration_s, "Simulated seconds to film")->capture_default_str();
-  cmd->add_option("--fps", o->render.fps, "Video frames per simulated second")->capture_default_str();
+  cmd->add_option("--duration", o->render.duration_s, "Simulated seconds to film")
+      ->capture_default_str();
+  cmd->add_option("--fps", o->render.fps, "Video frames per simulated second")
+      ->capture_default_str();
   cmd->add_option("--size", o->size, "Frame size WIDTHxHEIGHT (even)")->capture_default_str();
   cmd->add_option("-o,--output", o->render.video_path, "MP4 video to write");
   cmd->add_option("--png", o->render.png_path, "PNG frame to write");
   cmd->add_option("--png-time", o->render.png_time_s,
                   "Simulated time of the PNG frame, s (default: the last frame)");
   cmd->add_option("--azimuth", o->render.azimuth_deg, "Camera azimuth, deg")->capture_default_str();
-  cmd->add_option("--elevation", o->render.elevation_deg, "Camera elevation, deg")->capture_default_str();
+  cmd->add_option("--elevation", o->render.elevation_deg, "Camera elevation, deg")
+      ->capture_default_str();
   cmd->add_option("--distance", o->render.distance_m, "Camera distance, m")->capture_default_str();
   cmd->add_option("--summary", o->summary_path, "Run summary JSON to write");
   return {cmd, [o]() {
@@ -48,8 +51,9 @@ Command add_render_command(CLI::App* app) {
             bar.finish();
             nlohmann::json summary = {
                 {"scenario", o->view.scenario},
-                {"character", {{"height_m", scenario.config().character.height_m},
-                               {"mass_kg", scenario.config().character.mass_kg}}},
+                {"character",
+                 {{"height_m", scenario.config().character.height_m},
+                  {"mass_kg", scenario.config().character.mass_kg}}},
                 {"weld", o->view.weld},
                 {"assumption", o->view.assumption()},
                 {"simulated_s", st.simulated_s},
@@ -64,21 +68,25 @@ Command add_render_command(CLI::App* app) {
                 {"physics_realtime_factor", st.simulated_s / std::max(st.physics_s, 1e-9)},
                 {"video", o->render.video_path},
                 {"png", o->render.png_path}};
-            if (o->view.scenario == "stones") summary["stones"] = stones_json(scenario.config().steps_m, scenario.stones());
-            if (scenario.tracker() != nullptr) summary["tracking"] = tracking_json(scenario.tracking_report());
+            if (o->view.scenario == "stones")
+              summary["stones"] = stones_json(scenario.config().steps_m, scenario.stones());
+            if (scenario.tracker() != nullptr)
+              summary["tracking"] = tracking_json(scenario.tracking_report());
             if (!o->summary_path.empty()) {
               write_file_atomically(o->summary_path, summary.dump(1) + "\n");
             }
             std::cout << "render " << o->view.scenario << ": " << st.simulated_s << " s simulated"
                       << (st.fallen ? " (fell)" : " without falling") << ", " << st.frames
-                      << " frames " << o->size << "; physics " << summary["physics_realtime_factor"].get<double>()
+                      << " frames " << o->size << "; physics "
+                      << summary["physics_realtime_factor"].get<double>()
                       << "x real time, rendering " << summary["render_frames_per_s"].get<double>()
                       << " frames/s\n  " << o->view.assumption() << "\n";
             const std::string stones = stones_line(scenario.config().steps_m, scenario.stones());
             if (!stones.empty()) std::cout << "  " << stones << "\n";
             const std::string tracking = tracking_line(scenario.tracking_report());
             if (!tracking.empty()) std::cout << "  " << tracking << "\n";
-            if (!o->render.video_path.empty()) std::cout << "  video: " << o->render.video_path << "\n";
+            if (!o->render.video_path.empty())
+              std::cout << "  video: " << o->render.video_path << "\n";
             if (!o->render.png_path.empty()) std::cout << "  frame: " << o->render.png_path << "\n";
             if (!o->summary_path.empty()) std::cout << "  summary: " << o->summary_path << "\n";
             return kExitOk;

@@ -20,7 +20,8 @@ namespace {
 std::vector<double> parse_directions(const std::string& text) {
   const std::string expected = "degrees separated by commas (0 forward, 90 left)";
   std::vector<double> out = parse_number_list(text, "--directions", expected);
-  if (out.empty()) throw sim::InvalidArgument("--directions: expected " + expected + ", got '" + text + "'");
+  if (out.empty())
+    throw sim::InvalidArgument("--directions: expected " + expected + ", got '" + text + "'");
   return out;
 }
 
@@ -60,78 +61,91 @@ Command add_stand_push_command(CLI::App* app) {
   cmd->add_option("--duration", o->scan.duration_s, "Push duration, s")->capture_default_str();
   cmd->add_option("--resolution", o->scan.resolution_N, "Force step of the upward scan, N")
       ->capture_default_str();
-  cmd->add_option("--max-force", o->scan.max_force_N, "Largest force tried, N")->capture_default_str();
+  cmd->add_option("--max-force", o->scan.max_force_N, "Largest force tried, N")
+      ->capture_default_str();
   cmd->add_option("--body", o->scan.body, "Pushed body")->capture_default_str();
   cmd->add_option("--params", o->params_path, "Controller parameters (JSON)");
   cmd->add_option("--json", o->json, "Write the results as JSON here");
-  return {cmd, [o]() {
-            const models::CharacterSpec spec = o->character.to_spec();
-            scenarios::PoseRunParams base;
-            base.config.controller = controllers::parse_controller_kind(o->controller, "--controller");
-            base.config.reaction_time_s = o->reaction_time_s;
-            if (!o->params_path.empty()) {
-              base.config.controller_json = read_file(o->params_path);
-              base.config.controller_source = o->params_path;
-            }
-            const std::vector<double> directions = parse_directions(o->directions);
-            std::vector<controllers::WeldMode> welds;
-            for (const std::string& w : sim::split_fields(o->welds))
-              welds.push_back(controllers::parse_weld_mode(w, "--welds"));
-            if (welds.empty()) throw sim::InvalidArgument("--welds: at least one mode");
-            base.validate();
-            const models::Character character = models::generate_character(spec);
-            sim::Simulation sim(sim::Model::from_string(models::to_mjcf(character), "<character>"));
+  return {
+      cmd, [o]() {
+        const models::CharacterSpec spec = o->character.to_spec();
+        scenarios::PoseRunParams base;
+        base.config.controller = controllers::parse_controller_kind(o->controller, "--controller");
+        base.config.reaction_time_s = o->reaction_time_s;
+        if (!o->params_path.empty()) {
+          base.config.controller_json = read_file(o->params_path);
+          base.config.controller_source = o->params_path;
+        }
+        const std::vector<double> directions = parse_directions(o->directions);
+        std::vector<controllers::WeldMode> welds;
+        for (const std::string& w : sim::split_fields(o->welds))
+          welds.push_back(controllers::parse_weld_mode(w, "--welds"));
+        if (welds.empty()) throw sim::InvalidArgument("--welds: at least one mode");
+        base.validate();
+        const models::Character character = models::generate_character(spec);
+        sim::Simulation sim(sim::Model::from_string(models::to_mjcf(character), "<character>"));
 
-            std::cout << "biodyn stand-push: " << to_string(spec.sex) << " " << spec.height_m
-                      << " m " << spec.mass_kg << " kg (" << to_string(spec.detail) << "), "
-                      << o->controller << " controller, " << o->scan.duration_s
-                      << " s pushes on the " << o->scan.body << ", upward scan in "
-                      << o->scan.resolution_N << " N steps; survived = not fallen and no foot moved 3 cm\n";
-            nlohmann::json results = nlohmann::json::array();
-            for (controllers::WeldMode w : welds) {
-              for (double deg : directions) {
-                scenarios::PoseRunParams run = base;
-                run.config.weld = w;
-                scenarios::StandingPushScan s;
-                {
-                  ProgressBar bar(std::string("stand-push ") + controllers::to_string(w) + " " + direction_name(deg));
-                  s = scenarios::scan_standing_push(&sim, run, deg, o->scan, [&](double f) { bar.update(f); });
-                }
-                const double mass = character.total_mass_kg();
-                std::cout << "  weld " << std::setw(7) << std::left << s.weld << std::setw(9)
-                          << direction_name(deg) << std::right << std::fixed << std::setprecision(0)
-                          << " survived up to " << std::setw(4) << s.max_survived_N << " N (impulse "
-                          << std::setprecision(1) << s.max_survived_N * o->scan.duration_s
-                          << " N s, delta-v " << std::setprecision(2)
-                          << s.max_survived_N * o->scan.duration_s / mass << " m/s)"
-                          << (s.first_failure_N > 0 ? "; first failure " + std::to_string(static_cast<int>(s.first_failure_N)) + " N (" + s.failure + ")"
-                                                    : std::string("; no failure up to the maximum"))
-                          << "\n";
-                results.push_back({{"weld", s.weld},
-                                   {"direction_deg", deg},
-                                   {"direction", direction_name(deg)},
-                                   {"max_survived_N", s.max_survived_N},
-                                   {"max_survived_delta_v_m_s", s.max_survived_N * o->scan.duration_s / mass},
-                                   {"first_failure_N", s.first_failure_N},
-                                   {"failure", s.failure},
-                                   {"runs", s.runs}});
-              }
+        std::cout << "biodyn stand-push: " << to_string(spec.sex) << " " << spec.height_m << " m "
+                  << spec.mass_kg << " kg (" << to_string(spec.detail) << "), " << o->controller
+                  << " controller, " << o->scan.duration_s << " s pushes on the " << o->scan.body
+                  << ", upward scan in " << o->scan.resolution_N
+                  << " N steps; survived = not fallen and no foot moved 3 cm\n";
+        nlohmann::json results = nlohmann::json::array();
+        for (controllers::WeldMode w : welds) {
+          for (double deg : directions) {
+            scenarios::PoseRunParams run = base;
+            run.config.weld = w;
+            scenarios::StandingPushScan s;
+            {
+              ProgressBar bar(std::string("stand-push ") + controllers::to_string(w) + " " +
+                              direction_name(deg));
+              s = scenarios::scan_standing_push(&sim, run, deg, o->scan,
+                                                [&](double f) { bar.update(f); });
             }
-            if (!o->json.empty()) {
-              nlohmann::json j = {{"results", results},
-                                  {"controller", o->controller},
-                                  {"push_duration_s", o->scan.duration_s},
-                                  {"resolution_N", o->scan.resolution_N},
-                                  {"body", o->scan.body},
-                                  {"survived_means", "not fallen and no foot moved 3 cm or more, 3 s after the push"},
-                                  {"inputs", {{"height_m", spec.height_m}, {"mass_kg", spec.mass_kg},
-                                              {"sex", to_string(spec.sex)}, {"detail", to_string(spec.detail)},
-                                              {"reaction_time_s", o->reaction_time_s}, {"params", o->params_path}}}};
-              write_file_atomically(o->json, j.dump(2) + "\n");
-              std::cout << "  summary:  " << o->json << "\n";
-            }
-            return kExitOk;
-          }};
+            const double mass = character.total_mass_kg();
+            std::cout << "  weld " << std::setw(7) << std::left << s.weld << std::setw(9)
+                      << direction_name(deg) << std::right << std::fixed << std::setprecision(0)
+                      << " survived up to " << std::setw(4) << s.max_survived_N << " N (impulse "
+                      << std::setprecision(1) << s.max_survived_N * o->scan.duration_s
+                      << " N s, delta-v " << std::setprecision(2)
+                      << s.max_survived_N * o->scan.duration_s / mass << " m/s)"
+                      << (s.first_failure_N > 0
+                              ? "; first failure " +
+                                    std::to_string(static_cast<int>(s.first_failure_N)) + " N (" +
+                                    s.failure + ")"
+                              : std::string("; no failure up to the maximum"))
+                      << "\n";
+            results.push_back(
+                {{"weld", s.weld},
+                 {"direction_deg", deg},
+                 {"direction", direction_name(deg)},
+                 {"max_survived_N", s.max_survived_N},
+                 {"max_survived_delta_v_m_s", s.max_survived_N * o->scan.duration_s / mass},
+                 {"first_failure_N", s.first_failure_N},
+                 {"failure", s.failure},
+                 {"runs", s.runs}});
+          }
+        }
+        if (!o->json.empty()) {
+          nlohmann::json j = {
+              {"results", results},
+              {"controller", o->controller},
+              {"push_duration_s", o->scan.duration_s},
+              {"resolution_N", o->scan.resolution_N},
+              {"body", o->scan.body},
+              {"survived_means", "not fallen and no foot moved 3 cm or more, 3 s after the push"},
+              {"inputs",
+               {{"height_m", spec.height_m},
+                {"mass_kg", spec.mass_kg},
+                {"sex", to_string(spec.sex)},
+                {"detail", to_string(spec.detail)},
+                {"reaction_time_s", o->reaction_time_s},
+                {"params", o->params_path}}}};
+          write_file_atomically(o->json, j.dump(2) + "\n");
+          std::cout << "  summary:  " << o->json << "\n";
+        }
+        return kExitOk;
+      }};
 }
 
 }  // namespace biodyn::apps

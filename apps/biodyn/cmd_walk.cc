@@ -24,17 +24,21 @@ void WalkOptions::add_to(CLI::App* cmd) {
   cmd->add_option("--heading-rate", heading_rate_deg_s, "Commanded turning rate, deg/s (+ left)")
       ->capture_default_str();
   cmd->add_option("--weld", weld, "Foot-contact mode: off | honest | glue")->capture_default_str();
-  cmd->add_option("--reaction-time", reaction_time_s,
-                  "Muscle reaction time t_r for every joint, s (default: the controller params, 0.02)");
+  cmd->add_option(
+      "--reaction-time", reaction_time_s,
+      "Muscle reaction time t_r for every joint, s (default: the controller params, 0.02)");
   cmd->add_option("--params", params_path, "Walker parameters (JSON; see --print-params)");
-  cmd->add_option("--controller-params", controller_params_path,
-                  "Joint controller parameters (JSON as biodyn pose --params; the viewer saves both)");
-  cmd->add_option("--timestep", timestep_s, "Physics timestep, s, in [0.0005, 0.004]")->capture_default_str();
+  cmd->add_option(
+      "--controller-params", controller_params_path,
+      "Joint controller parameters (JSON as biodyn pose --params; the viewer saves both)");
+  cmd->add_option("--timestep", timestep_s, "Physics timestep, s, in [0.0005, 0.004]")
+      ->capture_default_str();
 }
 
 models::PhysicsOptions WalkOptions::physics() const {
   if (!(timestep_s >= 0.0005 && timestep_s <= 0.004)) {
-    throw sim::InvalidArgument("--timestep: must be in [0.0005, 0.004] s, got " + std::to_string(timestep_s));
+    throw sim::InvalidArgument("--timestep: must be in [0.0005, 0.004] s, got " +
+                               std::to_string(timestep_s));
   }
   models::PhysicsOptions o;
   o.timestep_s = timestep_s;  // to_mjcf keeps the limit and weld time constants >= 2 steps
@@ -64,11 +68,13 @@ scenarios::WalkRunParams WalkOptions::to_params() const {
 std::string weld_assumption(const std::string& weld) {
   if (weld == "glue") {
     return "glue: each stance foot is welded to the floor from strike to lift-off, even where "
-           "the weld pulls or holds beyond friction (the paper's assumption); compare with --weld off";
+           "the weld pulls or holds beyond friction (the paper's assumption); compare with --weld "
+           "off";
   }
   if (weld == "honest") {
     return "honest: a stance foot is welded only while the weld's ground wrench is one the sole's "
-           "contact could give (compressive, inside friction, CoP on the sole); tension steps are undone";
+           "contact could give (compressive, inside friction, CoP on the sole); tension steps are "
+           "undone";
   }
   return "off: feet held by frictional contacts only";
 }
@@ -76,40 +82,42 @@ std::string weld_assumption(const std::string& weld) {
 nlohmann::json walk_json(const scenarios::WalkRunResult& r) {
   nlohmann::json ranges = nlohmann::json::object();
   for (const auto& [name, range] : r.joint_ranges_deg) ranges[name] = {range[0], range[1]};
-  nlohmann::json j = {{"fallen", r.fallen},
-                      {"time_fallen", r.fallen ? nlohmann::json(r.time_fallen_s) : nlohmann::json(nullptr)},
-                      {"distance", r.distance_m},
-                      {"mean_speed", r.mean_speed_m_s},
-                      {"steady_speed", r.steady_speed_m_s},
-                      {"lateral_drift", r.lateral_drift_m},
-                      {"steps", r.steps},
-                      {"step_lengths", r.step_lengths_m},
-                      {"step_widths", r.step_widths_m},
-                      {"step_times", r.step_times_s},
-                      {"cadence", r.cadence_steps_per_min},
-                      {"mean_step_length", r.mean_step_length_m},
-                      {"joint_ranges_deg", ranges},
-                      {"swing_knee_peak_deg", r.swing_knee_peak_deg},
-                      {"heel_strike_fraction", r.heel_strike_fraction},
-                      {"base_polygon_steps", r.base_polygon_steps},
-                      {"max_foot_slip", r.max_foot_slip_m},
-                      {"mean_foot_slip", r.mean_foot_slip_m},
-                      {"weld", r.weld},
-                      {"weld_assumption", weld_assumption(r.weld)},
-                      {"weld_tension_steps", r.weld_tension_steps},
-                      {"weld_redone_steps", r.weld_redone_steps},
-                      {"max_weld_force", r.max_weld_force_N},
-                      {"max_torque_ratio", r.max_torque_ratio},
-                      {"max_root_force", r.max_root_force_N},
-                      {"speed_command", r.speed_command_m_s},
-                      {"heading_rate_deg_s", r.heading_rate_deg_s},
-                      {"reaction_time_s", r.reaction_time_s},
-                      {"simulated_s", r.simulated_s},
-                      {"wall_s", r.wall_s},
-                      {"realtime_factor", r.realtime_factor},
-                      {"mujoco_warnings", r.warnings.describe()},
-                      {"units", "m, s, m/s, N, steps/min; after the start-up (first 5 s) for steady_speed, "
-                                "cadence, mean_step_length, joint_ranges_deg, swing_knee_peak_deg"}};
+  nlohmann::json j = {
+      {"fallen", r.fallen},
+      {"time_fallen", r.fallen ? nlohmann::json(r.time_fallen_s) : nlohmann::json(nullptr)},
+      {"distance", r.distance_m},
+      {"mean_speed", r.mean_speed_m_s},
+      {"steady_speed", r.steady_speed_m_s},
+      {"lateral_drift", r.lateral_drift_m},
+      {"steps", r.steps},
+      {"step_lengths", r.step_lengths_m},
+      {"step_widths", r.step_widths_m},
+      {"step_times", r.step_times_s},
+      {"cadence", r.cadence_steps_per_min},
+      {"mean_step_length", r.mean_step_length_m},
+      {"joint_ranges_deg", ranges},
+      {"swing_knee_peak_deg", r.swing_knee_peak_deg},
+      {"heel_strike_fraction", r.heel_strike_fraction},
+      {"base_polygon_steps", r.base_polygon_steps},
+      {"max_foot_slip", r.max_foot_slip_m},
+      {"mean_foot_slip", r.mean_foot_slip_m},
+      {"weld", r.weld},
+      {"weld_assumption", weld_assumption(r.weld)},
+      {"weld_tension_steps", r.weld_tension_steps},
+      {"weld_redone_steps", r.weld_redone_steps},
+      {"max_weld_force", r.max_weld_force_N},
+      {"max_torque_ratio", r.max_torque_ratio},
+      {"max_root_force", r.max_root_force_N},
+      {"speed_command", r.speed_command_m_s},
+      {"heading_rate_deg_s", r.heading_rate_deg_s},
+      {"reaction_time_s", r.reaction_time_s},
+      {"simulated_s", r.simulated_s},
+      {"wall_s", r.wall_s},
+      {"realtime_factor", r.realtime_factor},
+      {"mujoco_warnings", r.warnings.describe()},
+      {"units",
+       "m, s, m/s, N, steps/min; after the start-up (first 5 s) for steady_speed, "
+       "cadence, mean_step_length, joint_ranges_deg, swing_knee_peak_deg"}};
   if (r.push) {
     const scenarios::WalkPushOutcome& o = *r.push;
     j["push"] = {{"survived", o.survived},
@@ -129,23 +137,27 @@ nlohmann::json walk_json(const scenarios::WalkRunResult& r) {
     j["survived"] = o.survived;
   }
   if (r.stopped_at_s >= 0 || r.standing_at_end) {
-    j["stop"] = {{"stopped_at_s", r.stopped_at_s},
-                 {"standing_at_end", r.standing_at_end},
-                 {"final_com_speed", r.final_com_speed_m_s},
-                 {"method", "a half step, then the feet side by side (planned steps), then the standing controller "
-                            "(pose 'stand' with its balance), both feet in stance"}};
+    j["stop"] = {
+        {"stopped_at_s", r.stopped_at_s},
+        {"standing_at_end", r.standing_at_end},
+        {"final_com_speed", r.final_com_speed_m_s},
+        {"method",
+         "a half step, then the feet side by side (planned steps), then the standing controller "
+         "(pose 'stand' with its balance), both feet in stance"}};
   }
   if (r.stones) {
     const scenarios::SteppingStonesResult& st = *r.stones;
-    j["stones"] = {{"start_s", st.start_s},
-                   {"targets", st.targets_m},
-                   {"lengths", st.lengths_m},
-                   {"errors", st.errors_m},
-                   {"rms_error", st.rms_error_m},
-                   {"max_error", st.max_error_m},
-                   {"complete", st.complete},
-                   {"method", "paper §4.2: in late swing the 2D IK triangle hip-knee-ankle puts the swing ankle on "
-                              "its target (step lengths ankle to ankle along the heading, at the strike)"}};
+    j["stones"] = {
+        {"start_s", st.start_s},
+        {"targets", st.targets_m},
+        {"lengths", st.lengths_m},
+        {"errors", st.errors_m},
+        {"rms_error", st.rms_error_m},
+        {"max_error", st.max_error_m},
+        {"complete", st.complete},
+        {"method",
+         "paper §4.2: in late swing the 2D IK triangle hip-knee-ankle puts the swing ankle on "
+         "its target (step lengths ankle to ankle along the heading, at the strike)"}};
   }
   return j;
 }
@@ -157,29 +169,32 @@ void print_walk_summary(const scenarios::WalkRunResult& r, std::ostream& out) {
   } else {
     out << "  walked " << r.simulated_s << " s without falling";
   }
-  out << ": " << r.distance_m << " m, mean " << r.mean_speed_m_s << " m/s (steady " << r.steady_speed_m_s
-      << " m/s, commanded " << r.speed_command_m_s << "), " << r.steps << " steps\n"
+  out << ": " << r.distance_m << " m, mean " << r.mean_speed_m_s << " m/s (steady "
+      << r.steady_speed_m_s << " m/s, commanded " << r.speed_command_m_s << "), " << r.steps
+      << " steps\n"
       << "  cadence " << std::setprecision(1) << r.cadence_steps_per_min << " steps/min, mean step "
-      << std::setprecision(3) << r.mean_step_length_m << " m, swing knee peak " << std::setprecision(1)
-      << r.swing_knee_peak_deg << " deg, heel strikes " << std::setprecision(0) << 100 * r.heel_strike_fraction
-      << "%\n"
+      << std::setprecision(3) << r.mean_step_length_m << " m, swing knee peak "
+      << std::setprecision(1) << r.swing_knee_peak_deg << " deg, heel strikes "
+      << std::setprecision(0) << 100 * r.heel_strike_fraction << "%\n"
       << "  foot slip max " << std::setprecision(1) << 100 * r.max_foot_slip_m << " cm (mean "
-      << 100 * r.mean_foot_slip_m << " cm per stance), drift " << std::setprecision(2) << r.lateral_drift_m
-      << " m sideways\n"
+      << 100 * r.mean_foot_slip_m << " cm per stance), drift " << std::setprecision(2)
+      << r.lateral_drift_m << " m sideways\n"
       << "  weld " << weld_assumption(r.weld) << "\n"
       << "  weld tension steps " << r.weld_tension_steps << ", redone steps " << r.weld_redone_steps
       << ", root force " << r.max_root_force_N << " N, peak torque " << std::setprecision(0)
       << 100 * r.max_torque_ratio << "% of tau_max, " << std::setprecision(1) << r.realtime_factor
       << "x real time\n";
   if (r.stopped_at_s >= 0) {
-    out << "  stopped (feet side by side, standing controller) at " << std::setprecision(2) << r.stopped_at_s
-        << " s; at the end " << (r.standing_at_end ? "standing" : "NOT standing still") << ", CoM "
+    out << "  stopped (feet side by side, standing controller) at " << std::setprecision(2)
+        << r.stopped_at_s << " s; at the end "
+        << (r.standing_at_end ? "standing" : "NOT standing still") << ", CoM "
         << 100 * r.final_com_speed_m_s << " cm/s\n";
   }
   if (r.stones) {
     const scenarios::SteppingStonesResult& st = *r.stones;
-    out << "  stepping stones from " << std::setprecision(2) << st.start_s << " s: " << st.lengths_m.size() << " of "
-        << st.targets_m.size() << " steps walked, error RMS " << std::setprecision(1) << 100 * st.rms_error_m
+    out << "  stepping stones from " << std::setprecision(2) << st.start_s
+        << " s: " << st.lengths_m.size() << " of " << st.targets_m.size()
+        << " steps walked, error RMS " << std::setprecision(1) << 100 * st.rms_error_m
         << " cm, max " << 100 * st.max_error_m << " cm\n    planned";
     out << std::setprecision(3);
     for (double t : st.targets_m) out << ' ' << t;
@@ -192,8 +207,9 @@ void print_walk_summary(const scenarios::WalkRunResult& r, std::ostream& out) {
 namespace {
 
 // The summary on stdout, then the trace CSV and the JSON (with `inputs`) where asked for.
-void write_walk_outputs(const scenarios::WalkRunResult& r, const nlohmann::json& inputs, const std::string& trace,
-                        const std::string& csv_path, const std::string& json_path) {
+void write_walk_outputs(const scenarios::WalkRunResult& r, const nlohmann::json& inputs,
+                        const std::string& trace, const std::string& csv_path,
+                        const std::string& json_path) {
   print_walk_summary(r, std::cout);
   if (!csv_path.empty()) {
     write_file_atomically(csv_path, trace);
@@ -209,9 +225,10 @@ void write_walk_outputs(const scenarios::WalkRunResult& r, const nlohmann::json&
 
 // Builds the character's simulation and runs the walk with a progress bar; the trace (if
 // `with_trace`) comes back in `trace`.
-scenarios::WalkRunResult run_walk_on(const models::CharacterSpec& spec, const models::PhysicsOptions& physics,
-                                     scenarios::WalkRunParams p, bool with_trace, const std::string& label,
-                                     std::string* trace) {
+scenarios::WalkRunResult run_walk_on(const models::CharacterSpec& spec,
+                                     const models::PhysicsOptions& physics,
+                                     scenarios::WalkRunParams p, bool with_trace,
+                                     const std::string& label, std::string* trace) {
   const models::Character character = models::generate_character(spec);
   sim::Simulation sim(sim::Model::from_string(models::to_mjcf(character, physics), "<character>"));
   std::ostringstream text;
@@ -238,45 +255,54 @@ Command add_walk_command(CLI::App* app) {
     bool print_params = false;
   };
   auto o = std::make_shared<Options>();
-  CLI::App* cmd = app->add_subcommand("walk", "Walk headless from standing under the torque walker");
+  CLI::App* cmd =
+      app->add_subcommand("walk", "Walk headless from standing under the torque walker");
   cmd->add_option("--duration", o->duration_s, "Simulated time, s")->capture_default_str();
   o->walk.add_to(cmd);
-  cmd->add_option("--steps", o->steps,
-                  "Stepping stones: step lengths, m (ankle to ankle along the heading), e.g. 0.60,0.20,0.50; "
-                  "walked from the first strike after --steps-start");
-  cmd->add_option("--steps-start", o->steps_start_s, "When the stepping stones begin (steady walking first), s")
+  cmd->add_option(
+      "--steps", o->steps,
+      "Stepping stones: step lengths, m (ankle to ankle along the heading), e.g. 0.60,0.20,0.50; "
+      "walked from the first strike after --steps-start");
+  cmd->add_option("--steps-start", o->steps_start_s,
+                  "When the stepping stones begin (steady walking first), s")
       ->capture_default_str();
   cmd->add_option("--stop-at", o->stop_at_s,
-                  "Stop walking at this time, s (a half step, feet side by side, then standing) and stand until "
+                  "Stop walking at this time, s (a half step, feet side by side, then standing) "
+                  "and stand until "
                   "--duration");
   cmd->add_option("--json", o->json, "Write the results as JSON here");
   cmd->add_option("--csv", o->csv, "Write a per-step trace as CSV here");
-  cmd->add_flag("--print-params", o->print_params, "Print the walker parameters (defaults + --params) as JSON and exit");
+  cmd->add_flag("--print-params", o->print_params,
+                "Print the walker parameters (defaults + --params) as JSON and exit");
   return {cmd, [o]() {
             scenarios::WalkRunParams p = o->walk.to_params();
             p.duration_s = o->duration_s;
             if (o->print_params) {
               controllers::TorqueWalkerParams gp;
-              if (!p.config.gait_json.empty()) controllers::apply_torque_walker_json(p.config.gait_json, p.config.gait_source, &gp);
+              if (!p.config.gait_json.empty())
+                controllers::apply_torque_walker_json(p.config.gait_json, p.config.gait_source,
+                                                      &gp);
               std::cout << controllers::torque_walker_json(gp);
               return kExitOk;
             }
             if (!o->steps.empty()) {
               p.config.scenario = "stones";
-              p.config.steps_m = parse_number_list(o->steps, "--steps", "step lengths in m separated by commas");
+              p.config.steps_m =
+                  parse_number_list(o->steps, "--steps", "step lengths in m separated by commas");
               p.config.steps_start_s = o->steps_start_s;
             }
             p.config.stop_at_s = o->stop_at_s;
             p.validate();
             const models::CharacterSpec spec = o->walk.character.to_spec();
             const models::PhysicsOptions physics = o->walk.physics();
-            std::cout << "biodyn walk: " << to_string(spec.sex) << " " << spec.height_m << " m " << spec.mass_kg
-                      << " kg (" << to_string(spec.detail) << "), " << p.duration_s << " s, weld " << o->walk.weld
-                      << ", speed " << p.config.speed_m_s << " m/s, heading rate " << p.config.heading_rate_deg_s
-                      << " deg/s, timestep "
+            std::cout << "biodyn walk: " << to_string(spec.sex) << " " << spec.height_m << " m "
+                      << spec.mass_kg << " kg (" << to_string(spec.detail) << "), " << p.duration_s
+                      << " s, weld " << o->walk.weld << ", speed " << p.config.speed_m_s
+                      << " m/s, heading rate " << p.config.heading_rate_deg_s << " deg/s, timestep "
                       << 1000 * o->walk.timestep_s << " ms\n";
             std::string trace;
-            const scenarios::WalkRunResult r = run_walk_on(spec, physics, p, !o->csv.empty(), "walk", &trace);
+            const scenarios::WalkRunResult r =
+                run_walk_on(spec, physics, p, !o->csv.empty(), "walk", &trace);
             nlohmann::json inputs = o->walk.inputs_json(spec);
             inputs["duration_s"] = p.duration_s;
             write_walk_outputs(r, inputs, trace, o->csv, o->json);
@@ -285,11 +311,16 @@ Command add_walk_command(CLI::App* app) {
 }
 
 nlohmann::json WalkOptions::inputs_json(const models::CharacterSpec& spec) const {
-  return {{"height_m", spec.height_m},     {"mass_kg", spec.mass_kg},
-          {"sex", to_string(spec.sex)},    {"detail", to_string(spec.detail)},
-          {"speed_m_s", speed_m_s},        {"heading_rate_deg_s", heading_rate_deg_s},
-          {"weld", weld},                  {"reaction_time_s", reaction_time_s},
-          {"params", params_path},        {"timestep_s", timestep_s}};
+  return {{"height_m", spec.height_m},
+          {"mass_kg", spec.mass_kg},
+          {"sex", to_string(spec.sex)},
+          {"detail", to_string(spec.detail)},
+          {"speed_m_s", speed_m_s},
+          {"heading_rate_deg_s", heading_rate_deg_s},
+          {"weld", weld},
+          {"reaction_time_s", reaction_time_s},
+          {"params", params_path},
+          {"timestep_s", timestep_s}};
 }
 
 Command add_push_command(CLI::App* app) {
@@ -300,40 +331,50 @@ Command add_push_command(CLI::App* app) {
   };
   auto o = std::make_shared<Options>();
   o->push.force_N = -1;
-  CLI::App* cmd = app->add_subcommand("push", "One push during steady walking: survived, and the recovery");
+  CLI::App* cmd =
+      app->add_subcommand("push", "One push during steady walking: survived, and the recovery");
   cmd->add_option("--force", o->push.force_N, "Push force, N")->required();
   cmd->add_option("--duration", o->push.duration_s, "Push duration, s")->capture_default_str();
-  cmd->add_option("--direction", o->push.direction_deg, "Direction relative to the heading, deg (0 forward, 90 left)")
+  cmd->add_option("--direction", o->push.direction_deg,
+                  "Direction relative to the heading, deg (0 forward, 90 left)")
       ->capture_default_str();
   cmd->add_option("--body", o->push.body, "Pushed body: pelvis | trunk")->capture_default_str();
-  cmd->add_option("--onset-phase", o->push.onset_phase, "Onset as a fraction of the stride (from a left strike)")
+  cmd->add_option("--onset-phase", o->push.onset_phase,
+                  "Onset as a fraction of the stride (from a left strike)")
       ->capture_default_str();
-  cmd->add_option("--settle-strides", o->push.settle_strides, "Steady strides before the push's stride")
+  cmd->add_option("--settle-strides", o->push.settle_strides,
+                  "Steady strides before the push's stride")
       ->capture_default_str();
   o->walk.add_to(cmd);
   cmd->add_option("--json", o->json, "Write the results as JSON here");
   cmd->add_option("--csv", o->csv, "Write a per-step trace as CSV here");
   return {cmd, [o]() {
             if (o->push.body != "pelvis" && o->push.body != "trunk") {
-              throw sim::InvalidArgument("--body: expected pelvis or trunk, got '" + o->push.body + "'");
+              throw sim::InvalidArgument("--body: expected pelvis or trunk, got '" + o->push.body +
+                                         "'");
             }
             scenarios::WalkRunParams p = o->walk.to_params();
             p.config.walk_push = o->push;
             p.validate();
             const models::CharacterSpec spec = o->walk.character.to_spec();
             const models::PhysicsOptions physics = o->walk.physics();
-            std::cout << "biodyn push: " << o->push.force_N << " N for " << o->push.duration_s << " s on the "
-                      << o->push.body << ", " << o->push.direction_deg << " deg from the heading, at "
-                      << o->push.onset_phase << " of the stride after " << o->push.settle_strides
-                      << " strides; weld " << o->walk.weld << ", speed " << p.config.speed_m_s << " m/s, timestep "
+            std::cout << "biodyn push: " << o->push.force_N << " N for " << o->push.duration_s
+                      << " s on the " << o->push.body << ", " << o->push.direction_deg
+                      << " deg from the heading, at " << o->push.onset_phase
+                      << " of the stride after " << o->push.settle_strides << " strides; weld "
+                      << o->walk.weld << ", speed " << p.config.speed_m_s << " m/s, timestep "
                       << 1000 * o->walk.timestep_s << " ms\n";
             std::string trace;
-            const scenarios::WalkRunResult r = run_walk_on(spec, physics, p, !o->csv.empty(), "push", &trace);
+            const scenarios::WalkRunResult r =
+                run_walk_on(spec, physics, p, !o->csv.empty(), "push", &trace);
             const scenarios::WalkPushOutcome& po = *r.push;
-            std::cout << std::fixed << std::setprecision(2) << "  " << (po.survived ? "SURVIVED" : "FAILED: " + po.failure)
-                      << "; impulse " << po.impulse_N_s << " N s, delta-v " << po.delta_v_m_s << " m/s, onset "
-                      << po.onset_s << " s; speed before " << po.speed_before_m_s << " m/s, recovered in "
-                      << (po.recovery_strides > 0 ? std::to_string(po.recovery_strides) + " strides" : std::string("-"))
+            std::cout << std::fixed << std::setprecision(2) << "  "
+                      << (po.survived ? "SURVIVED" : "FAILED: " + po.failure) << "; impulse "
+                      << po.impulse_N_s << " N s, delta-v " << po.delta_v_m_s << " m/s, onset "
+                      << po.onset_s << " s; speed before " << po.speed_before_m_s
+                      << " m/s, recovered in "
+                      << (po.recovery_strides > 0 ? std::to_string(po.recovery_strides) + " strides"
+                                                  : std::string("-"))
                       << "\n";
             write_walk_outputs(r, o->walk.inputs_json(spec), trace, o->csv, o->json);
             return kExitOk;

@@ -18,17 +18,18 @@ struct ViewOptions {
   double speed_m_s = 1.0;
   double heading_rate_deg_s = 0;
   std::string weld = "honest";
-  std::string params_path;             ///< walker parameters (biodyn walk --params)
-  std::string controller_params_path;  ///< controller parameters (biodyn pose --params)
-  std::string motion_path;             ///< scenario mocap: qpos CSV or BVH
+  std::string params_path;                     ///< walker parameters (biodyn walk --params)
+  std::string controller_params_path;          ///< controller parameters (biodyn pose --params)
+  std::string motion_path;                     ///< scenario mocap: qpos CSV or BVH
   double motion_from_s = 0, motion_to_s = -1;  ///< scenario mocap: the part played
-  bool track = false;                  ///< scenario mocap: tracked by the controllers
+  bool track = false;                          ///< scenario mocap: tracked by the controllers
   double track_lookahead_s = 0.1;
   bool track_open_loop = false;
-  std::string steps;                   ///< scenario stones: lengths, m, comma-separated
+  std::string steps;  ///< scenario stones: lengths, m, comma-separated
   double steps_start_s = 5.0;
   CLI::Option* speed_option = nullptr;  ///< to tell a given --speed from the default
-  std::vector<CLI::Option*> only_with_stones, only_with_track, only_with_mocap;  ///< refused outside their scenario
+  std::vector<CLI::Option*> only_with_stones, only_with_track,
+      only_with_mocap;  ///< refused outside their scenario
 
   /// Adds --scenario, the character options, --speed, --heading-rate, --weld, --params,
   /// --controller-params, --motion, --motion-from, --motion-to, --track (and its options), --steps,
@@ -47,7 +48,9 @@ std::string tracking_line(const scenarios::TrackingReport& r);  ///< "" when not
 
 /// scenario stones: the plan, the lengths walked so far, their errors and RMS (JSON), and one
 /// line for the terminal ("" without a plan).
-nlohmann::json stones_json(const std::vector<double>& plan_m, const std::vector<scenarios::Stone>& stones);
-std::string stones_line(const std::vector<double>& plan_m, const std::vector<scenarios::Stone>& stones);
+nlohmann::json stones_json(const std::vector<double>& plan_m,
+                           const std::vector<scenarios::Stone>& stones);
+std::string stones_line(const std::vector<double>& plan_m,
+                        const std::vector<scenarios::Stone>& stones);
 
 }  // namespace biodyn::apps

@@ -7,11 +7,13 @@
 
 namespace biodyn::controllers {
 
-void limit_ankle_to_contacts(ControlFrame* frame, const mjModel& m, const mjData& d, const JointGroup& ankle,
-                             int foot, int toes, const std::vector<sim::FloorContact>& contacts, double load_N,
+void limit_ankle_to_contacts(ControlFrame* frame, const mjModel& m, const mjData& d,
+                             const JointGroup& ankle, int foot, int toes,
+                             const std::vector<sim::FloorContact>& contacts, double load_N,
                              double margin, double cop_fraction) {
   const mjtNum* q = d.xquat + 4 * foot;
-  const Eigen::Vector3d foot_x = Eigen::Quaterniond(q[0], q[1], q[2], q[3]) * Eigen::Vector3d::UnitX();
+  const Eigen::Vector3d foot_x =
+      Eigen::Quaterniond(q[0], q[1], q[2], q[3]) * Eigen::Vector3d::UnitX();
   for (int k = 0; k < ankle.dof_count; ++k) {
     const int dof = ankle.dof_begin + k;
     const int j = m.dof_jntid[dof];
@@ -34,14 +36,16 @@ void limit_ankle_to_contacts(ControlFrame* frame, const mjModel& m, const mjData
       double f = 0.5;
       const bool sagittal = std::abs(a.dot(foot_x)) < 0.5;
       if (sagittal) {
-        const Eigen::Vector3d probe = foot_x.cross(Eigen::Vector3d::UnitZ());  // lever change per metre forward
+        const Eigen::Vector3d probe =
+            foot_x.cross(Eigen::Vector3d::UnitZ());  // lever change per metre forward
         f = a.dot(probe) > 0 ? cop_fraction : 1.0 - cop_fraction;
       }
       // The CoP at f: tau + F arm_cop = 0 for a foot at rest.
       const double tau = -load_N * (mid + (2 * f - 1) * half);
       frame->set_torque(dof, tau);
     } else {
-      frame->limit_torque(dof, std::min(-load_N * (mid + half), 0.0), std::max(-load_N * (mid - half), 0.0));
+      frame->limit_torque(dof, std::min(-load_N * (mid + half), 0.0),
+                          std::max(-load_N * (mid - half), 0.0));
     }
   }
 }

@@ -67,6 +67,8 @@ void ControlFrame::set_velocity(int group, const Eigen::Vector3d& w_body_rad_s) 
   }
 }
 
-void ControlFrame::set_free(int dof) { raise(&dofs_[static_cast<std::size_t>(dof)], DofMode::kFree); }
+void ControlFrame::set_free(int dof) {
+  raise(&dofs_[static_cast<std::size_t>(dof)], DofMode::kFree);
+}
 
 }  // namespace biodyn::controllers

@@ -14,7 +14,8 @@ constexpr int kMaxRedos = 2;  // one per foot weld
 // Any of the foot's (or its toes') contacts MuJoCo lists, within the geoms' margin: the
 // supports that choose the PD gains. A foot about to touch already carries the body in the
 // next steps, so this is wider than sim::foot_touches_floor (touching or penetrating).
-bool foot_within_contact_margin(const mjModel& m, const mjData& d, int floor_geom, const models::RigLeg& leg) {
+bool foot_within_contact_margin(const mjModel& m, const mjData& d, int floor_geom,
+                                const models::RigLeg& leg) {
   constexpr double kAnyDistance = std::numeric_limits<double>::infinity();
   return sim::floor_contact_count(m, d, floor_geom, leg.foot, kAnyDistance) > 0 ||
          (leg.toes >= 0 && sim::floor_contact_count(m, d, floor_geom, leg.toes, kAnyDistance) > 0);
@@ -22,8 +23,8 @@ bool foot_within_contact_margin(const mjModel& m, const mjData& d, int floor_geo
 
 }  // namespace
 
-ControlPipeline::ControlPipeline(sim::Simulation* sim, const models::Rig& rig, ControllerParams params,
-                                 ControlPipelineConfig config)
+ControlPipeline::ControlPipeline(sim::Simulation* sim, const models::Rig& rig,
+                                 ControllerParams params, ControlPipelineConfig config)
     : sim_(sim),
       rig_(&rig),
       config_(config),
@@ -54,7 +55,8 @@ void ControlPipeline::reset() {
   welds_.reset(sim_->mutable_model());
   sim_->forward();
   // The PD gains see the feet as supports (the character starts standing on both).
-  joints_.reset(sim_->model(), sim_->data(), &frame_, {rig_->leg(models::kLeft).foot, rig_->leg(models::kRight).foot});
+  joints_.reset(sim_->model(), sim_->data(), &frame_,
+                {rig_->leg(models::kLeft).foot, rig_->leg(models::kRight).foot});
   standing_.reset(sim_->data().time);
   driver_ = nullptr;
 }
@@ -68,7 +70,8 @@ void ControlPipeline::reset_in_pose(const Pose& pose) {
 
 void ControlPipeline::set_pose(const Pose& pose) {
   standing_.set_pose(pose, sim_->data().time);
-  for (int s = 0; s < 2; ++s) welds_.set_stance(sim_->mutable_model(), s, pose.stance[static_cast<std::size_t>(s)]);
+  for (int s = 0; s < 2; ++s)
+    welds_.set_stance(sim_->mutable_model(), s, pose.stance[static_cast<std::size_t>(s)]);
 }
 
 void ControlPipeline::set_stance(int side, bool stance) {
@@ -76,8 +79,8 @@ void ControlPipeline::set_stance(int side, bool stance) {
 }
 
 double ControlPipeline::orientation_error(int group) const {
-  return controllers::orientation_error(sim_->model(), sim_->data(), groups()[static_cast<std::size_t>(group)],
-                                        frame_.target(group));
+  return controllers::orientation_error(
+      sim_->model(), sim_->data(), groups()[static_cast<std::size_t>(group)], frame_.target(group));
 }
 
 void ControlPipeline::control(mjData& d) {
@@ -107,7 +110,8 @@ void ControlPipeline::control(mjData& d) {
   if (joints_.kind() == ControllerKind::kPd) {
     int supports[2], n = 0;
     for (int s = 0; s < 2; ++s) {
-      if (foot_within_contact_margin(m, d, rig_->floor_geom(), rig_->leg(s))) supports[n++] = rig_->leg(s).foot;
+      if (foot_within_contact_margin(m, d, rig_->floor_geom(), rig_->leg(s)))
+        supports[n++] = rig_->leg(s).foot;
     }
     joints_.update_pd_gains(m, d, supports, n);
   }

@@ -14,7 +14,6 @@ namespace {
 using sim::InvalidArgument;
 using Json = nlohmann::json;
 
-
 // Paper §3.2 / §5.1: every muscle group reacts in 20 ms.
 constexpr double kPaperReactionTime_s = 0.02;
 // Default PD natural frequencies. A stance-leg joint turns the rest of the body (I ~ 80 kg m^2
@@ -42,8 +41,8 @@ const SwingTwistLimits kShoulderLimits{170 * kRadPerDeg, 60 * kRadPerDeg, 170 * 
 bool starts_with(const std::string& s, const char* prefix) { return s.rfind(prefix, 0) == 0; }
 
 bool is_leg(const std::string& group) {
-  return starts_with(group, "hip") || starts_with(group, "knee") ||
-         starts_with(group, "ankle") || starts_with(group, "toe");
+  return starts_with(group, "hip") || starts_with(group, "knee") || starts_with(group, "ankle") ||
+         starts_with(group, "toe");
 }
 
 using json_fields::fail;
@@ -57,8 +56,7 @@ void check_range(double v, double lo, double hi, const std::string& where, const
   }
 }
 
-void apply_joint(const Json& j, const std::string& where, const JointGroup& group,
-                 JointParams* p) {
+void apply_joint(const Json& j, const std::string& where, const JointGroup& group, JointParams* p) {
   if (!j.is_object()) fail(where, "must be an object", j.dump());
   for (auto it = j.begin(); it != j.end(); ++it) {
     const std::string key = it.key();
@@ -70,8 +68,9 @@ void apply_joint(const Json& j, const std::string& where, const JointGroup& grou
         for (int k = 0; k < group.dof_count; ++k) p->tau_max_Nm[k] = tau;
       } else if (v.is_array()) {
         if (static_cast<int>(v.size()) != group.dof_count) {
-          fail(at, "must have " + std::to_string(group.dof_count) + " entries (one per DOF of " +
-                       group.name + ")",
+          fail(at,
+               "must have " + std::to_string(group.dof_count) + " entries (one per DOF of " +
+                   group.name + ")",
                std::to_string(v.size()) + " entries");
         }
         for (int k = 0; k < group.dof_count; ++k)
@@ -125,7 +124,8 @@ void apply_joint(const Json& j, const std::string& where, const JointGroup& grou
       }
       p->swing_twist = lim;
     } else {
-      fail(at, "unknown key (expected tau_max_Nm, reaction_time_s, reach_time_s, pd, swing_twist_deg)",
+      fail(at,
+           "unknown key (expected tau_max_Nm, reaction_time_s, reach_time_s, pd, swing_twist_deg)",
            "'" + key + "'");
     }
   }
@@ -175,7 +175,8 @@ ControllerParams default_params(const mjModel& m, const std::vector<JointGroup>&
     const double limit = m.actuator_ctrllimited[a] ? m.actuator_ctrlrange[2 * a + 1] : -1.0;
     if (m.jnt_type[j] == mjJNT_BALL) {
       for (int k = 0; k < 3; ++k)
-        if (gear[k] != 0) dof_tau[static_cast<std::size_t>(m.jnt_dofadr[j] + k)] = limit * std::abs(gear[k]);
+        if (gear[k] != 0)
+          dof_tau[static_cast<std::size_t>(m.jnt_dofadr[j] + k)] = limit * std::abs(gear[k]);
     } else if (m.jnt_type[j] == mjJNT_HINGE) {
       dof_tau[static_cast<std::size_t>(m.jnt_dofadr[j])] = limit * std::abs(gear[0]);
     }
@@ -187,9 +188,9 @@ ControllerParams default_params(const mjModel& m, const std::vector<JointGroup>&
     for (int k = 0; k < g.dof_count; ++k) {
       const double t = dof_tau[static_cast<std::size_t>(g.dof_begin + k)];
       if (!(t > 0)) {
-        throw InvalidArgument("controller params: DOF '" + g.dof_names[static_cast<std::size_t>(k)] +
-                              "' has no limited motor; give joints." + g.name +
-                              ".tau_max_Nm in the params file");
+        throw InvalidArgument(
+            "controller params: DOF '" + g.dof_names[static_cast<std::size_t>(k)] +
+            "' has no limited motor; give joints." + g.name + ".tau_max_Nm in the params file");
       }
       jp.tau_max_Nm[k] = t;
     }
@@ -235,8 +236,9 @@ void apply_params_json(const std::string& json_text, const std::string& source,
           const std::string& name = jit.key();
           const bool all = name == "all";
           const bool exact = find_group(groups, name) >= 0;
-          const bool sided = !all && !exact &&
-                             (find_group(groups, name + "_l") >= 0 || find_group(groups, name + "_r") >= 0);
+          const bool sided =
+              !all && !exact &&
+              (find_group(groups, name + "_l") >= 0 || find_group(groups, name + "_r") >= 0);
           if (!all && !exact && !sided) {
             std::string known;
             for (const JointGroup& g : groups) known += (known.empty() ? "" : ", ") + g.name;

@@ -21,7 +21,6 @@ Matrix3d rotation_at(const mjtNum* xmat) {
   return R;
 }
 
-
 // A weld in tension by less than this fraction of body weight is numerical noise of the
 // constraint solver (tolerance 1e-8), not adhesion.
 constexpr double kTensionTolerance = 1e-6;
@@ -51,7 +50,8 @@ void FootWeldParams::validate() const {
   const auto fail = [](const std::string& f, const std::string& rule, double v) {
     throw sim::InvalidArgument("weld." + f + ": " + rule + ", got " + std::to_string(v));
   };
-  if (!(engage_max_speed_m_s > 0)) fail("engage_max_speed_m_s", "must be > 0", engage_max_speed_m_s);
+  if (!(engage_max_speed_m_s > 0))
+    fail("engage_max_speed_m_s", "must be > 0", engage_max_speed_m_s);
   if (!(engage_max_angular_speed_rad_s > 0))
     fail("engage_max_angular_speed_rad_s", "must be > 0", engage_max_angular_speed_rad_s);
   if (engage_min_contacts < 1) fail("engage_min_contacts", "must be >= 1", engage_min_contacts);
@@ -80,12 +80,14 @@ FootWelds::FootWelds(const mjModel& m, const models::Rig& rig, FootWeldParams pa
   for (int s = 0; s < 2; ++s) {
     const models::RigLeg& leg = rig.leg(s);
     Foot& f = feet_[static_cast<std::size_t>(s)];
-    if (leg.foot_weld < 0 || leg.foot < 0 || floor_geom_ < 0 || !leg.has_sole) continue;  // off mode
+    if (leg.foot_weld < 0 || leg.foot < 0 || floor_geom_ < 0 || !leg.has_sole)
+      continue;  // off mode
     f.eq = leg.foot_weld;
     f.body = leg.foot;
     f.sole = leg.sole;
     for (int g = 0; g < m.ngeom; ++g) {
-      if (m.geom_bodyid[g] == f.body) f.mu = std::max(m.geom_friction[3 * g], m.geom_friction[3 * floor_geom_]);
+      if (m.geom_bodyid[g] == f.body)
+        f.mu = std::max(m.geom_friction[3 * g], m.geom_friction[3 * floor_geom_]);
     }
   }
 }
@@ -140,7 +142,8 @@ void FootWelds::engage_at_strikes(mjModel& m, const mjData& d) {
     if (sim::floor_contact_count(m, d, floor_geom_, f.body) < params_.engage_min_contacts) continue;
     // Honest: only weld a foot whose contacts alone already hold it well inside the cone, so
     // the weld shares load the contacts could carry and switching it on changes nothing.
-    if (params_.mode == WeldMode::kHonest && state_.wrench[side].margin < params_.engage_margin) continue;
+    if (params_.mode == WeldMode::kHonest && state_.wrench[side].margin < params_.engage_margin)
+      continue;
     mjtNum vel[6];  // [angular, linear] in world frame
     mj_objectVelocity(&m, &d, mjOBJ_BODY, f.body, vel, 0);
     const double w = std::sqrt(vel[0] * vel[0] + vel[1] * vel[1] + vel[2] * vel[2]);
@@ -169,7 +172,8 @@ int FootWelds::measure(const mjModel& m, const mjData& d) {
         has_rows = true;
         sim::efc_jacobian_row(m, d, r, jacobian_row_.data());
         for (int i = 0; i < m.nv; ++i)
-          qfrc_[static_cast<std::size_t>(i)] += jacobian_row_[static_cast<std::size_t>(i)] * d.efc_force[r];
+          qfrc_[static_cast<std::size_t>(i)] +=
+              jacobian_row_[static_cast<std::size_t>(i)] * d.efc_force[r];
       }
       const auto q = [&](int i) { return qfrc_[static_cast<std::size_t>(root_dof_ + i)]; };
       out.force_W = Vector3d(q(0), q(1), q(2));
@@ -203,11 +207,11 @@ int FootWelds::measure(const mjModel& m, const mjData& d) {
     out.tension = has_rows && excess > kTensionTolerance * weight_;
     // Margin inside the cone, 1 = centred and loaded, <= 0 = at or past an edge.
     const double load = params_.min_load_fraction * weight_;
-    out.margin = F.z() <= 0 ? -1.0
-                            : std::min({(F.z() - load) / load, 1.0 - std::abs(M.y()) / (hx * F.z()),
-                                        1.0 - std::abs(M.x()) / (hy * F.z()),
-                                        1.0 - ft / (f.mu * F.z()),
-                                        1.0 - std::abs(M.z()) / (f.mu * F.z() * r)});
+    out.margin = F.z() <= 0
+                     ? -1.0
+                     : std::min({(F.z() - load) / load, 1.0 - std::abs(M.y()) / (hx * F.z()),
+                                 1.0 - std::abs(M.x()) / (hy * F.z()), 1.0 - ft / (f.mu * F.z()),
+                                 1.0 - std::abs(M.z()) / (f.mu * F.z() * r)});
     out.margin = std::min(out.margin, 1.0);
     if (out.tension && in_tension < 0) in_tension = s;
   }
@@ -218,7 +222,8 @@ void FootWelds::release_near_edges(mjModel& m, double t) {
   if (params_.mode != WeldMode::kHonest) return;
   for (int s = 0; s < 2; ++s) {
     const Foot& f = feet_[static_cast<std::size_t>(s)];
-    if (f.eq >= 0 && m.eq_active[f.eq] && state_.wrench[static_cast<std::size_t>(s)].margin < params_.release_margin) {
+    if (f.eq >= 0 && m.eq_active[f.eq] &&
+        state_.wrench[static_cast<std::size_t>(s)].margin < params_.release_margin) {
       m.eq_active[f.eq] = 0;
       state_.released_at_s[static_cast<std::size_t>(s)] = t;
     }

@@ -15,8 +15,8 @@ bool foot_touches_floor(const mjModel& m, const mjData& d, const models::Rig& ri
   return sim::foot_touches_floor(m, d, rig.floor_geom(), leg.foot, leg.toes);
 }
 
-double level_sole_dorsiflexion(const HeadingFrame& heading, const Eigen::Quaterniond& q_shank_W, double offset_rad,
-                               double toe_up_rad) {
+double level_sole_dorsiflexion(const HeadingFrame& heading, const Eigen::Quaterniond& q_shank_W,
+                               double offset_rad, double toe_up_rad) {
   // Pitch about the heading frame's +y (toes down positive); dorsiflexion turns the foot about
   // -y, so the foot's pitch is shank_pitch - dorsiflexion: level (toes up) undoes the shank's.
   const Vector3d shank_x = heading.rotation().conjugate() * (q_shank_W * Vector3d::UnitX());
@@ -24,12 +24,12 @@ double level_sole_dorsiflexion(const HeadingFrame& heading, const Eigen::Quatern
   return offset_rad + shank_pitch + toe_up_rad;
 }
 
-LegTriangle solve_leg_triangle(double l1, double l2, const Vector3d& r, double sigma, double min_knee_rad,
-                               double max_knee_rad) {
+LegTriangle solve_leg_triangle(double l1, double l2, const Vector3d& r, double sigma,
+                               double min_knee_rad, double max_knee_rad) {
   LegTriangle out;
   const double reach_max = std::sqrt(l1 * l1 + l2 * l2 + 2 * l1 * l2 * std::cos(min_knee_rad));
-  const double reach_min =
-      std::max(0.3 * (l1 + l2), std::sqrt(l1 * l1 + l2 * l2 + 2 * l1 * l2 * std::cos(max_knee_rad)));
+  const double reach_min = std::max(
+      0.3 * (l1 + l2), std::sqrt(l1 * l1 + l2 * l2 + 2 * l1 * l2 * std::cos(max_knee_rad)));
   const double wanted = r.norm();
   const double len = std::clamp(wanted, reach_min, reach_max);
   out.reachable = wanted >= reach_min && wanted <= reach_max;
@@ -38,7 +38,8 @@ LegTriangle solve_leg_triangle(double l1, double l2, const Vector3d& r, double s
   out.knee_flexion_rad =
       wanted >= reach_max
           ? min_knee_rad
-          : M_PI - std::acos(std::clamp((l1 * l1 + l2 * l2 - len * len) / (2 * l1 * l2), -1.0, 1.0));
+          : M_PI -
+                std::acos(std::clamp((l1 * l1 + l2 * l2 - len * len) / (2 * l1 * l2), -1.0, 1.0));
   // alpha: the thigh's angle in front of the hip-ankle line (the knee bends backwards, so the
   // thigh leans forward).
   const double k = out.knee_flexion_rad;
@@ -60,20 +61,22 @@ SupportPolygons::SupportPolygons() {
   tolerance_.reserve(128);
 }
 
-void SupportPolygons::update(const mjModel& m, const mjData& d, const models::Rig& rig, double tolerance_fraction) {
+void SupportPolygons::update(const mjModel& m, const mjData& d, const models::Rig& rig,
+                             double tolerance_fraction) {
   sim::floor_contacts(m, d, rig.floor_geom(), &contacts_);
-  const int feet[4] = {rig.leg(models::kLeft).foot, rig.leg(models::kRight).foot, rig.leg(models::kLeft).toes,
-                       rig.leg(models::kRight).toes};
+  const int feet[4] = {rig.leg(models::kLeft).foot, rig.leg(models::kRight).foot,
+                       rig.leg(models::kLeft).toes, rig.leg(models::kRight).toes};
   contact_support_polygon(contacts_, feet, 4, &points_, &hull_);
   tolerance_.clear();
   if (hull_.size() < 3) return;
   tolerance_polygon(hull_, tolerance_fraction, &tolerance_);
 }
 
-BasePolygonStep base_polygon_rule(const std::vector<Vector2d>& support, const std::vector<Vector2d>& tolerance,
-                                  double tolerance_fraction, const Vector3d& com_W, const Vector3d& com_velocity_H,
-                                  const Vector2d& stance_ankle_W, const HeadingFrame& heading, int swing_side,
-                                  double foot_length, double foot_width) {
+BasePolygonStep base_polygon_rule(const std::vector<Vector2d>& support,
+                                  const std::vector<Vector2d>& tolerance, double tolerance_fraction,
+                                  const Vector3d& com_W, const Vector3d& com_velocity_H,
+                                  const Vector2d& stance_ankle_W, const HeadingFrame& heading,
+                                  int swing_side, double foot_length, double foot_width) {
   BasePolygonStep step;
   if (support.size() < 3 || inside_convex(tolerance, com_W.head<2>())) return step;
   // The support polygon's extent and vertex centre in the heading frame, from the stance ankle.
@@ -100,7 +103,8 @@ BasePolygonStep base_polygon_rule(const std::vector<Vector2d>& support, const st
     const double length = -base_polygon_step(front - c.x(), foot_length);
     if (length < 0) step.length_m = length;
   }
-  const double side = swing_side == models::kLeft ? 1.0 : -1.0;  // +1: the swing foot is the left one (+y)
+  const double side =
+      swing_side == models::kLeft ? 1.0 : -1.0;  // +1: the swing foot is the left one (+y)
   const double frontal_tol = tolerance_fraction * (left - right);
   if (side * (c.y() - cy) > frontal_tol && side * com_velocity_H.y() > 0) {
     const double outer = side > 0 ? right : left;

@@ -35,7 +35,8 @@ double pd_inertia(const mjModel& m, const mjData& d, int joint_body, int dof,
   Vector3d a;
   if (m.jnt_type[j] == mjJNT_BALL) {
     const int k = dof - m.jnt_dofadr[j];
-    a = Vector3d(d.xmat[9 * joint_body + k], d.xmat[9 * joint_body + 3 + k], d.xmat[9 * joint_body + 6 + k]);
+    a = Vector3d(d.xmat[9 * joint_body + k], d.xmat[9 * joint_body + 3 + k],
+                 d.xmat[9 * joint_body + 6 + k]);
   } else {
     a = Vector3d(d.xaxis[3 * j], d.xaxis[3 * j + 1], d.xaxis[3 * j + 2]);
   }
@@ -70,7 +71,8 @@ void apply_command(const DofCommand& c, mjtNum error, mjtNum qvel, mjtNum* lo, m
     }
   }
   if (c.mode == DofMode::kSpring && (c.stiffness_Nm_per_rad > 0 || c.damping_Nm_s_per_rad > 0)) {
-    const mjtNum tau = std::clamp(c.stiffness_Nm_per_rad * error - c.damping_Nm_s_per_rad * qvel, *lo, *hi);
+    const mjtNum tau =
+        std::clamp(c.stiffness_Nm_per_rad * error - c.damping_Nm_s_per_rad * qvel, *lo, *hi);
     *lo = *hi = tau;
   }
   if (c.mode == DofMode::kFree) *lo = *hi = 0;
@@ -90,7 +92,12 @@ ControllerKind parse_controller_kind(const std::string& text, const std::string&
 
 JointController::JointController(const mjModel& m, const models::Rig& rig, ControllerParams params,
                                  ControllerKind kind)
-    : rig_(&rig), params_(std::move(params)), kind_(kind), solver_(m), nv_(m.nv), timestep_(m.opt.timestep) {
+    : rig_(&rig),
+      params_(std::move(params)),
+      kind_(kind),
+      solver_(m),
+      nv_(m.nv),
+      timestep_(m.opt.timestep) {
   if (params_.joints.size() != groups().size()) {
     throw sim::InvalidArgument("joint controller: parameters for " +
                                std::to_string(params_.joints.size()) + " joints, model has " +
@@ -99,8 +106,8 @@ JointController::JointController(const mjModel& m, const models::Rig& rig, Contr
   params_.validate(m.opt.timestep);
   const auto nv = idx(m.nv);
   actuated_.assign(nv, 0);
-  for (auto* v : {&state_.tau_prev, &state_.tau, &tau_max_, &rate_, &lo_, &hi_, &qacc_des_, &qacc_pred_,
-                  &error_dof_, &vel_dof_, &kp_, &kd_, &zero_})
+  for (auto* v : {&state_.tau_prev, &state_.tau, &tau_max_, &rate_, &lo_, &hi_, &qacc_des_,
+                  &qacc_pred_, &error_dof_, &vel_dof_, &kp_, &kd_, &zero_})
     v->assign(nv, 0.0);
   for (const JointGroup& g : groups())
     for (int k = 0; k < g.dof_count; ++k) actuated_[idx(g.dof_begin + k)] = 1;
@@ -136,7 +143,8 @@ void JointController::refresh_limits(double timestep) {
   }
 }
 
-double orientation_error(const mjModel& m, const mjData& d, const JointGroup& group, const JointTarget& target) {
+double orientation_error(const mjModel& m, const mjData& d, const JointGroup& group,
+                         const JointTarget& target) {
   const Quaterniond q_c = sim::relative_orientation(m, d, group.body);
   return rotation_angle(q_c.conjugate() * target.orientation);
 }
@@ -163,7 +171,8 @@ void JointController::desired_motion(const mjModel& m, const mjData& d, const Co
     Eigen::Matrix<double, 3, 2> A = Eigen::Matrix<double, 3, 2>::Zero();
     for (int k = 0; k < g.dof_count; ++k) {
       const int j = m.dof_jntid[g.dof_begin + k];
-      A.col(k) = R_WB.transpose() * Vector3d(d.xaxis[3 * j], d.xaxis[3 * j + 1], d.xaxis[3 * j + 2]);
+      A.col(k) =
+          R_WB.transpose() * Vector3d(d.xaxis[3 * j], d.xaxis[3 * j + 1], d.xaxis[3 * j + 2]);
     }
     if (g.dof_count == 1) {
       error_dof_[idx(g.dof_begin)] = A.col(0).dot(e_B);
@@ -196,7 +205,8 @@ void JointController::update_pd_gains(const mjModel& m, const mjData& d, const i
   }
 }
 
-void JointController::reset(const mjModel& m, mjData& d, ControlFrame* frame, const std::vector<int>& support_bodies) {
+void JointController::reset(const mjModel& m, mjData& d, ControlFrame* frame,
+                            const std::vector<int>& support_bodies) {
   const std::vector<JointGroup>& gs = groups();
   for (std::size_t gi = 0; gi < gs.size(); ++gi) {
     frame->set_target(static_cast<int>(gi), sim::relative_orientation(m, d, gs[gi].body), d.time);
@@ -258,14 +268,17 @@ JointControlStatus JointController::compute(const mjModel& m, mjData& d, const C
   } else {
     for (int i = 0; i < nv_; ++i) {
       const auto k = idx(i);
-      tau[k] = actuated_[k] ? std::clamp(kp_[k] * error_dof_[k] - kd_[k] * d.qvel[i], lo_[k], hi_[k]) : 0.0;
+      tau[k] = actuated_[k]
+                   ? std::clamp(kp_[k] * error_dof_[k] - kd_[k] * d.qvel[i], lo_[k], hi_[k])
+                   : 0.0;
     }
   }
   for (int i = 0; i < nv_; ++i) {
     const auto k = idx(i);
     torque[i] = tau[k];
     if (!actuated_[k]) continue;
-    if (tau_max_[k] > 0) status.max_torque_ratio = std::max(status.max_torque_ratio, std::abs(tau[k]) / tau_max_[k]);
+    if (tau_max_[k] > 0)
+      status.max_torque_ratio = std::max(status.max_torque_ratio, std::abs(tau[k]) / tau_max_[k]);
     if (tau[k] <= lo_[k] || tau[k] >= hi_[k]) ++status.saturated_dofs;
   }
   return status;

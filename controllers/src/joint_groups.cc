@@ -41,13 +41,15 @@ Quaterniond orientation_from_angles(const JointGroup& g, const Vector3d& angles)
   }
   Quaterniond q = Quaterniond::Identity();
   // MuJoCo composes a body's hinges in model order, each about its local axis.
-  for (int k = 0; k < g.dof_count; ++k) q = q * axis_angle(angles[k], g.axes_B[static_cast<std::size_t>(k)]);
+  for (int k = 0; k < g.dof_count; ++k)
+    q = q * axis_angle(angles[k], g.axes_B[static_cast<std::size_t>(k)]);
   return q.normalized();
 }
 
 Vector3d hinge_angles(const mjModel& m, const JointGroup& g, const double* qpos) {
   Vector3d angles = Vector3d::Zero();
-  for (int k = 0; k < g.dof_count; ++k) angles[k] = qpos[m.jnt_qposadr[m.dof_jntid[g.dof_begin + k]]];
+  for (int k = 0; k < g.dof_count; ++k)
+    angles[k] = qpos[m.jnt_qposadr[m.dof_jntid[g.dof_begin + k]]];
   return angles;
 }
 

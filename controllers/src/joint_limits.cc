@@ -91,11 +91,13 @@ int SwingTwistLimiter::compute(const mjModel& m, const mjData& d, mjtNum* qfrc) 
     const double internal_speed = g.ball_signs[2] * omega_B.z();
     if (over_internal > 0) {
       out = true;
-      const double push = std::max(0.0, twist_stiffness * over_internal + twist_damping * internal_speed);
+      const double push =
+          std::max(0.0, twist_stiffness * over_internal + twist_damping * internal_speed);
       torque_B.z() -= g.ball_signs[2] * push;
     } else if (over_external > 0) {
       out = true;
-      const double push = std::max(0.0, twist_stiffness * over_external - twist_damping * internal_speed);
+      const double push =
+          std::max(0.0, twist_stiffness * over_external - twist_damping * internal_speed);
       torque_B.z() += g.ball_signs[2] * push;
     }
     torque_B += R_PB.transpose() * torque_P;

@@ -21,7 +21,8 @@ inline std::string number_text(double v) {
 }
 
 /// Throws sim::InvalidArgument "<where>: <rule>, got <got>".
-[[noreturn]] inline void fail(const std::string& where, const std::string& rule, const std::string& got) {
+[[noreturn]] inline void fail(const std::string& where, const std::string& rule,
+                              const std::string& got) {
   throw sim::InvalidArgument(where + ": " + rule + ", got " + got);
 }
 
@@ -46,13 +47,16 @@ inline bool boolean(const nlohmann::json& j, const std::string& where) {
 inline std::vector<double> numbers(const nlohmann::json& j, const std::string& where) {
   if (!j.is_array()) fail(where, "must be an array of numbers", j.dump());
   std::vector<double> out;
-  for (std::size_t i = 0; i < j.size(); ++i) out.push_back(read_number(j[i], where + "[" + std::to_string(i) + "]"));
+  for (std::size_t i = 0; i < j.size(); ++i)
+    out.push_back(read_number(j[i], where + "[" + std::to_string(i) + "]"));
   return out;
 }
 
 // Reads an object's keys with one handler per key; unknown keys are errors.
-inline void read_object(const nlohmann::json& j, const std::string& where,
-                 const std::map<std::string, std::function<void(const nlohmann::json&, const std::string&)>>& keys) {
+inline void read_object(
+    const nlohmann::json& j, const std::string& where,
+    const std::map<std::string, std::function<void(const nlohmann::json&, const std::string&)>>&
+        keys) {
   if (!j.is_object()) fail(where, "must be an object", j.dump());
   for (auto it = j.begin(); it != j.end(); ++it) {
     const auto k = keys.find(it.key());

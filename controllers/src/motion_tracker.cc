@@ -32,24 +32,27 @@ void bracket(const std::vector<double>& times, double t, std::size_t* f0, double
   *alpha = (t - times[*f0]) / (times[*f0 + 1] - times[*f0]);
 }
 
-Eigen::Quaterniond quat_at(const double* q) { return Eigen::Quaterniond(q[0], q[1], q[2], q[3]).normalized(); }
+Eigen::Quaterniond quat_at(const double* q) {
+  return Eigen::Quaterniond(q[0], q[1], q[2], q[3]).normalized();
+}
 
 }  // namespace
 
-TrackedMotion make_tracked_motion(const mjModel& m, const models::Rig& rig, const std::vector<double>& times_s,
-                                  const Eigen::MatrixXd& qpos) {
+TrackedMotion make_tracked_motion(const mjModel& m, const models::Rig& rig,
+                                  const std::vector<double>& times_s, const Eigen::MatrixXd& qpos) {
   if (times_s.size() < 2 || static_cast<Eigen::Index>(times_s.size()) != qpos.rows()) {
     throw sim::InvalidArgument("tracked motion: needs at least 2 frames with a time each, got " +
-                               std::to_string(times_s.size()) + " times for " + std::to_string(qpos.rows()) + " frames");
+                               std::to_string(times_s.size()) + " times for " +
+                               std::to_string(qpos.rows()) + " frames");
   }
   if (qpos.cols() != m.nq) {
-    throw sim::InvalidArgument("tracked motion: frames have " + std::to_string(qpos.cols()) + " qpos values, the model " +
-                               std::to_string(m.nq));
+    throw sim::InvalidArgument("tracked motion: frames have " + std::to_string(qpos.cols()) +
+                               " qpos values, the model " + std::to_string(m.nq));
   }
   for (std::size_t f = 1; f < times_s.size(); ++f) {
     if (!(times_s[f] > times_s[f - 1])) {
-      throw sim::InvalidArgument("tracked motion: frame " + std::to_string(f) + " time " + std::to_string(times_s[f]) +
-                                 " s is not after the previous one");
+      throw sim::InvalidArgument("tracked motion: frame " + std::to_string(f) + " time " +
+                                 std::to_string(times_s[f]) + " s is not after the previous one");
     }
   }
   TrackedMotion motion;
@@ -62,7 +65,8 @@ TrackedMotion make_tracked_motion(const mjModel& m, const models::Rig& rig, cons
     foot_body[s] = rig.leg(s).foot;
     const int toes = rig.leg(s).toes;
     for (int g = 0; g < m.ngeom; ++g) {
-      if ((m.geom_bodyid[g] == foot_body[s] || m.geom_bodyid[g] == toes) && m.geom_type[g] == mjGEOM_BOX) {
+      if ((m.geom_bodyid[g] == foot_body[s] || m.geom_bodyid[g] == toes) &&
+          m.geom_type[g] == mjGEOM_BOX) {
         sole_geoms[s].push_back(g);
       }
     }
@@ -75,8 +79,8 @@ TrackedMotion make_tracked_motion(const mjModel& m, const models::Rig& rig, cons
       // The box's lowest corner: centre minus the half sizes along its axes' vertical parts.
       const mjtNum* R = d.geom_xmat + 9 * g;
       const mjtNum* size = m.geom_size + 3 * g;
-      lowest = std::min(lowest, d.geom_xpos[3 * g + 2] - std::abs(R[6]) * size[0] - std::abs(R[7]) * size[1] -
-                                    std::abs(R[8]) * size[2]);
+      lowest = std::min(lowest, d.geom_xpos[3 * g + 2] - std::abs(R[6]) * size[0] -
+                                    std::abs(R[7]) * size[1] - std::abs(R[8]) * size[2]);
     }
     return lowest;
   };
@@ -96,10 +100,12 @@ TrackedMotion make_tracked_motion(const mjModel& m, const models::Rig& rig, cons
     for (int k = 0; k < m.nq; ++k) d.qpos[k] = motion.qpos(static_cast<Eigen::Index>(f), k);
     mj_kinematics(&m, &d);
     mj_comPos(&m, &d);
-    motion.com_W[f] = Eigen::Vector3d(d.subtree_com[3], d.subtree_com[4], d.subtree_com[5]);  // body 1: the root's tree
+    motion.com_W[f] = Eigen::Vector3d(d.subtree_com[3], d.subtree_com[4],
+                                      d.subtree_com[5]);  // body 1: the root's tree
     for (int s = 0; s < 2; ++s) {
       lowest[f][static_cast<std::size_t>(s)] = lowest_sole(s);
-      motion.ankle_W[f][static_cast<std::size_t>(s)] = Eigen::Vector2d(d.xpos[3 * foot_body[s]], d.xpos[3 * foot_body[s] + 1]);
+      motion.ankle_W[f][static_cast<std::size_t>(s)] =
+          Eigen::Vector2d(d.xpos[3 * foot_body[s]], d.xpos[3 * foot_body[s] + 1]);
     }
   }
   // Velocities over +-kVelocityWindow_s: captured and retargeted frames jitter by millimetres
@@ -111,10 +117,13 @@ TrackedMotion make_tracked_motion(const mjModel& m, const models::Rig& rig, cons
     const std::size_t a = motion.frame_at(times_s[f] - TrackedMotion::kVelocityWindow_s);
     const std::size_t b = motion.frame_at(times_s[f] + TrackedMotion::kVelocityWindow_s);
     const double span = b > a ? times_s[b] - times_s[a] : 1.0;
-    motion.com_velocity_W[f] = b > a ? Eigen::Vector3d((motion.com_W[b] - motion.com_W[a]) / span) : Eigen::Vector3d::Zero();
+    motion.com_velocity_W[f] = b > a ? Eigen::Vector3d((motion.com_W[b] - motion.com_W[a]) / span)
+                                     : Eigen::Vector3d::Zero();
     for (std::size_t s = 0; s < 2; ++s) {
-      const double speed = b > a ? (motion.ankle_W[b][s] - motion.ankle_W[a][s]).norm() / span : 0.0;
-      motion.stance[f][s] = lowest[f][s] < TrackedMotion::kStanceHeight_m && speed < TrackedMotion::kStanceSpeed_m_s;
+      const double speed =
+          b > a ? (motion.ankle_W[b][s] - motion.ankle_W[a][s]).norm() / span : 0.0;
+      motion.stance[f][s] =
+          lowest[f][s] < TrackedMotion::kStanceHeight_m && speed < TrackedMotion::kStanceSpeed_m_s;
     }
   }
   return motion;
@@ -135,10 +144,14 @@ void motion_pose_at(const mjModel& m, const TrackedMotion& motion, double t_s, d
   const Eigen::Index r0 = static_cast<Eigen::Index>(f0), r1 = r0 + 1;
   for (int j = 0; j < m.njnt; ++j) {
     const int adr = m.jnt_qposadr[j];
-    const auto lerp = [&](int k) { qpos[k] = (1 - a) * motion.qpos(r0, k) + a * motion.qpos(r1, k); };
+    const auto lerp = [&](int k) {
+      qpos[k] = (1 - a) * motion.qpos(r0, k) + a * motion.qpos(r1, k);
+    };
     const auto slerp = [&](int k) {
-      const double q0[4] = {motion.qpos(r0, k), motion.qpos(r0, k + 1), motion.qpos(r0, k + 2), motion.qpos(r0, k + 3)};
-      const double q1[4] = {motion.qpos(r1, k), motion.qpos(r1, k + 1), motion.qpos(r1, k + 2), motion.qpos(r1, k + 3)};
+      const double q0[4] = {motion.qpos(r0, k), motion.qpos(r0, k + 1), motion.qpos(r0, k + 2),
+                            motion.qpos(r0, k + 3)};
+      const double q1[4] = {motion.qpos(r1, k), motion.qpos(r1, k + 1), motion.qpos(r1, k + 2),
+                            motion.qpos(r1, k + 3)};
       const Eigen::Quaterniond q = quat_at(q0).slerp(a, quat_at(q1));
       qpos[k] = q.w();
       qpos[k + 1] = q.x();
@@ -161,10 +174,13 @@ void motion_pose_at(const mjModel& m, const TrackedMotion& motion, double t_s, d
 
 void MotionTrackerParams::validate() const {
   const auto check = [](bool ok, const char* field, double value) {
-    if (!ok) throw sim::InvalidArgument(std::string("tracker ") + field + ": out of range, got " + std::to_string(value));
+    if (!ok)
+      throw sim::InvalidArgument(std::string("tracker ") + field + ": out of range, got " +
+                                 std::to_string(value));
   };
   check(lookahead_s > 0 && lookahead_s <= 1, "lookahead_s (0, 1] s", lookahead_s);
-  check(ankle_cop_margin >= 0 && ankle_cop_margin <= 1, "ankle_cop_margin [0, 1]", ankle_cop_margin);
+  check(ankle_cop_margin >= 0 && ankle_cop_margin <= 1, "ankle_cop_margin [0, 1]",
+        ankle_cop_margin);
   for (const auto& [name, v] : {std::pair<const char*, double>{"sagittal_cd", sagittal_cd},
                                 {"sagittal_cv", sagittal_cv},
                                 {"frontal_cd", frontal_cd},
@@ -182,14 +198,16 @@ MotionTracker::MotionTracker(const mjModel& m, const models::Rig& rig, const Tra
   rig.require_legs("motion tracker");
   for (int s = 0; s < 2; ++s) {
     if (!rig.groups()[static_cast<std::size_t>(rig.leg(s).hip)].ball) {
-      throw models::RigError(std::string("motion tracker: the model needs a ball hip") + models::kSideSuffix[s]);
+      throw models::RigError(std::string("motion tracker: the model needs a ball hip") +
+                             models::kSideSuffix[s]);
     }
   }
   weight_ = rig.mass_kg() * -m.opt.gravity[2];
   contacts_.reserve(64);
 }
 
-Eigen::Quaterniond MotionTracker::group_orientation(const mjModel& m, const JointGroup& g, const double* qpos) const {
+Eigen::Quaterniond MotionTracker::group_orientation(const mjModel& m, const JointGroup& g,
+                                                    const double* qpos) const {
   if (g.ball) return quat_at(qpos + m.jnt_qposadr[m.dof_jntid[g.dof_begin]]);
   return orientation_from_angles(g, hinge_angles(m, g, qpos));
 }
@@ -227,10 +245,10 @@ void MotionTracker::drive(const ControlInput& in, ControlFrame* frame) {
     sim::floor_contacts(m, d, rig_->floor_geom(), &contacts_);
     for (int s = 0; s < 2; ++s) {
       const models::RigLeg& leg = rig_->leg(s);
-      const double load =
-          std::clamp(in.last_report.weld[static_cast<std::size_t>(s)].ground_force_W.z(), 0.0, 1.5 * weight_);
-      limit_ankle_to_contacts(frame, m, d, groups[static_cast<std::size_t>(leg.ankle)], leg.foot, leg.toes, contacts_,
-                              load, params_.ankle_cop_margin);
+      const double load = std::clamp(
+          in.last_report.weld[static_cast<std::size_t>(s)].ground_force_W.z(), 0.0, 1.5 * weight_);
+      limit_ankle_to_contacts(frame, m, d, groups[static_cast<std::size_t>(leg.ankle)], leg.foot,
+                              leg.toes, contacts_, load, params_.ankle_cop_margin);
     }
   }
   if (!params_.balance) return;
@@ -243,7 +261,8 @@ void MotionTracker::drive(const ControlInput& in, ControlFrame* frame) {
     if (!on[static_cast<std::size_t>(s)]) continue;
     const models::RigLeg& leg = rig_->leg(s);
     const Eigen::Quaterniond thigh = quat_at(d.xquat + 4 * leg.thigh);
-    const Eigen::Quaterniond hip = quat_at(m.body_quat + 4 * leg.thigh).conjugate() * pelvis_wanted.conjugate() * thigh;
+    const Eigen::Quaterniond hip =
+        quat_at(m.body_quat + 4 * leg.thigh).conjugate() * pelvis_wanted.conjugate() * thigh;
     frame->set_target(leg.hip, hip.normalized(), due);
     if (foot_touches_floor(m, d, *rig_, s)) {
       // As the walker's stance hip (gait_controller.cc): the pelvis's world angular velocity
@@ -255,8 +274,10 @@ void MotionTracker::drive(const ControlInput& in, ControlFrame* frame) {
       // in 1 s on the body's own walk). Only with the foot on the floor: a thigh in the
       // air turns with the hip instead, and feeding its rotation forward would spin it up.
       const Eigen::Quaterniond pelvis = quat_at(d.xquat + 4 * rig_->pelvis());
-      const Eigen::Vector3d w_wanted = rotation_vector(pelvis_wanted * pelvis.conjugate()) / params_.lookahead_s;
-      const Eigen::Vector3d w_thigh(d.cvel[6 * leg.thigh], d.cvel[6 * leg.thigh + 1], d.cvel[6 * leg.thigh + 2]);
+      const Eigen::Vector3d w_wanted =
+          rotation_vector(pelvis_wanted * pelvis.conjugate()) / params_.lookahead_s;
+      const Eigen::Vector3d w_thigh(d.cvel[6 * leg.thigh], d.cvel[6 * leg.thigh + 1],
+                                    d.cvel[6 * leg.thigh + 2]);
       frame->set_velocity(leg.hip, thigh.conjugate() * (w_thigh - w_wanted));
     }
   }
@@ -287,7 +308,8 @@ void MotionTracker::drive(const ControlInput& in, ControlFrame* frame) {
     const double lean = -(params_.ankle_cd * dd.dot(along) + params_.ankle_cv * dv.dot(along));
     for (int s = 0; s < 2; ++s) {
       const int ankle_group = rig_->leg(s).ankle;
-      Eigen::Vector3d angles = hinge_angles(m, groups[static_cast<std::size_t>(ankle_group)], pose_.data());
+      Eigen::Vector3d angles =
+          hinge_angles(m, groups[static_cast<std::size_t>(ankle_group)], pose_.data());
       angles[0] += lean;  // dorsiflexion leans the shank forward
       frame->set_joint_angles(ankle_group, angles, due);
     }

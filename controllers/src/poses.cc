@@ -5,15 +5,14 @@
 
 #include "biodyn/controllers/foot_contact.h"
 #include "biodyn/sim/errors.h"
-#include "biodyn/sim/units.h"
 #include "biodyn/sim/queries.h"
+#include "biodyn/sim/units.h"
 
 namespace biodyn::controllers {
 namespace {
 
 using Eigen::Vector2d;
 using Eigen::Vector3d;
-
 
 // Quiet standing: knees slightly unlocked (a straight knee sits on its limit), the shank and
 // thigh angles split so the trunk stays upright.
@@ -122,7 +121,8 @@ void write_pose_angles(const mjModel& m, mjData& d, const std::vector<JointGroup
       mjtNum* qpos = d.qpos + m.jnt_qposadr[first_joint];
       qpos[0] = q.w(), qpos[1] = q.x(), qpos[2] = q.y(), qpos[3] = q.z();
     } else {
-      for (int k = 0; k < g.dof_count; ++k) d.qpos[m.jnt_qposadr[m.dof_jntid[g.dof_begin + k]]] = angles[k];
+      for (int k = 0; k < g.dof_count; ++k)
+        d.qpos[m.jnt_qposadr[m.dof_jntid[g.dof_begin + k]]] = angles[k];
     }
   }
 }
@@ -151,12 +151,13 @@ double place_in_pose(const mjModel& m, mjData& d, const models::Rig& rig, const 
   mjtNum* root = d.qpos + m.jnt_qposadr[rig.root_joint()];
   const double x0 = root[0], y0 = root[1];
   Vector3d point_B[2];
-  for (int s = 0; s < 2; ++s) point_B[s] = balance_point_B(rig.leg(s).sole, balance.support_point_fraction);
+  for (int s = 0; s < 2; ++s)
+    point_B[s] = balance_point_B(rig.leg(s).sole, balance.support_point_fraction);
   // Rest height of the soles (the model's own standing state).
   mju_copy(d.qpos, m.qpos0, m.nq);
   mj_kinematics(&m, &d);
-  const double sole_z = std::min(sole_point_W(d, foot[0], point_B[0]).z(),
-                                 sole_point_W(d, foot[1], point_B[1]).z());
+  const double sole_z =
+      std::min(sole_point_W(d, foot[0], point_B[0]).z(), sole_point_W(d, foot[1], point_B[1]).z());
   const int stance_foot = pose.stance[0] ? foot[0] : foot[1];
   // Feet that carry the body (both if the pose names none).
   const bool carries[2] = {pose.stance[0] || !pose.stance[1], pose.stance[1] || !pose.stance[0]};
@@ -193,7 +194,8 @@ double place_in_pose(const mjModel& m, mjData& d, const models::Rig& rig, const 
   double t0 = 0, f0 = place(t0);
   double t1 = -f0 / 1.0, f1 = place(t1);
   for (int it = 0; it < 8 && std::abs(f1) > 1e-4 && std::abs(f1 - f0) > 1e-12; ++it) {
-    const double t2 = std::clamp(t1 - f1 * (t1 - t0) / (f1 - f0), -balance.max_tilt_rad, balance.max_tilt_rad);
+    const double t2 =
+        std::clamp(t1 - f1 * (t1 - t0) / (f1 - f0), -balance.max_tilt_rad, balance.max_tilt_rad);
     t0 = t1, f0 = f1;
     t1 = t2, f1 = place(t1);
   }
@@ -208,10 +210,13 @@ void BalanceParams::validate() const {
   };
   if (!(proportional >= 0)) fail("proportional", "must be >= 0", proportional);
   if (!(integral_per_s >= 0)) fail("integral_per_s", "must be >= 0", integral_per_s);
-  if (!(max_tilt_rad > 0 && max_tilt_rad < 1)) fail("max_tilt_rad", "must be in (0, 1) rad", max_tilt_rad);
+  if (!(max_tilt_rad > 0 && max_tilt_rad < 1))
+    fail("max_tilt_rad", "must be in (0, 1) rad", max_tilt_rad);
   if (!(hip_gain_rad_per_m >= 0)) fail("hip_gain_rad_per_m", "must be >= 0", hip_gain_rad_per_m);
-  if (!(hip_threshold_fraction >= 0)) fail("hip_threshold_fraction", "must be >= 0", hip_threshold_fraction);
-  if (!(max_hip_rad >= 0 && max_hip_rad < 1.5)) fail("max_hip_rad", "must be in [0, 1.5) rad", max_hip_rad);
+  if (!(hip_threshold_fraction >= 0))
+    fail("hip_threshold_fraction", "must be >= 0", hip_threshold_fraction);
+  if (!(max_hip_rad >= 0 && max_hip_rad < 1.5))
+    fail("max_hip_rad", "must be in [0, 1.5) rad", max_hip_rad);
   if (!(support_point_fraction >= 0 && support_point_fraction <= 1))
     fail("support_point_fraction", "must be in [0, 1] (heel to toe tip)", support_point_fraction);
 }
@@ -221,7 +226,8 @@ StandingBalance::StandingBalance(const mjModel& m, const models::Rig& rig, Balan
   params_.validate();
   rig.require_legs("standing balance");
   pelvis_ = rig.pelvis();
-  leg_length_ = m.qpos0[m.jnt_qposadr[rig.root_joint()] + 2];  // pelvis (hip-centre) height when standing
+  leg_length_ =
+      m.qpos0[m.jnt_qposadr[rig.root_joint()] + 2];  // pelvis (hip-centre) height when standing
   for (int s = 0; s < 2; ++s) {
     foot_[s] = rig.leg(s).foot;
     const models::Sole& sole = rig.leg(s).sole;
@@ -237,7 +243,8 @@ void StandingBalance::set_params(const BalanceParams& params) {
 
 void StandingBalance::preset_sagittal_tilt(double tilt_rad) {
   state_.integral.setZero();
-  if (params_.integral_per_s > 0) state_.integral.x() = -tilt_rad * leg_length_ / params_.integral_per_s;
+  if (params_.integral_per_s > 0)
+    state_.integral.x() = -tilt_rad * leg_length_ / params_.integral_per_s;
   state_.last_update_s = std::numeric_limits<double>::quiet_NaN();
 }
 
@@ -255,7 +262,7 @@ BalanceOffsets StandingBalance::update(const mjModel& m, const mjData& d, Suppor
   for (int s = 0; s < 2; ++s) feet[s] = sole_point_W(d, foot_[s], support_point_B_[s]).head<2>();
   Vector2d& centre_ = state_.centre;
   Vector2d& error_ = state_.error;
-  centre_ = support == Support::kBoth ? Vector2d(0.5 * (feet[0] + feet[1]))
+  centre_ = support == Support::kBoth   ? Vector2d(0.5 * (feet[0] + feet[1]))
             : support == Support::kLeft ? feet[0]
                                         : feet[1];
   // Capture point xi = c + v / omega0 (Pratt et al. 2006).
@@ -283,7 +290,8 @@ BalanceOffsets StandingBalance::update(const mjModel& m, const mjData& d, Suppor
   out.sagittal_tilt = std::clamp(tilt.x(), -params_.max_tilt_rad, params_.max_tilt_rad);
   out.frontal_tilt = std::clamp(tilt.y(), -params_.max_tilt_rad, params_.max_tilt_rad);
   const double excess = error_.x() - params_.hip_threshold_fraction * foot_half_length_;
-  if (excess > 0) out.hip_flexion = std::min(params_.hip_gain_rad_per_m * excess, params_.max_hip_rad);
+  if (excess > 0)
+    out.hip_flexion = std::min(params_.hip_gain_rad_per_m * excess, params_.max_hip_rad);
   return out;
 }
 

@@ -14,7 +14,8 @@ constexpr double kUnmetTiltToHip = 2.0;
 
 }  // namespace
 
-StandingController::StandingController(const mjModel& m, const models::Rig& rig, BalanceParams balance)
+StandingController::StandingController(const mjModel& m, const models::Rig& rig,
+                                       BalanceParams balance)
     : rig_(&rig), balance_(m, rig, balance) {
   state_.base_angles.assign(rig.groups().size(), Eigen::Vector3d::Zero());
   for (int s = 0; s < 2; ++s) {
@@ -73,8 +74,8 @@ void StandingController::apply_targets(ControlFrame* frame) const {
     const Eigen::Vector3d& base = state_.base_angles[static_cast<std::size_t>(g)];
     Eigen::Vector3d wanted = base;
     wanted[0] += offsets.sagittal_tilt;
-    const double reachable =
-        clamp_to_range(gs[static_cast<std::size_t>(g)], wanted, ControlFrame::kTargetLimitMargin_rad)[0];
+    const double reachable = clamp_to_range(gs[static_cast<std::size_t>(g)], wanted,
+                                            ControlFrame::kTargetLimitMargin_rad)[0];
     applied_tilt[s] = reachable - base[0];
     unmet_tilt[s] = wanted[0] - reachable;
   }

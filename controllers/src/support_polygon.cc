@@ -60,17 +60,20 @@ double distance_outside(const std::vector<Vector2d>& polygon, const Vector2d& p)
   return inside ? 0.0 : best;
 }
 
-void contact_support_polygon(const std::vector<sim::FloorContact>& contacts, const int* bodies, int body_count,
-                             std::vector<Vector2d>* points, std::vector<Vector2d>* hull) {
+void contact_support_polygon(const std::vector<sim::FloorContact>& contacts, const int* bodies,
+                             int body_count, std::vector<Vector2d>* points,
+                             std::vector<Vector2d>* hull) {
   points->clear();
   for (const sim::FloorContact& c : contacts) {
     if (c.distance > 0) continue;
-    if (std::find(bodies, bodies + body_count, c.body) != bodies + body_count) points->push_back(c.position_W.head<2>());
+    if (std::find(bodies, bodies + body_count, c.body) != bodies + body_count)
+      points->push_back(c.position_W.head<2>());
   }
   convex_hull(points, hull);
 }
 
-void tolerance_polygon(const std::vector<Vector2d>& support, double fraction, std::vector<Vector2d>* tolerance) {
+void tolerance_polygon(const std::vector<Vector2d>& support, double fraction,
+                       std::vector<Vector2d>* tolerance) {
   tolerance->clear();
   if (support.empty()) return;
   Vector2d centre = Vector2d::Zero();

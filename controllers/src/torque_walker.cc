@@ -6,8 +6,8 @@
 #include <utility>
 
 #include "biodyn/sim/errors.h"
-#include "json_fields.h"
 #include "biodyn/sim/queries.h"
+#include "json_fields.h"
 
 namespace biodyn::controllers {
 namespace {
@@ -32,18 +32,37 @@ struct NamedField {
   const char* name;
   double TorqueWalkerParams::*member;
 };
-#define BIODYN_FIELD(n) NamedField{#n, &TorqueWalkerParams::n}
-constexpr NamedField kFields[] = {
-    BIODYN_FIELD(sagittal_cd),         BIODYN_FIELD(sagittal_cv),          BIODYN_FIELD(frontal_cd),
-    BIODYN_FIELD(frontal_cv),          BIODYN_FIELD(swing_hip_out_rad),
-    BIODYN_FIELD(toe_up_rad),          BIODYN_FIELD(pelvis_pitch_rad),
-    BIODYN_FIELD(start_pitch_rad),     BIODYN_FIELD(start_time_s),         BIODYN_FIELD(torso_kp),
-    BIODYN_FIELD(hip_kp),              BIODYN_FIELD(knee_kp),              BIODYN_FIELD(ankle_kp),
-    BIODYN_FIELD(toe_kp),              BIODYN_FIELD(trunk_kp),             BIODYN_FIELD(arm_kp),
-    BIODYN_FIELD(distal_kp),           BIODYN_FIELD(damping_time_s),       BIODYN_FIELD(reference_speed_m_s),
-    BIODYN_FIELD(speed_lean_rad_per_m_s), BIODYN_FIELD(speed_integral_rad_per_m), BIODYN_FIELD(speed_lean_limit_rad),
-    BIODYN_FIELD(lateral_integral_rad_per_m), BIODYN_FIELD(step_clearance_m), BIODYN_FIELD(placement_gain), BIODYN_FIELD(placed_wait_s),
-    BIODYN_FIELD(stop_brake_rad_per_m_s), BIODYN_FIELD(stop_speed_m_s), BIODYN_FIELD(tolerance_fraction)};
+#define BIODYN_FIELD(n) \
+  NamedField { #n, &TorqueWalkerParams::n }
+constexpr NamedField kFields[] = {BIODYN_FIELD(sagittal_cd),
+                                  BIODYN_FIELD(sagittal_cv),
+                                  BIODYN_FIELD(frontal_cd),
+                                  BIODYN_FIELD(frontal_cv),
+                                  BIODYN_FIELD(swing_hip_out_rad),
+                                  BIODYN_FIELD(toe_up_rad),
+                                  BIODYN_FIELD(pelvis_pitch_rad),
+                                  BIODYN_FIELD(start_pitch_rad),
+                                  BIODYN_FIELD(start_time_s),
+                                  BIODYN_FIELD(torso_kp),
+                                  BIODYN_FIELD(hip_kp),
+                                  BIODYN_FIELD(knee_kp),
+                                  BIODYN_FIELD(ankle_kp),
+                                  BIODYN_FIELD(toe_kp),
+                                  BIODYN_FIELD(trunk_kp),
+                                  BIODYN_FIELD(arm_kp),
+                                  BIODYN_FIELD(distal_kp),
+                                  BIODYN_FIELD(damping_time_s),
+                                  BIODYN_FIELD(reference_speed_m_s),
+                                  BIODYN_FIELD(speed_lean_rad_per_m_s),
+                                  BIODYN_FIELD(speed_integral_rad_per_m),
+                                  BIODYN_FIELD(speed_lean_limit_rad),
+                                  BIODYN_FIELD(lateral_integral_rad_per_m),
+                                  BIODYN_FIELD(step_clearance_m),
+                                  BIODYN_FIELD(placement_gain),
+                                  BIODYN_FIELD(placed_wait_s),
+                                  BIODYN_FIELD(stop_brake_rad_per_m_s),
+                                  BIODYN_FIELD(stop_speed_m_s),
+                                  BIODYN_FIELD(tolerance_fraction)};
 #undef BIODYN_FIELD
 
 // A state's numbers by their JSON names.
@@ -51,11 +70,13 @@ struct StateField {
   const char* name;
   double TorqueWalkerPhase::*member;
 };
-#define BIODYN_STATE_FIELD(n) StateField{#n, &TorqueWalkerPhase::n}
-constexpr StateField kStateFields[] = {BIODYN_STATE_FIELD(duration_s),      BIODYN_STATE_FIELD(duration_per_m_s),
-                                       BIODYN_STATE_FIELD(swing_hip_rad),   BIODYN_STATE_FIELD(swing_knee_rad),
-                                       BIODYN_STATE_FIELD(swing_ankle_rad), BIODYN_STATE_FIELD(stance_knee_rad),
-                                       BIODYN_STATE_FIELD(stance_ankle_rad)};
+#define BIODYN_STATE_FIELD(n) \
+  StateField { #n, &TorqueWalkerPhase::n }
+constexpr StateField kStateFields[] = {
+    BIODYN_STATE_FIELD(duration_s),      BIODYN_STATE_FIELD(duration_per_m_s),
+    BIODYN_STATE_FIELD(swing_hip_rad),   BIODYN_STATE_FIELD(swing_knee_rad),
+    BIODYN_STATE_FIELD(swing_ankle_rad), BIODYN_STATE_FIELD(stance_knee_rad),
+    BIODYN_STATE_FIELD(stance_ankle_rad)};
 #undef BIODYN_STATE_FIELD
 
 constexpr std::size_t kMaxStates = 16;
@@ -65,16 +86,21 @@ TorqueWalkerPhase read_state(const nlohmann::json& j, const std::string& where) 
   st.name.clear();
   std::map<std::string, std::function<void(const nlohmann::json&, const std::string&)>> keys;
   for (const StateField& f : kStateFields)
-    keys[f.name] = [&st, f](const nlohmann::json& v, const std::string& w) { st.*(f.member) = json_fields::read_number(v, w); };
+    keys[f.name] = [&st, f](const nlohmann::json& v, const std::string& w) {
+      st.*(f.member) = json_fields::read_number(v, w);
+    };
   keys["name"] = [&st](const nlohmann::json& v, const std::string& w) {
     if (!v.is_string()) json_fields::fail(w, "must be a string", v.dump());
     st.name = v.get<std::string>();
   };
   keys["end"] = [&st](const nlohmann::json& v, const std::string& w) {
-    if (!v.is_string() || (v != "time" && v != "strike")) json_fields::fail(w, "must be \"time\" or \"strike\"", v.dump());
+    if (!v.is_string() || (v != "time" && v != "strike"))
+      json_fields::fail(w, "must be \"time\" or \"strike\"", v.dump());
     st.ends_at_strike = v == "strike";
   };
-  keys["swing_foot_down"] = [&st](const nlohmann::json& v, const std::string& w) { st.swing_foot_down = json_fields::boolean(v, w); };
+  keys["swing_foot_down"] = [&st](const nlohmann::json& v, const std::string& w) {
+    st.swing_foot_down = json_fields::boolean(v, w);
+  };
   json_fields::read_object(j, where, keys);
   return st;
 }
@@ -103,7 +129,8 @@ std::vector<TorqueWalkerPhase> default_torque_walker_phases() {
   return {early, late};
 }
 
-void apply_torque_walker_json(const std::string& json_text, const std::string& source, TorqueWalkerParams* params) {
+void apply_torque_walker_json(const std::string& json_text, const std::string& source,
+                              TorqueWalkerParams* params) {
   nlohmann::json root;
   try {
     root = nlohmann::json::parse(json_text);
@@ -113,13 +140,18 @@ void apply_torque_walker_json(const std::string& json_text, const std::string& s
   TorqueWalkerParams p = *params;
   std::map<std::string, std::function<void(const nlohmann::json&, const std::string&)>> keys;
   for (const NamedField& f : kFields) {
-    keys[f.name] = [&p, f](const nlohmann::json& v, const std::string& w) { p.*(f.member) = json_fields::read_number(v, w); };
+    keys[f.name] = [&p, f](const nlohmann::json& v, const std::string& w) {
+      p.*(f.member) = json_fields::read_number(v, w);
+    };
   }
-  keys["base_polygon_rule"] = [&p](const nlohmann::json& v, const std::string& w) { p.base_polygon_rule = json_fields::boolean(v, w); };
+  keys["base_polygon_rule"] = [&p](const nlohmann::json& v, const std::string& w) {
+    p.base_polygon_rule = json_fields::boolean(v, w);
+  };
   keys["states"] = [&p](const nlohmann::json& v, const std::string& w) {
     if (!v.is_array()) json_fields::fail(w, "must be an array of states", v.dump());
     p.phases.clear();
-    for (std::size_t i = 0; i < v.size(); ++i) p.phases.push_back(read_state(v[i], w + "[" + std::to_string(i) + "]"));
+    for (std::size_t i = 0; i < v.size(); ++i)
+      p.phases.push_back(read_state(v[i], w + "[" + std::to_string(i) + "]"));
   };
   json_fields::read_object(root, source, keys);
   try {
@@ -152,61 +184,80 @@ void TorqueWalkerParams::validate() const {
   const std::string w = "torque walker.";
   if (states.empty()) json_fields::fail(w + "states", "needs at least one state", "none");
   if (states.size() > kMaxStates)
-    json_fields::fail(w + "states", "has at most " + std::to_string(kMaxStates) + " states", std::to_string(states.size()));
+    json_fields::fail(w + "states", "has at most " + std::to_string(kMaxStates) + " states",
+                      std::to_string(states.size()));
   for (std::size_t i = 0; i < states.size(); ++i) {
     const TorqueWalkerPhase& st = states[i];
     const std::string ws = w + "states[" + std::to_string(i) + "]";
     if (st.name.empty()) json_fields::fail(ws + ".name", "must be a non-empty string", "\"\"");
     for (std::size_t k = 0; k < i; ++k)
-      if (states[k].name == st.name) json_fields::fail(ws + ".name", "must differ from the other states' names", "\"" + st.name + "\"");
+      if (states[k].name == st.name)
+        json_fields::fail(ws + ".name", "must differ from the other states' names",
+                          "\"" + st.name + "\"");
     const bool last = i + 1 == states.size();
     if (st.ends_at_strike != last)
-      json_fields::fail(ws + ".end", last ? "the last state of a step must end at the strike" : "only the last state ends at the strike",
+      json_fields::fail(ws + ".end",
+                        last ? "the last state of a step must end at the strike"
+                             : "only the last state ends at the strike",
                         st.ends_at_strike ? "\"strike\"" : "\"time\"");
     if (last && st.swing_foot_down)
-      json_fields::fail(ws + ".swing_foot_down", "the state that ends at the strike must lift the swing foot", "true");
-    check(st.duration_s > 0.05 && st.duration_s <= 2, ws + ".duration_s", "must be in (0.05, 2] s", st.duration_s);
-    check(st.duration_per_m_s >= 0 && st.duration_per_m_s <= 1, ws + ".duration_per_m_s", "must be in [0, 1] s per m/s",
-          st.duration_per_m_s);
+      json_fields::fail(ws + ".swing_foot_down",
+                        "the state that ends at the strike must lift the swing foot", "true");
+    check(st.duration_s > 0.05 && st.duration_s <= 2, ws + ".duration_s", "must be in (0.05, 2] s",
+          st.duration_s);
+    check(st.duration_per_m_s >= 0 && st.duration_per_m_s <= 1, ws + ".duration_per_m_s",
+          "must be in [0, 1] s per m/s", st.duration_per_m_s);
     for (const StateField& f : kStateFields) {
       const std::string n = f.name;
       if (n.size() > 4 && n.compare(n.size() - 4, 4, "_rad") == 0)
-        check(std::abs(st.*(f.member)) <= M_PI, ws + "." + n, "must be within +-pi rad", st.*(f.member));
+        check(std::abs(st.*(f.member)) <= M_PI, ws + "." + n, "must be within +-pi rad",
+              st.*(f.member));
     }
   }
-  check(start_time_s >= 0 && start_time_s <= 10, w + "start_time_s", "must be in [0, 10] s", start_time_s);
-  check(damping_time_s >= 0 && damping_time_s <= 1, w + "damping_time_s", "must be in [0, 1] s", damping_time_s);
+  check(start_time_s >= 0 && start_time_s <= 10, w + "start_time_s", "must be in [0, 10] s",
+        start_time_s);
+  check(damping_time_s >= 0 && damping_time_s <= 1, w + "damping_time_s", "must be in [0, 1] s",
+        damping_time_s);
   const std::pair<const char*, double> angles[] = {{"swing_hip_out_rad", swing_hip_out_rad},
                                                    {"toe_up_rad", toe_up_rad},
                                                    {"pelvis_pitch_rad", pelvis_pitch_rad},
                                                    {"start_pitch_rad", start_pitch_rad}};
-  for (const auto& [name, a] : angles) check(std::abs(a) <= M_PI, w + name, "must be within +-pi rad", a);
+  for (const auto& [name, a] : angles)
+    check(std::abs(a) <= M_PI, w + name, "must be within +-pi rad", a);
   const std::pair<const char*, double> gains[] = {{"torso_kp", torso_kp}, {"hip_kp", hip_kp},
                                                   {"knee_kp", knee_kp},   {"ankle_kp", ankle_kp},
                                                   {"toe_kp", toe_kp},     {"trunk_kp", trunk_kp},
                                                   {"arm_kp", arm_kp},     {"distal_kp", distal_kp}};
-  for (const auto& [name, k] : gains) check(k >= 0 && k <= 1e5, w + name, "must be in [0, 1e5] N m/rad", k);
-  const std::pair<const char*, double> feedback[] = {{"sagittal_cd", sagittal_cd}, {"sagittal_cv", sagittal_cv},
-                                                     {"frontal_cd", frontal_cd},   {"frontal_cv", frontal_cv}};
-  for (const auto& [name, c] : feedback) check(std::abs(c) <= 10, w + name, "must be within +-10", c);
-  check(reference_speed_m_s > 0 && reference_speed_m_s <= 3, w + "reference_speed_m_s", "must be in (0, 3] m/s",
-        reference_speed_m_s);
-  check(std::abs(speed_lean_rad_per_m_s) <= 1, w + "speed_lean_rad_per_m_s", "must be within +-1", speed_lean_rad_per_m_s);
-  check(speed_integral_rad_per_m >= 0 && speed_integral_rad_per_m <= 2, w + "speed_integral_rad_per_m",
-        "must be in [0, 2]", speed_integral_rad_per_m);
-  check(lateral_integral_rad_per_m >= 0 && lateral_integral_rad_per_m <= 2, w + "lateral_integral_rad_per_m",
-        "must be in [0, 2]", lateral_integral_rad_per_m);
-  check(step_clearance_m >= 0 && step_clearance_m <= 0.5, w + "step_clearance_m", "must be in [0, 0.5] m",
-        step_clearance_m);
+  for (const auto& [name, k] : gains)
+    check(k >= 0 && k <= 1e5, w + name, "must be in [0, 1e5] N m/rad", k);
+  const std::pair<const char*, double> feedback[] = {{"sagittal_cd", sagittal_cd},
+                                                     {"sagittal_cv", sagittal_cv},
+                                                     {"frontal_cd", frontal_cd},
+                                                     {"frontal_cv", frontal_cv}};
+  for (const auto& [name, c] : feedback)
+    check(std::abs(c) <= 10, w + name, "must be within +-10", c);
+  check(reference_speed_m_s > 0 && reference_speed_m_s <= 3, w + "reference_speed_m_s",
+        "must be in (0, 3] m/s", reference_speed_m_s);
+  check(std::abs(speed_lean_rad_per_m_s) <= 1, w + "speed_lean_rad_per_m_s", "must be within +-1",
+        speed_lean_rad_per_m_s);
+  check(speed_integral_rad_per_m >= 0 && speed_integral_rad_per_m <= 2,
+        w + "speed_integral_rad_per_m", "must be in [0, 2]", speed_integral_rad_per_m);
+  check(lateral_integral_rad_per_m >= 0 && lateral_integral_rad_per_m <= 2,
+        w + "lateral_integral_rad_per_m", "must be in [0, 2]", lateral_integral_rad_per_m);
+  check(step_clearance_m >= 0 && step_clearance_m <= 0.5, w + "step_clearance_m",
+        "must be in [0, 0.5] m", step_clearance_m);
   check(std::abs(stop_brake_rad_per_m_s) <= 2, w + "stop_brake_rad_per_m_s", "must be within +-2",
         stop_brake_rad_per_m_s);
-  check(stop_speed_m_s > 0 && stop_speed_m_s <= 1, w + "stop_speed_m_s", "must be in (0, 1] m/s", stop_speed_m_s);
-  check(tolerance_fraction > 0 && tolerance_fraction <= 0.5, w + "tolerance_fraction", "must be in (0, 0.5]",
-        tolerance_fraction);
-  check(placement_gain >= 0 && placement_gain <= 10, w + "placement_gain", "must be in [0, 10]", placement_gain);
-  check(placed_wait_s >= 0 && placed_wait_s <= 0.5, w + "placed_wait_s", "must be in [0, 0.5] s", placed_wait_s);
-  check(speed_lean_limit_rad >= 0 && speed_lean_limit_rad <= 0.5, w + "speed_lean_limit_rad", "must be in [0, 0.5] rad",
-        speed_lean_limit_rad);
+  check(stop_speed_m_s > 0 && stop_speed_m_s <= 1, w + "stop_speed_m_s", "must be in (0, 1] m/s",
+        stop_speed_m_s);
+  check(tolerance_fraction > 0 && tolerance_fraction <= 0.5, w + "tolerance_fraction",
+        "must be in (0, 0.5]", tolerance_fraction);
+  check(placement_gain >= 0 && placement_gain <= 10, w + "placement_gain", "must be in [0, 10]",
+        placement_gain);
+  check(placed_wait_s >= 0 && placed_wait_s <= 0.5, w + "placed_wait_s", "must be in [0, 0.5] s",
+        placed_wait_s);
+  check(speed_lean_limit_rad >= 0 && speed_lean_limit_rad <= 0.5, w + "speed_lean_limit_rad",
+        "must be in [0, 0.5] rad", speed_lean_limit_rad);
 }
 
 void TorqueWalker::set_params(const TorqueWalkerParams& params) {
@@ -217,7 +268,8 @@ void TorqueWalker::set_params(const TorqueWalkerParams& params) {
   set_gains();
 }
 
-TorqueWalker::TorqueWalker(const models::Rig& rig, TorqueWalkerParams params) : params_(std::move(params)), rig_(&rig) {
+TorqueWalker::TorqueWalker(const models::Rig& rig, TorqueWalkerParams params)
+    : params_(std::move(params)), rig_(&rig) {
   params_.validate();
   rig.require_legs("torque walker");
   lumbar_ = rig.require_group("lumbar", "torque walker");
@@ -242,16 +294,20 @@ void TorqueWalker::set_gains() {
   for (std::size_t g = 0; g < groups.size(); ++g) {
     const std::string& n = groups[g].name;
     const auto starts = [&](const char* p) { return n.rfind(p, 0) == 0; };
-    if (starts("lumbar") || starts("thorax")) kp_[g] = params_.trunk_kp;
-    else if (starts("shoulder") || starts("clavicle")) kp_[g] = params_.arm_kp;
-    else kp_[g] = params_.distal_kp;
+    if (starts("lumbar") || starts("thorax"))
+      kp_[g] = params_.trunk_kp;
+    else if (starts("shoulder") || starts("clavicle"))
+      kp_[g] = params_.arm_kp;
+    else
+      kp_[g] = params_.distal_kp;
   }
 }
 
 void TorqueWalker::reset(const mjData& d) {
   const double speed = state_.speed_m_s, rate = state_.heading_rate_rad_s;
   std::vector<double> plan = std::move(state_.plan);
-  std::vector<Eigen::Vector2d> support = std::move(state_.support), tolerance = std::move(state_.tolerance);
+  std::vector<Eigen::Vector2d> support = std::move(state_.support),
+                               tolerance = std::move(state_.tolerance);
   state_ = TorqueWalkerState{};
   state_.speed_m_s = speed;  // the command stays
   state_.heading_rate_rad_s = rate;
@@ -268,8 +324,8 @@ void TorqueWalker::reset(const mjData& d) {
   const Vector3d forward = sim::quat_at(d.xquat + 4 * rig_->pelvis()) * Vector3d::UnitX();
   state_.heading.reset(std::atan2(forward.y(), forward.x()), d.time);
   // Ankle height above the floor with the sole flat (the character starts standing).
-  state_.ankle_height_m =
-      std::min(d.xpos[3 * rig_->leg(models::kLeft).foot + 2], d.xpos[3 * rig_->leg(models::kRight).foot + 2]);
+  state_.ankle_height_m = std::min(d.xpos[3 * rig_->leg(models::kLeft).foot + 2],
+                                   d.xpos[3 * rig_->leg(models::kRight).foot + 2]);
 }
 
 void TorqueWalker::request_stop() {
@@ -280,8 +336,8 @@ void TorqueWalker::request_stop() {
 
 void TorqueWalker::validate_plan(const std::vector<double>& lengths_m) {
   for (std::size_t i = 0; i < lengths_m.size(); ++i)
-    check(lengths_m[i] >= 0 && lengths_m[i] <= 1.5, "planned step " + std::to_string(i + 1), "must be in [0, 1.5] m",
-          lengths_m[i]);
+    check(lengths_m[i] >= 0 && lengths_m[i] <= 1.5, "planned step " + std::to_string(i + 1),
+          "must be in [0, 1.5] m", lengths_m[i]);
 }
 
 void TorqueWalker::plan_steps(const std::vector<double>& lengths_m) {
@@ -292,17 +348,19 @@ void TorqueWalker::plan_steps(const std::vector<double>& lengths_m) {
 
 double TorqueWalker::speed_lean_rad() const {
   const TorqueWalkerParams& p = params_;
-  return std::clamp(p.speed_lean_rad_per_m_s * (state_.speed_m_s - p.reference_speed_m_s) + state_.lean_integral,
-                    -p.speed_lean_limit_rad, p.speed_lean_limit_rad);
+  return std::clamp(
+      p.speed_lean_rad_per_m_s * (state_.speed_m_s - p.reference_speed_m_s) + state_.lean_integral,
+      -p.speed_lean_limit_rad, p.speed_lean_limit_rad);
 }
 
 double TorqueWalker::phase_duration_s(int phase) const {
   const TorqueWalkerPhase& ph = params_.phases[static_cast<std::size_t>(phase)];
-  return std::max(ph.duration_s - ph.duration_per_m_s * (state_.speed_m_s - params_.reference_speed_m_s), 0.05);
+  return std::max(
+      ph.duration_s - ph.duration_per_m_s * (state_.speed_m_s - params_.reference_speed_m_s), 0.05);
 }
 
-double TorqueWalker::hinge_pd(ControlFrame* f, const mjModel& m, const mjData& d, int dof, double target, double kp,
-                              double target_rate) const {
+double TorqueWalker::hinge_pd(ControlFrame* f, const mjModel& m, const mjData& d, int dof,
+                              double target, double kp, double target_rate) const {
   const double k = kp * gain_scale_;
   const double tau = k * (target - d.qpos[m.jnt_qposadr[m.dof_jntid[dof]]]) +
                      k * params_.damping_time_s * (target_rate - d.qvel[dof]);
@@ -310,7 +368,8 @@ double TorqueWalker::hinge_pd(ControlFrame* f, const mjModel& m, const mjData& d
   return tau;
 }
 
-void TorqueWalker::hip_torque(ControlFrame* f, const mjData& d, int side, const Vector3d& torque_W) const {
+void TorqueWalker::hip_torque(ControlFrame* f, const mjData& d, int side,
+                              const Vector3d& torque_W) const {
   // Ball-joint DOFs act in the child's (thigh's) frame.
   const models::RigLeg& leg = rig_->leg(side);
   const Vector3d t_B = sim::quat_at(d.xquat + 4 * leg.thigh).conjugate() * torque_W;
@@ -322,7 +381,8 @@ void TorqueWalker::drive(const ControlInput& in, ControlFrame* frame) {
   const mjModel& m = in.m;
   const mjData& d = in.d;
   state_.heading.advance(d.time, state_.heading_rate_rad_s);
-  const sim::CenterOfMass com = sim::center_of_mass(m, d);  // for the speed regulation and placement
+  const sim::CenterOfMass com =
+      sim::center_of_mass(m, d);  // for the speed regulation and placement
   advance_phases(m, d, com);
   const int stance = state_.stance, swing = 1 - stance;
   const TorqueWalkerPhase& ph = params_.phases[static_cast<std::size_t>(state_.phase)];
@@ -333,9 +393,11 @@ void TorqueWalker::drive(const ControlInput& in, ControlFrame* frame) {
   // The balance feedback's inputs (SIMBICON): CoM relative to the stance ankle, and its
   // velocity, in the heading frame.
   const models::RigLeg& stance_leg = rig_->leg(stance);
-  const Vector3d rel = state_.heading.to_heading(Vector3d(com.position_W - sim::vec3_at(d.xpos + 3 * stance_leg.foot)));
+  const Vector3d rel = state_.heading.to_heading(
+      Vector3d(com.position_W - sim::vec3_at(d.xpos + 3 * stance_leg.foot)));
   const Vector3d vel = state_.heading.to_heading(com.velocity_W);
-  if (params_.base_polygon_rule && !state_.stopped && !ph.swing_foot_down && std::isnan(state_.swing_target_m))
+  if (params_.base_polygon_rule && !state_.stopped && !ph.swing_foot_down &&
+      std::isnan(state_.swing_target_m))
     apply_base_polygon_rule(m, d, com.position_W, vel);
   const bool placed = !std::isnan(state_.swing_target_m) && !ph.swing_foot_down;
   LegTriangle ik;
@@ -349,7 +411,8 @@ void TorqueWalker::drive(const ControlInput& in, ControlFrame* frame) {
   // Swing thigh in the heading frame, placed by the balance feedback (SIMBICON), or by the IK.
   const Vector2d pitch_roll = swing_thigh_angles(d, ph, placed, ik, rel, vel);
   const Quaterniond q_heading = state_.heading.rotation();
-  const Quaterniond q_thigh_goal = q_heading * Quaterniond(AngleAxisd(-pitch_roll.x(), Vector3d::UnitY())) *
+  const Quaterniond q_thigh_goal = q_heading *
+                                   Quaterniond(AngleAxisd(-pitch_roll.x(), Vector3d::UnitY())) *
                                    Quaterniond(AngleAxisd(pitch_roll.y(), Vector3d::UnitX()));
   const Vector3d w_pelvis = sim::vec3_at(d.cvel + 6 * rig_->pelvis());
   const Vector3d w_thigh = sim::vec3_at(d.cvel + 6 * rig_->leg(swing).thigh);
@@ -357,19 +420,23 @@ void TorqueWalker::drive(const ControlInput& in, ControlFrame* frame) {
   const double k_hip = p.hip_kp * gain_scale_;
   // A placed step's thigh follows the IK pitch's rate in the world; a free one is damped
   // relative to the pelvis (SIMBICON).
-  const Vector3d w_damped = placed ? Vector3d(w_thigh - q_heading * Vector3d(0, -state_.ik_pitch_rate, 0))
-                                   : Vector3d(w_thigh - w_pelvis);
+  const Vector3d w_damped =
+      placed ? Vector3d(w_thigh - q_heading * Vector3d(0, -state_.ik_pitch_rate, 0))
+             : Vector3d(w_thigh - w_pelvis);
   const Vector3d tau_swing =
-      k_hip * rotation_vector(q_thigh_goal * sim::quat_at(d.xquat + 4 * rig_->leg(swing).thigh).conjugate()) -
+      k_hip * rotation_vector(q_thigh_goal *
+                              sim::quat_at(d.xquat + 4 * rig_->leg(swing).thigh).conjugate()) -
       k_hip * p.damping_time_s * w_damped;
 
   // Pelvis in the world by the virtual torso torque; the stance hip makes it (Coros 2010).
-  const double lean = p.pelvis_pitch_rad + (d.time - state_.start_s < p.start_time_s ? p.start_pitch_rad : 0.0) +
+  const double lean = p.pelvis_pitch_rad +
+                      (d.time - state_.start_s < p.start_time_s ? p.start_pitch_rad : 0.0) +
                       speed_lean_rad();
   const Quaterniond q_pelvis_goal = q_heading * Quaterniond(AngleAxisd(lean, Vector3d::UnitY()));
   const double k_torso = p.torso_kp * gain_scale_;
   const Vector3d tau_torso =
-      k_torso * rotation_vector(q_pelvis_goal * sim::quat_at(d.xquat + 4 * rig_->pelvis()).conjugate()) -
+      k_torso *
+          rotation_vector(q_pelvis_goal * sim::quat_at(d.xquat + 4 * rig_->pelvis()).conjugate()) -
       k_torso * p.damping_time_s * w_pelvis;
   hip_torque(frame, d, swing, tau_swing);
   hip_torque(frame, d, stance, -tau_torso - tau_swing - tau_lumbar);
@@ -387,16 +454,18 @@ void TorqueWalker::advance_phases(const mjModel& m, const mjData& d, const sim::
       // A placed step comes down as soon as its ankle is over the target (a short step would
       // otherwise be overtaken by the hip).
       const Vector2d along = state_.heading.along();
-      const Vector3d delta =
-          sim::vec3_at(d.xpos + 3 * rig_->leg(swing).foot) - sim::vec3_at(d.xpos + 3 * rig_->leg(state_.stance).foot);
-      done = along.x() * delta.x() + along.y() * delta.y() >= state_.swing_target_m - kPlacedLandingReach_m;
+      const Vector3d delta = sim::vec3_at(d.xpos + 3 * rig_->leg(swing).foot) -
+                             sim::vec3_at(d.xpos + 3 * rig_->leg(state_.stance).foot);
+      done = along.x() * delta.x() + along.y() * delta.y() >=
+             state_.swing_target_m - kPlacedLandingReach_m;
     }
     if (done) {
       ++state_.phase;
       state_.phase_start_s = d.time;
     }
   }
-  if (!state_.stopped && params_.phases[static_cast<std::size_t>(state_.phase)].ends_at_strike && struck) {
+  if (!state_.stopped && params_.phases[static_cast<std::size_t>(state_.phase)].ends_at_strike &&
+      struck) {
     on_strike(d, com, swing);
   }
 }
@@ -404,7 +473,8 @@ void TorqueWalker::advance_phases(const mjModel& m, const mjData& d, const sim::
 void TorqueWalker::on_strike(const mjData& d, const sim::CenterOfMass& com, int swing) {
   const TorqueWalkerParams& p = params_;
   TorqueWalkerState& st = state_;
-  const Vector3d delta = sim::vec3_at(d.xpos + 3 * rig_->leg(swing).foot) - sim::vec3_at(d.xpos + 3 * rig_->leg(st.stance).foot);
+  const Vector3d delta = sim::vec3_at(d.xpos + 3 * rig_->leg(swing).foot) -
+                         sim::vec3_at(d.xpos + 3 * rig_->leg(st.stance).foot);
   const double ch = std::cos(st.heading.heading_rad()), sh = std::sin(st.heading.heading_rad());
   // Speed regulation: the step's mean CoM speed along the heading against the command
   // (not during the start from standing, and not before there was a step).
@@ -413,17 +483,21 @@ void TorqueWalker::on_strike(const mjData& d, const sim::CenterOfMass& com, int 
   if (st.strikes > 0 && d.time - st.start_s >= p.start_time_s && std::isnan(st.swing_target_m) &&
       !base_polygon_rule_active()) {
     const double t_step = d.time - st.last_strike.time_s;
-    const double v_step = (ch * (com_now.x() - st.com_at_strike.x()) + sh * (com_now.y() - st.com_at_strike.y())) /
-                          std::max(t_step, 1e-3);
+    const double v_step =
+        (ch * (com_now.x() - st.com_at_strike.x()) + sh * (com_now.y() - st.com_at_strike.y())) /
+        std::max(t_step, 1e-3);
     const double limit = p.speed_lean_limit_rad;
     st.lean_integral =
-        std::clamp(st.lean_integral + p.speed_integral_rad_per_m * (st.speed_m_s - v_step) * t_step, -limit, limit);
-    const double sideways = -sh * (com_now.x() - st.com_at_strike.x()) + ch * (com_now.y() - st.com_at_strike.y());
-    st.roll_integral = std::clamp(st.roll_integral + p.lateral_integral_rad_per_m * sideways, -limit, limit);
+        std::clamp(st.lean_integral + p.speed_integral_rad_per_m * (st.speed_m_s - v_step) * t_step,
+                   -limit, limit);
+    const double sideways =
+        -sh * (com_now.x() - st.com_at_strike.x()) + ch * (com_now.y() - st.com_at_strike.y());
+    st.roll_integral =
+        std::clamp(st.roll_integral + p.lateral_integral_rad_per_m * sideways, -limit, limit);
   }
   st.com_at_strike = com_now;
-  st.last_strike = {d.time, swing, ch * delta.x() + sh * delta.y(), std::abs(-sh * delta.x() + ch * delta.y()),
-                    st.swing_target_m};
+  st.last_strike = {d.time, swing, ch * delta.x() + sh * delta.y(),
+                    std::abs(-sh * delta.x() + ch * delta.y()), st.swing_target_m};
   st.swing_target_m = st.plan_next < static_cast<int>(st.plan.size())
                           ? st.plan[static_cast<std::size_t>(st.plan_next++)]
                           : std::numeric_limits<double>::quiet_NaN();
@@ -461,7 +535,8 @@ Vector3d TorqueWalker::hold_upper_body(ControlFrame* f, const mjModel& m, const 
     if (!jg.ball) {
       for (int k = 0; k < jg.dof_count; ++k) {
         const double tau = hinge_pd(f, m, d, jg.dof_begin + k, 0.0, kp_[g]);
-        if (static_cast<int>(g) == lumbar_) tau_lumbar += tau * sim::vec3_at(d.xaxis + 3 * m.dof_jntid[jg.dof_begin + k]);
+        if (static_cast<int>(g) == lumbar_)
+          tau_lumbar += tau * sim::vec3_at(d.xaxis + 3 * m.dof_jntid[jg.dof_begin + k]);
       }
       continue;
     }
@@ -485,14 +560,18 @@ LegTriangle TorqueWalker::placed_step_ik(const mjData& d, const TorqueWalkerPhas
   const models::RigLeg& leg = rig_->leg(swing);
   const double target = st.swing_target_m;
   const bool landing = ph.ends_at_strike;
-  const Vector3d stance_ankle = st.heading.to_heading(sim::vec3_at(d.xpos + 3 * rig_->leg(st.stance).foot));
+  const Vector3d stance_ankle =
+      st.heading.to_heading(sim::vec3_at(d.xpos + 3 * rig_->leg(st.stance).foot));
   const Vector3d hip = st.heading.to_heading(sim::vec3_at(d.xpos + 3 * leg.thigh));
   const double reach = kPlacedReachFraction * (leg.thigh_length_m + leg.shank_length_m);
-  const auto reach_ahead = [reach](double dz) { return reach > std::abs(dz) ? std::sqrt(reach * reach - dz * dz) : 0.0; };
+  const auto reach_ahead = [reach](double dz) {
+    return reach > std::abs(dz) ? std::sqrt(reach * reach - dz * dz) : 0.0;
+  };
   double dx = stance_ankle.x() + target - hip.x();
   double lift = landing ? -0.01 : p.step_clearance_m;
   // Out of reach on the floor early in late swing: wait in the air for the hip.
-  if (landing && d.time - st.phase_start_s < p.placed_wait_s && dx > reach_ahead(st.ankle_height_m + lift - hip.z()))
+  if (landing && d.time - st.phase_start_s < p.placed_wait_s &&
+      dx > reach_ahead(st.ankle_height_m + lift - hip.z()))
     lift = p.step_clearance_m;
   const double dz = st.ankle_height_m + lift - hip.z();
   {
@@ -507,12 +586,13 @@ LegTriangle TorqueWalker::placed_step_ik(const mjData& d, const TorqueWalkerPhas
     // (paper §4.2), so the foot comes down rather than waiting longer for the hip.
     dx = std::clamp(dx, -reach_ahead(dz), reach_ahead(dz));
   }
-  const LegTriangle ik = solve_leg_triangle(leg.thigh_length_m, leg.shank_length_m, Vector3d(dx, 0, dz), 1.0, 0.0,
-                                            kMaxSwingKnee_rad);
+  const LegTriangle ik = solve_leg_triangle(leg.thigh_length_m, leg.shank_length_m,
+                                            Vector3d(dx, 0, dz), 1.0, 0.0, kMaxSwingKnee_rad);
   // The target is fixed on the floor while the hip moves: the IK angles' rates (by finite
   // difference within one phase) are the PD's velocity targets, so the leg does not lag.
   const double h = d.time - st.ik_time_s;
-  if (st.ik_valid && st.ik_phase == st.phase && h > 0 && h < 0.05) {  // a strike goes back to phase 0
+  if (st.ik_valid && st.ik_phase == st.phase && h > 0 &&
+      h < 0.05) {  // a strike goes back to phase 0
     st.ik_pitch_rate = (ik.hip_flexion_rad - st.ik_pitch) / h;
     st.ik_knee_rate = (ik.knee_flexion_rad - st.ik_knee) / h;
   } else {
@@ -526,8 +606,9 @@ LegTriangle TorqueWalker::placed_step_ik(const mjData& d, const TorqueWalkerPhas
   return ik;
 }
 
-void TorqueWalker::leg_joints(ControlFrame* f, const mjModel& m, const mjData& d, const TorqueWalkerPhase& ph,
-                              bool placed, const LegTriangle& ik) const {
+void TorqueWalker::leg_joints(ControlFrame* f, const mjModel& m, const mjData& d,
+                              const TorqueWalkerPhase& ph, bool placed,
+                              const LegTriangle& ik) const {
   const TorqueWalkerParams& p = params_;
   const std::vector<JointGroup>& groups = rig_->groups();
   for (int s = 0; s < 2; ++s) {
@@ -540,26 +621,31 @@ void TorqueWalker::leg_joints(ControlFrame* f, const mjModel& m, const mjData& d
              !stance && placed ? state_.ik_knee_rate : 0.0);
     double dorsiflexion = stance ? ph.stance_ankle_rad : ph.swing_ankle_rad;
     if (!stance && !ph.swing_foot_down) {
-      dorsiflexion = level_sole_dorsiflexion(state_.heading, sim::quat_at(d.xquat + 4 * leg.shank), ph.swing_ankle_rad,
-                                             p.toe_up_rad);
+      dorsiflexion = level_sole_dorsiflexion(state_.heading, sim::quat_at(d.xquat + 4 * leg.shank),
+                                             ph.swing_ankle_rad, p.toe_up_rad);
     }
     hinge_pd(f, m, d, ankle.dof_begin, dorsiflexion, p.ankle_kp);
-    for (int k = 1; k < ankle.dof_count; ++k) hinge_pd(f, m, d, ankle.dof_begin + k, 0.0, p.ankle_kp);
-    if (leg.toe >= 0) hinge_pd(f, m, d, groups[static_cast<std::size_t>(leg.toe)].dof_begin, 0.0, p.toe_kp);
+    for (int k = 1; k < ankle.dof_count; ++k)
+      hinge_pd(f, m, d, ankle.dof_begin + k, 0.0, p.ankle_kp);
+    if (leg.toe >= 0)
+      hinge_pd(f, m, d, groups[static_cast<std::size_t>(leg.toe)].dof_begin, 0.0, p.toe_kp);
   }
 }
 
 Vector2d TorqueWalker::swing_thigh_angles(const mjData& d, const TorqueWalkerPhase& ph, bool placed,
-                                          const LegTriangle& ik, const Vector3d& rel, const Vector3d& vel) {
+                                          const LegTriangle& ik, const Vector3d& rel,
+                                          const Vector3d& vel) {
   const TorqueWalkerParams& p = params_;
   TorqueWalkerState& st = state_;
   const int swing = 1 - st.stance;
   const double out = swing == 0 ? 1.0 : -1.0;  // +y is outwards for the left leg
   // Stopping: the swing foot lands further ahead per m/s of forward speed (braking).
   const double brake = st.stopping ? p.stop_brake_rad_per_m_s * vel.x() : 0.0;
-  double pitch = placed ? ik.hip_flexion_rad
-                        : brake + ph.swing_hip_rad + p.sagittal_cd * rel.x() + p.sagittal_cv * vel.x();
-  double roll = out * p.swing_hip_out_rad + p.frontal_cd * rel.y() + p.frontal_cv * vel.y() + st.roll_integral;
+  double pitch = placed
+                     ? ik.hip_flexion_rad
+                     : brake + ph.swing_hip_rad + p.sagittal_cd * rel.x() + p.sagittal_cv * vel.x();
+  double roll = out * p.swing_hip_out_rad + p.frontal_cd * rel.y() + p.frontal_cv * vel.y() +
+                st.roll_integral;
   // The thigh angle that puts the nearly straight leg's ankle `offset` (m, heading frame) from
   // the hip, along or across the heading.
   const models::RigLeg& leg = rig_->leg(swing);
@@ -567,9 +653,10 @@ Vector2d TorqueWalker::swing_thigh_angles(const mjData& d, const TorqueWalkerPha
   const auto straight_leg_angle = [leg_length](double offset) {
     return std::asin(std::clamp(offset / leg_length, -0.9, 0.9));
   };
-  const bool rule_moves = !placed && (!std::isnan(st.rule_length_m) || !std::isnan(st.rule_width_m));
-  const Vector3d hip =
-      st.heading.to_heading(Vector3d(sim::vec3_at(d.xpos + 3 * leg.thigh) - sim::vec3_at(d.xpos + 3 * rig_->leg(st.stance).foot)));
+  const bool rule_moves =
+      !placed && (!std::isnan(st.rule_length_m) || !std::isnan(st.rule_width_m));
+  const Vector3d hip = st.heading.to_heading(Vector3d(
+      sim::vec3_at(d.xpos + 3 * leg.thigh) - sim::vec3_at(d.xpos + 3 * rig_->leg(st.stance).foot)));
   if (placed && closing_step()) {
     // The closing step of a stop puts the feet side by side at the standing width (the hips'
     // spacing), where the standing controller's pose expects them; the balance feedback's
@@ -582,7 +669,8 @@ Vector2d TorqueWalker::swing_thigh_angles(const mjData& d, const TorqueWalkerPha
     // ankle, from where the hip is now.
     if (!std::isnan(st.rule_length_m)) {
       const double pitch_rule = straight_leg_angle(st.rule_length_m - hip.x());
-      const double bound = st.rule_length_m > 0 ? std::max(pitch, pitch_rule) : std::min(pitch, pitch_rule);
+      const double bound =
+          st.rule_length_m > 0 ? std::max(pitch, pitch_rule) : std::min(pitch, pitch_rule);
       if (bound != pitch) st.rule_bound = true;
       pitch = bound;
     }
@@ -607,17 +695,20 @@ void TorqueWalker::apply_base_polygon_rule(const mjModel& m, const mjData& d, co
   const Vector2d ankle(d.xpos[3 * stance_foot], d.xpos[3 * stance_foot + 1]);
   const models::Sole& sole = rig_->leg(models::kLeft).sole;
   const BasePolygonStep step =
-      base_polygon_rule(st.support, st.tolerance, p.tolerance_fraction, com_W, com_velocity_H, ankle, st.heading,
-                        1 - st.stance, sole.length_m(), sole.width_m());
+      base_polygon_rule(st.support, st.tolerance, p.tolerance_fraction, com_W, com_velocity_H,
+                        ankle, st.heading, 1 - st.stance, sole.length_m(), sole.width_m());
   if (!std::isnan(step.length_m)) {
     if (step.length_m > 0) {
-      st.rule_length_m = std::isnan(st.rule_length_m) ? step.length_m : std::max(st.rule_length_m, step.length_m);
+      st.rule_length_m =
+          std::isnan(st.rule_length_m) ? step.length_m : std::max(st.rule_length_m, step.length_m);
     } else {
-      st.rule_length_m = std::isnan(st.rule_length_m) ? step.length_m : std::min(st.rule_length_m, step.length_m);
+      st.rule_length_m =
+          std::isnan(st.rule_length_m) ? step.length_m : std::min(st.rule_length_m, step.length_m);
     }
   }
   if (!std::isnan(step.width_m))
-    st.rule_width_m = std::isnan(st.rule_width_m) ? step.width_m : std::max(st.rule_width_m, step.width_m);
+    st.rule_width_m =
+        std::isnan(st.rule_width_m) ? step.width_m : std::max(st.rule_width_m, step.width_m);
 }
 
 }  // namespace biodyn::controllers

@@ -23,23 +23,25 @@ constexpr double kGravity = 9.81;
 constexpr double kSoleTracking_s = 0.05;
 constexpr double kClearanceTracking_s = 0.03;
 
-
 }  // namespace
 
 void GaitCommand::validate() const {
   if (!(speed_m_s >= 0 && speed_m_s <= 3))
-    throw sim::InvalidArgument("gait command: speed must be in [0, 3] m/s, got " + std::to_string(speed_m_s));
+    throw sim::InvalidArgument("gait command: speed must be in [0, 3] m/s, got " +
+                               std::to_string(speed_m_s));
   if (!(std::abs(heading_rate_rad_s) <= 3))
     throw sim::InvalidArgument("gait command: heading rate must be within +-3 rad/s, got " +
                                std::to_string(heading_rate_rad_s));
   for (std::size_t i = 0; i < step_lengths_m.size(); ++i) {
     if (!(step_lengths_m[i] >= -0.5 && step_lengths_m[i] <= 2.0))
       throw sim::InvalidArgument("gait command: step length " + std::to_string(i + 1) +
-                                 " must be in [-0.5, 2] m, got " + std::to_string(step_lengths_m[i]));
+                                 " must be in [-0.5, 2] m, got " +
+                                 std::to_string(step_lengths_m[i]));
   }
 }
 
-VelocityWalker::VelocityWalker(const mjModel& m, const models::Rig& rig, VelocityWalkerParams params)
+VelocityWalker::VelocityWalker(const mjModel& m, const models::Rig& rig,
+                               VelocityWalkerParams params)
     : params_(std::move(params)), rig_(&rig) {
   params_.validate();
   rig.require_legs("velocity walker");
@@ -86,18 +88,22 @@ void VelocityWalker::compile_roles() {
           continue;
         }
         std::string name = role;
-        if (role.rfind("stance_", 0) == 0) name = role.substr(7) + models::kSideSuffix[stance];
-        else if (role.rfind("swing_", 0) == 0) name = role.substr(6) + models::kSideSuffix[swing];
+        if (role.rfind("stance_", 0) == 0)
+          name = role.substr(7) + models::kSideSuffix[stance];
+        else if (role.rfind("swing_", 0) == 0)
+          name = role.substr(6) + models::kSideSuffix[swing];
         const int g = rig_->group(name);
         if (g < 0) {
           throw sim::InvalidArgument("gait.states[" + std::to_string(i) + "] (" + st.name +
-                                     ").targets_deg." + role + ": the model has no joint '" + name + "'");
+                                     ").targets_deg." + role + ": the model has no joint '" + name +
+                                     "'");
         }
         angles[static_cast<std::size_t>(g)] = a;
       }
       for (std::size_t g = 0; g < rig_->groups().size(); ++g) {
         const int gi = static_cast<int>(g);
-        if (gi == rig_->leg(models::kLeft).hip || gi == rig_->leg(models::kRight).hip) continue;  // posture and swing placement
+        if (gi == rig_->leg(models::kLeft).hip || gi == rig_->leg(models::kRight).hip)
+          continue;  // posture and swing placement
         roles[i][static_cast<std::size_t>(stance)].push_back({gi, angles[g]});
       }
     }
@@ -108,7 +114,8 @@ void VelocityWalker::compile_roles() {
 }
 
 double VelocityWalker::phase_duration(int phase) const {
-  const double scale = params_.posture.reference_cadence_steps_per_min / params_.cadence(state_.speed_now_m_s);
+  const double scale =
+      params_.posture.reference_cadence_steps_per_min / params_.cadence(state_.speed_now_m_s);
   return params_.phases[static_cast<std::size_t>(phase)].duration_s * scale;
 }
 
@@ -198,9 +205,9 @@ void VelocityWalker::plan_foot(const mjData& d, const sim::CenterOfMass& com) {
   if (fp.base_polygon_rule) {
     const models::Sole& sole = rig_->leg(models::kLeft).sole;
     const Vector3d v_H(v.x(), v.y(), 0.0);
-    const BasePolygonStep rule =
-        base_polygon_rule(polygons_.support(), polygons_.tolerance(), fp.tolerance_fraction, com.position_W, v_H,
-                          ankle_W, st.heading, swing, sole.length_m(), sole.width_m());
+    const BasePolygonStep rule = base_polygon_rule(
+        polygons_.support(), polygons_.tolerance(), fp.tolerance_fraction, com.position_W, v_H,
+        ankle_W, st.heading, swing, sole.length_m(), sole.width_m());
     if (!std::isnan(rule.length_m) && !stones) {
       const double bound = s.x() + rule.length_m;
       if (rule.length_m > 0 ? bound > x : bound < x) {
@@ -224,15 +231,18 @@ void VelocityWalker::set_targets(ControlFrame* f, const mjData& d) {
   const VelocityWalkerState& st = state_;
   const VelocityWalkerPhase& ph = params_.phases[static_cast<std::size_t>(st.phase)];
   const double reach_at = st.phase_start_s + ph.reach_fraction * phase_duration(st.phase);
-  for (const RoleTarget& r : roles_[static_cast<std::size_t>(st.phase)][static_cast<std::size_t>(st.stance)])
+  for (const RoleTarget& r :
+       roles_[static_cast<std::size_t>(st.phase)][static_cast<std::size_t>(st.stance)])
     f->set_joint_angles(r.group, r.angles, reach_at);
 
   const Quaterniond q_heading = st.heading.rotation();
   const double tracking_at = d.time + params_.posture.world_tracking_time_s;
   // Stance hip: the pelvis to its world posture (paper §4.1).
-  const double pitch =
-      (params_.posture.pelvis_pitch_deg + params_.posture.pelvis_pitch_deg_per_m_s * st.speed_now_m_s) * kRadPerDeg;
-  const Quaterniond q_pelvis_goal = q_heading * Quaterniond(Eigen::AngleAxisd(pitch, Vector3d::UnitY()));
+  const double pitch = (params_.posture.pelvis_pitch_deg +
+                        params_.posture.pelvis_pitch_deg_per_m_s * st.speed_now_m_s) *
+                       kRadPerDeg;
+  const Quaterniond q_pelvis_goal =
+      q_heading * Quaterniond(Eigen::AngleAxisd(pitch, Vector3d::UnitY()));
   const models::RigLeg& stance_leg = rig_->leg(st.stance);
   const Quaterniond q_stance_thigh = sim::quat_at(d.xquat + 4 * stance_leg.thigh);
   f->set_target(stance_leg.hip, q_pelvis_goal.conjugate() * q_stance_thigh, tracking_at);
@@ -243,8 +253,8 @@ void VelocityWalker::set_targets(ControlFrame* f, const mjData& d) {
     // hip's relative velocity that gives it feeds the thigh's own rotation forward. Only
     // with the stance foot on the floor: a thigh in the air turns with the hip instead, and
     // feeding its rotation forward would spin it up.
-    const Vector3d w_wanted =
-        rotation_vector(q_pelvis_goal * q_pelvis.conjugate()) / params_.posture.world_tracking_time_s;
+    const Vector3d w_wanted = rotation_vector(q_pelvis_goal * q_pelvis.conjugate()) /
+                              params_.posture.world_tracking_time_s;
     const Vector3d w_thigh = sim::vec3_at(d.cvel + 6 * stance_leg.thigh);
     f->set_velocity(stance_leg.hip, q_stance_thigh.conjugate() * (w_thigh - w_wanted));
   }
@@ -262,8 +272,9 @@ void VelocityWalker::set_targets(ControlFrame* f, const mjData& d) {
     Vector3d r = st.planned_foot_W + Vector3d(0, 0, ankle_height_) - hip_W;
     const Vector2d r_h = st.heading.to_heading(Vector2d(r.head<2>()));
     r = Vector3d(r_h.x(), r_h.y(), r.z());
-    const LegTriangle leg = solve_leg_triangle(swing_leg.thigh_length_m, swing_leg.shank_length_m, r, sigma,
-                                               params_.placement.strike_knee_deg * kRadPerDeg);
+    const LegTriangle leg =
+        solve_leg_triangle(swing_leg.thigh_length_m, swing_leg.shank_length_m, r, sigma,
+                           params_.placement.strike_knee_deg * kRadPerDeg);
     thigh_angles = Vector3d(leg.hip_flexion_rad, leg.hip_abduction_rad, 0.0);
     f->set_joint_angles(swing_leg.knee, Vector3d(leg.knee_flexion_rad, 0, 0), reach_at);
     have = true;
@@ -292,8 +303,9 @@ void VelocityWalker::set_swing_foot(ControlFrame* f, const mjData& d) {
   const models::RigLeg& leg = rig_->leg(swing);
   if (!ph.swing_foot_down && !st.foot_touches[static_cast<std::size_t>(swing)]) {
     // The swing sole level in the heading frame, toes up (gait core, as the torque walker's).
-    const double dorsiflexion = level_sole_dorsiflexion(st.heading, sim::quat_at(d.xquat + 4 * leg.shank), 0.0,
-                                                        params_.placement.swing_toe_up_deg * kRadPerDeg);
+    const double dorsiflexion =
+        level_sole_dorsiflexion(st.heading, sim::quat_at(d.xquat + 4 * leg.shank), 0.0,
+                                params_.placement.swing_toe_up_deg * kRadPerDeg);
     f->set_joint_angles(leg.ankle, Vector3d(dorsiflexion, 0, 0), d.time + kSoleTracking_s);
   }
   if (!ph.swing_foot_down) {
@@ -302,7 +314,8 @@ void VelocityWalker::set_swing_foot(ControlFrame* f, const mjData& d) {
     // vertical with its knee already straight would scuff the floor). The clearance goes to
     // zero over the phase that ends at the strike.
     const double c0 = params_.placement.swing_clearance_m;
-    const double phase = std::clamp((d.time - st.phase_start_s) / phase_duration(st.phase), 0.0, 1.0);
+    const double phase =
+        std::clamp((d.time - st.phase_start_s) / phase_duration(st.phase), 0.0, 1.0);
     const double clearance = ph.ends_at_strike ? c0 * (1 - phase) : c0;
     const Vector3d hip_W = sim::vec3_at(d.xpos + 3 * leg.thigh);
     const Vector3d knee_W = sim::vec3_at(d.xpos + 3 * leg.shank);
@@ -312,7 +325,8 @@ void VelocityWalker::set_swing_foot(ControlFrame* f, const mjData& d) {
     if (ratio < 1) {
       const double knee_min = alpha + std::acos(std::max(ratio, -1.0));
       const double knee_target = rotation_angle(f->target(leg.knee).orientation);
-      if (knee_min > knee_target) f->set_joint_angles(leg.knee, Vector3d(knee_min, 0, 0), d.time + kClearanceTracking_s);
+      if (knee_min > knee_target)
+        f->set_joint_angles(leg.knee, Vector3d(knee_min, 0, 0), d.time + kClearanceTracking_s);
     }
   }
 }
@@ -320,7 +334,8 @@ void VelocityWalker::set_swing_foot(ControlFrame* f, const mjData& d) {
 void VelocityWalker::limit_ankles(ControlFrame* f, const ControlInput& in) {
   const VelocityWalkerState& st = state_;
   const VelocityWalkerPhase& ph = params_.phases[static_cast<std::size_t>(st.phase)];
-  const double phase = std::clamp((in.d.time - st.phase_start_s) / phase_duration(st.phase), 0.0, 1.0);
+  const double phase =
+      std::clamp((in.d.time - st.phase_start_s) / phase_duration(st.phase), 0.0, 1.0);
   const double margin = params_.posture.cop_margin;
   sim::floor_contacts(in.m, in.d, rig_->floor_geom(), &contacts_);
   for (int s = 0; s < 2; ++s) {
@@ -331,11 +346,12 @@ void VelocityWalker::limit_ankles(ControlFrame* f, const ControlInput& in) {
     const double cop_fraction = cop[0] + phase * (cop[1] - cop[0]);
     // The foot's load in the last step, capped at 1.5 body weights: a torque that grows with
     // the load it creates would launch the body (positive feedback through the push-off).
-    const double load =
-        std::clamp(in.last_report.weld[static_cast<std::size_t>(s)].ground_force_W.z(), 0.0, 1.5 * weight_);
+    const double load = std::clamp(
+        in.last_report.weld[static_cast<std::size_t>(s)].ground_force_W.z(), 0.0, 1.5 * weight_);
     const models::RigLeg& leg = rig_->leg(s);
-    limit_ankle_to_contacts(f, in.m, in.d, rig_->groups()[static_cast<std::size_t>(leg.ankle)], leg.foot, leg.toes,
-                            contacts_, load, margin, params_.posture.cop_torque ? cop_fraction : -1.0);
+    limit_ankle_to_contacts(f, in.m, in.d, rig_->groups()[static_cast<std::size_t>(leg.ankle)],
+                            leg.foot, leg.toes, contacts_, load, margin,
+                            params_.posture.cop_torque ? cop_fraction : -1.0);
   }
 }
 
@@ -366,7 +382,8 @@ void VelocityWalker::apply_compliance(ControlFrame* f) const {
 void VelocityWalker::drive(const ControlInput& in, ControlFrame* frame) {
   const mjModel& m = in.m;
   const mjData& d = in.d;
-  for (int s = 0; s < 2; ++s) state_.foot_touches[static_cast<std::size_t>(s)] = foot_touches_floor(m, d, *rig_, s);
+  for (int s = 0; s < 2; ++s)
+    state_.foot_touches[static_cast<std::size_t>(s)] = foot_touches_floor(m, d, *rig_, s);
   if (d.time > state_.last_time_s + 1e-12) {  // once per time: a redone step advances nothing
     advance(d);
     state_.last_time_s = d.time;

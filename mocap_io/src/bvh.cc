@@ -15,8 +15,8 @@
 #include <utility>
 
 #include "biodyn/mocap_io/errors.h"
-#include "biodyn/sim/file_io.h"
 #include "biodyn/sim/errors.h"
+#include "biodyn/sim/file_io.h"
 #include "biodyn/sim/units.h"
 
 namespace biodyn::mocap_io {

@@ -10,8 +10,8 @@
 
 #include "biodyn/mocap_io/c3d.h"
 
-#include "biodyn/sim/file_io.h"
 #include "biodyn/sim/errors.h"
+#include "biodyn/sim/file_io.h"
 #include "c3d_binary.h"
 #include "c3d_parameters.h"
 

@@ -42,8 +42,8 @@ BvhChannel rotation_channel(int axis) {
 
 /// The file axes of the world's directions and the rotation channels' orders (character_bvh).
 struct BvhAxes {
-  Matrix3d a;    ///< file_to_world: file axes -> world
-  Matrix3d a_t;  ///< its transpose: world -> file axes
+  Matrix3d a;                      ///< file_to_world: file axes -> world
+  Matrix3d a_t;                    ///< its transpose: world -> file axes
   std::array<int, 3> root_order;   ///< file axes of the root's rotation channels, in order
   std::array<int, 3> joint_order;  ///< file axes of the other joints' rotation channels
 };
@@ -77,8 +77,8 @@ std::vector<int> add_hierarchy(const models::Character& c, const BvhAxes& ax,
     BvhJoint j;
     j.name = seg.name;
     j.parent = parent_joint;
-    const Vector3d rel = parent_joint < 0 ? Vector3d::Zero()
-                                          : Vector3d(seg.origin_W - c.find(seg.parent)->origin_W);
+    const Vector3d rel =
+        parent_joint < 0 ? Vector3d::Zero() : Vector3d(seg.origin_W - c.find(seg.parent)->origin_W);
     j.offset = ax.a_t * rel / metres_per_unit;
     if (parent_joint < 0) {
       j.channels = {BvhChannel::kXposition, BvhChannel::kYposition, BvhChannel::kZposition};

@@ -60,15 +60,16 @@ double checked_frame_step(const Motion& motion, int trim) {
   }
   for (int f = 0; f < frames; ++f) {
     if (!motion.qpos.row(f).allFinite()) {
-      throw sim::InvalidArgument("inverse dynamics: frame " + std::to_string(f) + " (t = " +
-                                 std::to_string(motion.times_s[static_cast<size_t>(f)]) +
+      throw sim::InvalidArgument("inverse dynamics: frame " + std::to_string(f) +
+                                 " (t = " + std::to_string(motion.times_s[static_cast<size_t>(f)]) +
                                  " s) has no pose (an unsolved IK frame); give a motion without "
                                  "gaps (see longest_solved_span)");
     }
   }
   const double dt = (motion.times_s.back() - motion.times_s.front()) / (frames - 1);
   for (int f = 1; f < frames; ++f) {
-    const double step = motion.times_s[static_cast<size_t>(f)] - motion.times_s[static_cast<size_t>(f - 1)];
+    const double step =
+        motion.times_s[static_cast<size_t>(f)] - motion.times_s[static_cast<size_t>(f - 1)];
     if (std::abs(step - dt) > kUnevenTolerance * dt) {
       throw sim::InvalidArgument("inverse dynamics: frames must be evenly spaced; frame " +
                                  std::to_string(f) + " steps " + std::to_string(step) +
@@ -84,9 +85,8 @@ double checked_frame_step(const Motion& motion, int trim) {
 std::unique_ptr<mjModel, sim::ModelDeleter> model_for_inverse_dynamics(
     const mjModel& model, const InverseDynamicsOptions& options) {
   std::unique_ptr<mjModel, sim::ModelDeleter> m(mj_copyModel(nullptr, &model));
-  m->opt.disableflags |= options.ground == GroundForces::kContact
-                             ? (mjDSBL_LIMIT | mjDSBL_EQUALITY)
-                             : mjDSBL_CONSTRAINT;
+  m->opt.disableflags |= options.ground == GroundForces::kContact ? (mjDSBL_LIMIT | mjDSBL_EQUALITY)
+                                                                  : mjDSBL_CONSTRAINT;
   if (!options.include_armature_damping) {
     for (int v = 0; v < m->nv; ++v) {
       m->dof_armature[v] = 0.0;
@@ -135,9 +135,10 @@ Eigen::Vector3d apply_force_plates(const mjModel& m, mjData* d,
     const Eigen::Vector3d grf =
         (1 - w) * p.force_N.row(s0).transpose() + w * p.force_N.row(s1).transpose();
     if (std::abs(grf.z()) < kMinPlateLoad_N) continue;
-    const Eigen::Vector3d cop = (1 - w) * p.cop_m.row(s0).transpose() + w * p.cop_m.row(s1).transpose();
-    const Eigen::Vector3d free_moment = (1 - w) * p.free_moment_Nm.row(s0).transpose() +
-                                        w * p.free_moment_Nm.row(s1).transpose();
+    const Eigen::Vector3d cop =
+        (1 - w) * p.cop_m.row(s0).transpose() + w * p.cop_m.row(s1).transpose();
+    const Eigen::Vector3d free_moment =
+        (1 - w) * p.free_moment_Nm.row(s0).transpose() + w * p.free_moment_Nm.row(s1).transpose();
     if (!cop.allFinite() || !free_moment.allFinite()) continue;
     // Apply to the foot nearest the centre of pressure.
     int body = foot_bodies[0];
@@ -201,14 +202,16 @@ void low_pass(Eigen::MatrixXd* samples, double rate_hz, const LowPassFilter& fil
   const double cutoff = filter.cutoff_hz / kDoublePassCorrection;
   if (!(filter.cutoff_hz > 0) || !(cutoff < 0.5 * rate_hz)) {
     throw sim::InvalidArgument("filter cut-off: must be > 0 and, corrected for the double pass (/" +
-                               std::to_string(kDoublePassCorrection) + "), below the Nyquist "
-                               "frequency " + std::to_string(0.5 * rate_hz) + " Hz, got " +
+                               std::to_string(kDoublePassCorrection) +
+                               "), below the Nyquist "
+                               "frequency " +
+                               std::to_string(0.5 * rate_hz) + " Hz, got " +
                                std::to_string(filter.cutoff_hz) + " Hz");
   }
   const Eigen::Index n = samples->rows();
   // Pad each end by odd reflection over about two cut-off periods.
-  const Eigen::Index pad = std::min<Eigen::Index>(n - 1, static_cast<Eigen::Index>(
-                                                             std::ceil(2.0 * rate_hz / cutoff)));
+  const Eigen::Index pad =
+      std::min<Eigen::Index>(n - 1, static_cast<Eigen::Index>(std::ceil(2.0 * rate_hz / cutoff)));
   std::vector<double> x(static_cast<size_t>(n + 2 * pad));
   for (Eigen::Index c = 0; c < samples->cols(); ++c) {
     const auto col = samples->col(c);
@@ -255,8 +258,9 @@ InverseDynamicsResult inverse_dynamics(const mjModel& model, const Motion& motio
   const int trim = std::max(options.trim_frames, 1);
   const double dt = checked_frame_step(motion, trim);
   if (options.ground == GroundForces::kForcePlates && (plates.empty() || !(plate_rate_hz > 0))) {
-    throw sim::InvalidArgument("inverse dynamics: ground from force plates, but the capture has "
-                               "no force plates");
+    throw sim::InvalidArgument(
+        "inverse dynamics: ground from force plates, but the capture has "
+        "no force plates");
   }
   const std::unique_ptr<mjModel, sim::ModelDeleter> m = model_for_inverse_dynamics(model, options);
   sim::Data data(*m);
@@ -289,7 +293,8 @@ InverseDynamicsResult inverse_dynamics(const mjModel& model, const Motion& motio
     if (m->jnt_type[j] == mjJNT_FREE) root_joint = j;
   }
   const models::Rig rig(*m);
-  const std::array<int, 2> foot_bodies = {rig.leg(models::kLeft).foot, rig.leg(models::kRight).foot};
+  const std::array<int, 2> foot_bodies = {rig.leg(models::kLeft).foot,
+                                          rig.leg(models::kRight).foot};
   for (int i = 0; i < out_frames; ++i) {
     const int f = i + trim;
     diff(f - 1, f, &v_back);

@@ -4,9 +4,9 @@
 #include <nlohmann/json.hpp>
 #include <set>
 
-#include "biodyn/sim/file_io.h"
 #include "biodyn/mocap_io/retarget.h"
 #include "biodyn/sim/errors.h"
+#include "biodyn/sim/file_io.h"
 
 namespace biodyn::mocap_io {
 namespace embedded {
@@ -20,9 +20,8 @@ using sim::InvalidArgument;
 
 /// Keypoints every map must give (non-optional): the root and what carries the foot contacts.
 const std::vector<std::string>& required_keypoints() {
-  static const std::vector<std::string> names = {"pelvis",  "thigh_l", "thigh_r",
-                                                 "shank_l", "shank_r", "foot_l",
-                                                 "foot_r",  "toes_l",  "toes_r"};
+  static const std::vector<std::string> names = {
+      "pelvis", "thigh_l", "thigh_r", "shank_l", "shank_r", "foot_l", "foot_r", "toes_l", "toes_r"};
   return names;
 }
 
@@ -36,8 +35,7 @@ void check_keys(const json& obj, const std::set<std::string>& allowed, const std
   for (const auto& [key, value] : obj.items()) {
     if (allowed.count(key) == 0) {
       throw InvalidArgument(where + ": unknown field '" + key + "' (expected " +
-                            join(std::vector<std::string>(allowed.begin(), allowed.end())) +
-                            ")");
+                            join(std::vector<std::string>(allowed.begin(), allowed.end())) + ")");
     }
   }
 }
@@ -126,11 +124,11 @@ const KeypointMapping* JointMap::find(const std::string& keypoint) const {
 }
 
 std::vector<std::string> keypoint_names() {
-  std::vector<std::string> names = {"pelvis", "lumbar", "thorax", "neck", "head", "head_end",
-                                    "trunk",  "trunk_end"};
+  std::vector<std::string> names = {"pelvis", "lumbar",   "thorax", "neck",
+                                    "head",   "head_end", "trunk",  "trunk_end"};
   for (const char* side : {"l", "r"}) {
-    for (const char* kind : {"clavicle", "upper_arm", "forearm", "hand", "thigh", "shank",
-                             "foot", "toes"}) {
+    for (const char* kind :
+         {"clavicle", "upper_arm", "forearm", "hand", "thigh", "shank", "foot", "toes"}) {
       names.push_back(std::string(kind) + "_" + side);
     }
     names.push_back(std::string("hand_") + side + "_end");
@@ -195,8 +193,9 @@ JointMap parse_joint_map(const std::string& json_text, const std::string& source
     }
     map.keypoints.push_back(parse_keypoint(name, value, where));
     if (name == "pelvis" && map.keypoints.back().rigid) {
-      throw InvalidArgument(where + ".rigid: the pelvis carries the root and has no parent to "
-                                    "be rigid on; expected false, found true");
+      throw InvalidArgument(where +
+                            ".rigid: the pelvis carries the root and has no parent to "
+                            "be rigid on; expected false, found true");
     }
   }
   for (const std::string& r : required_keypoints()) {
@@ -210,10 +209,9 @@ JointMap parse_joint_map(const std::string& json_text, const std::string& source
                             ".optional: a required keypoint cannot be optional; found true");
     }
   }
-  std::sort(map.keypoints.begin(), map.keypoints.end(),
-            [](const KeypointMapping& a, const KeypointMapping& b) {
-              return a.keypoint < b.keypoint;
-            });
+  std::sort(
+      map.keypoints.begin(), map.keypoints.end(),
+      [](const KeypointMapping& a, const KeypointMapping& b) { return a.keypoint < b.keypoint; });
   return map;
 }
 
@@ -242,7 +240,8 @@ int find_bvh_joint(const BvhMotion& motion, const std::string& name) {
   const std::string suffix = ":" + name;
   for (size_t j = 0; j < motion.joints.size(); ++j) {
     const std::string& n = motion.joints[j].name;
-    if (n.size() > suffix.size() && n.compare(n.size() - suffix.size(), suffix.size(), suffix) == 0) {
+    if (n.size() > suffix.size() &&
+        n.compare(n.size() - suffix.size(), suffix.size(), suffix) == 0) {
       if (found >= 0) return -1;  // ambiguous: two namespaces carry it
       found = static_cast<int>(j);
     }

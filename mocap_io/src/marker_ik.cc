@@ -19,7 +19,7 @@ constexpr double kDampingIncrease = 4.0;
 constexpr double kMaxDamping = 1e8;  ///< beyond this a step cannot lower the cost: stop
 constexpr double kMinDamping = 1e-12;
 constexpr double kLimitSlack = 1e-9;  ///< rad or m: a DOF this close to a limit is on it
-constexpr int kMinRootMarkers = 3;   ///< thesis: the root is placed from the 3 pelvis markers
+constexpr int kMinRootMarkers = 3;    ///< thesis: the root is placed from the 3 pelvis markers
 
 bool finite3(const double* p) {
   return std::isfinite(p[0]) && std::isfinite(p[1]) && std::isfinite(p[2]);
@@ -266,8 +266,7 @@ MarkerIkFrame MarkerIk::solve(const double* targets_m, bool have_previous, mjtNu
     // Converged when the step moved no DOF by more than the tolerance (rad or m: about the
     // marker motion at a 1 m lever arm) or lowered the weighted RMS marker error by less.
     const double total_weight = std::max(weight_sum_visible_, 1e-12);
-    const double rms_gain =
-        std::sqrt(cost / total_weight) - std::sqrt(trial_cost / total_weight);
+    const double rms_gain = std::sqrt(cost / total_weight) - std::sqrt(trial_cost / total_weight);
     if (step_.cwiseAbs().maxCoeff() < options_.tolerance_m || rms_gain < options_.tolerance_m) {
       break;
     }
@@ -284,7 +283,8 @@ MarkerIkFrame MarkerIk::solve(const double* targets_m, bool have_previous, mjtNu
     const int site = site_of_[i];
     const double* target = targets_m + 3 * i;
     if (site < 0 || weight_[i] == 0.0 || !finite3(target)) continue;
-    const double e = (Eigen::Vector3d(target) - Eigen::Vector3d(data_->site_xpos + 3 * site)).norm();
+    const double e =
+        (Eigen::Vector3d(target) - Eigen::Vector3d(data_->site_xpos + 3 * site)).norm();
     sum_sq += e * e;
     ++n;
     if (e > out.max_error_m) {
@@ -330,8 +330,8 @@ MarkerIkResult solve_marker_ik(const mjModel& model, const MarkerData& markers,
   }
   MarkerIkResult result;
   const int frames = markers.frame_count();
-  result.qpos = Eigen::MatrixXd::Constant(frames, model.nq,
-                                          std::numeric_limits<double>::quiet_NaN());
+  result.qpos =
+      Eigen::MatrixXd::Constant(frames, model.nq, std::numeric_limits<double>::quiet_NaN());
   result.frames.resize(static_cast<size_t>(frames));
   // One row of targets at a time, contiguous x, y, z per marker.
   Eigen::VectorXd targets(3 * markers.marker_count());
@@ -347,8 +347,7 @@ MarkerIkResult solve_marker_ik(const mjModel& model, const MarkerData& markers,
     }
     if (progress && (f % 64 == 0 || f + 1 == frames)) progress((f + 1.0) / frames, progress_user);
   }
-  result.seconds =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return result;
 }
 

@@ -7,8 +7,8 @@
 #include <sstream>
 
 #include "biodyn/mocap_io/errors.h"
-#include "biodyn/sim/file_io.h"
 #include "biodyn/sim/errors.h"
+#include "biodyn/sim/file_io.h"
 
 namespace biodyn::mocap_io {
 std::vector<std::string> qpos_names(const mjModel& m) {
@@ -20,7 +20,8 @@ std::vector<std::string> qpos_names(const mjModel& m) {
       case mjJNT_FREE: {
         const char* bn = mj_id2name(&m, mjOBJ_BODY, m.jnt_bodyid[j]);
         const std::string body = bn ? bn : joint;
-        for (const char* s : {"_x", "_y", "_z", "_qw", "_qx", "_qy", "_qz"}) names.push_back(body + s);
+        for (const char* s : {"_x", "_y", "_z", "_qw", "_qx", "_qy", "_qz"})
+          names.push_back(body + s);
         break;
       }
       case mjJNT_BALL:
@@ -91,10 +92,12 @@ Motion parse_motion_csv(const std::string& text, const std::string& source) {
       errno = 0;
       char* end = nullptr;
       row[k] = std::strtod(fields[k].c_str(), &end);
-      if (fields[k].empty() || *end != '\0' || errno == ERANGE || (k == 0 && !std::isfinite(row[k]))) {
-        throw ParseError(source, ParseError::line(number),
-                         "a number in column " + (k == 0 ? std::string("time") : motion.columns[k - 1]),
-                         "'" + fields[k] + "'");
+      if (fields[k].empty() || *end != '\0' || errno == ERANGE ||
+          (k == 0 && !std::isfinite(row[k]))) {
+        throw ParseError(
+            source, ParseError::line(number),
+            "a number in column " + (k == 0 ? std::string("time") : motion.columns[k - 1]),
+            "'" + fields[k] + "'");
       }
     }
     if (!motion.times_s.empty() && !(row[0] > motion.times_s.back())) {
@@ -104,8 +107,10 @@ Motion parse_motion_csv(const std::string& text, const std::string& source) {
     motion.times_s.push_back(row[0]);
     rows.push_back(std::move(row));
   }
-  if (!header) throw ParseError(source, ParseError::line(number + 1), "a header line", "end of file");
-  if (rows.empty()) throw ParseError(source, ParseError::line(number + 1), "data rows", "end of file");
+  if (!header)
+    throw ParseError(source, ParseError::line(number + 1), "a header line", "end of file");
+  if (rows.empty())
+    throw ParseError(source, ParseError::line(number + 1), "data rows", "end of file");
   motion.qpos.resize(static_cast<Eigen::Index>(rows.size()),
                      static_cast<Eigen::Index>(motion.columns.size()));
   for (size_t f = 0; f < rows.size(); ++f) {

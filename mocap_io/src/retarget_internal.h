@@ -45,9 +45,7 @@ inline double median(std::vector<double> v) {
 }
 
 /// A frame, point or side index as a container index.
-inline size_t at(int i) {
-  return static_cast<size_t>(i);
-}
+inline size_t at(int i) { return static_cast<size_t>(i); }
 
 // ----------------------------------------------------------------------------------------------
 // The capture and the character's keypoints

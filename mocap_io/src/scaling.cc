@@ -37,8 +37,10 @@ std::vector<ScaleFactor> measure(const models::Character& c, const models::Marke
                                      " character");
         }
         if (trial.find(name) < 0) {
-          throw sim::InvalidArgument("scaling[" + std::to_string(k) + "]: the static trial has no "
-                                     "marker labelled " + name);
+          throw sim::InvalidArgument("scaling[" + std::to_string(k) +
+                                     "]: the static trial has no "
+                                     "marker labelled " +
+                                     name);
         }
       }
       model_sum += (model_pos.at(a) - model_pos.at(b)).norm();
@@ -107,8 +109,10 @@ void apply_factors(const models::Character& plain, const models::MarkerSet& set,
       }
       if (set.scaling[k].dimension == "width") {
         if (seg != "pelvis") {
-          throw sim::InvalidArgument("scaling[" + std::to_string(k) + "]: only the pelvis has a "
-                                     "width (hip joint separation), got '" + seg + "'");
+          throw sim::InvalidArgument("scaling[" + std::to_string(k) +
+                                     "]: only the pelvis has a "
+                                     "width (hip joint separation), got '" +
+                                     seg + "'");
         }
         const double hip_separation =
             (plain.find("thigh_l")->origin_W - plain.find("thigh_r")->origin_W).norm();

@@ -10,8 +10,8 @@
 #include <sstream>
 
 #include "biodyn/mocap_io/errors.h"
-#include "biodyn/sim/file_io.h"
 #include "biodyn/sim/errors.h"
+#include "biodyn/sim/file_io.h"
 
 namespace biodyn::mocap_io {
 namespace {
@@ -58,8 +58,8 @@ std::vector<std::string> split_fields(const std::string& s) {
     size_t start = 0;
     while (true) {
       const size_t tab = s.find('\t', start);
-      fields.push_back(trim(s.substr(start, tab == std::string::npos ? std::string::npos
-                                                                      : tab - start)));
+      fields.push_back(
+          trim(s.substr(start, tab == std::string::npos ? std::string::npos : tab - start)));
       if (tab == std::string::npos) break;
       start = tab + 1;
     }
@@ -107,7 +107,7 @@ const Line& line_at(const std::vector<Line>& lines, size_t i, const std::string&
 
 /// What lines 1-3 state: the header keys' values that parse_trc uses.
 struct TrcHeader {
-  long value_line = 0;  ///< number of the values line (line 3), for errors naming a value
+  long value_line = 0;   ///< number of the values line (line 3), for errors naming a value
   double rate_hz = 0.0;  ///< DataRate, Hz
   double num_frames = 0.0;
   double num_markers = 0.0;  ///< a whole number >= 1
@@ -212,8 +212,7 @@ std::vector<double> parse_row(const std::vector<std::string>& fields,
     double v = std::numeric_limits<double>::quiet_NaN();
     if (!f.empty() && !parse_number(f, &v)) {
       throw ParseError(source, ParseError::line(line.number),
-                       "a number, NaN or an empty field for " + labels[k / 3] + " " +
-                           "XYZ"[k % 3],
+                       "a number, NaN or an empty field for " + labels[k / 3] + " " + "XYZ"[k % 3],
                        "'" + f + "'");
     }
     row[k] = v * scale;
@@ -289,10 +288,10 @@ std::vector<std::string> check_rows_against_header(const TrcHeader& h, const Trc
     std::nth_element(steps.begin(), steps.begin() + steps.size() / 2, steps.end());
     const double median_step = steps[steps.size() / 2];
     if (std::abs(median_step * h.rate_hz - 1.0) > kRateMismatchTolerance) {
-      inconsistencies.push_back(
-          "DataRate is " + number_text(h.rate_hz) + " Hz but the Time column steps " +
-          number_text(median_step) + " s (" + number_text(1.0 / median_step) +
-          " Hz); each frame keeps its time from the Time column");
+      inconsistencies.push_back("DataRate is " + number_text(h.rate_hz) +
+                                " Hz but the Time column steps " + number_text(median_step) +
+                                " s (" + number_text(1.0 / median_step) +
+                                " Hz); each frame keeps its time from the Time column");
     }
   }
   return inconsistencies;

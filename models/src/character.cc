@@ -202,7 +202,8 @@ void CharacterSpec::validate() const {
                             std::to_string(*o.length_m));
     }
     if (o.width_m && name != "pelvis") {
-      throw InvalidArgument("overrides." + name + ".width_m: only the pelvis has a width (the "
+      throw InvalidArgument("overrides." + name +
+                            ".width_m: only the pelvis has a width (the "
                             "distance between the hip joint centres)");
     }
     if (o.width_m && !(std::isfinite(*o.width_m) && *o.width_m > 0 && *o.width_m < 0.6)) {

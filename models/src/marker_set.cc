@@ -49,20 +49,20 @@ void check_keys(const json& obj, const std::set<std::string>& allowed, const std
   }
 }
 
-MarkerPlacement parse_marker(const json& m, const std::string& where, double* weight,
-                             bool* fixed) {
+MarkerPlacement parse_marker(const json& m, const std::string& where, double* weight, bool* fixed) {
   if (!m.is_object()) {
     throw InvalidArgument(where + ": expected an object, found " + std::string(m.type_name()));
   }
-  check_keys(m, {"name", "part", "along", "ant", "lat", "sup", "offset_m", "weight", "fixed",
-              "description"},
-             where);
+  check_keys(
+      m,
+      {"name", "part", "along", "ant", "lat", "sup", "offset_m", "weight", "fixed", "description"},
+      where);
   MarkerPlacement p;
   p.name = string_field(m, "name", where, true);
   p.part = string_field(m, "part", where, true);
   p.description = string_field(m, "description", where, false);
-  const bool fractions = m.contains("along") || m.contains("ant") || m.contains("lat") ||
-                         m.contains("sup");
+  const bool fractions =
+      m.contains("along") || m.contains("ant") || m.contains("lat") || m.contains("sup");
   if (m.contains("offset_m")) {
     if (fractions) {
       throw InvalidArgument(where + " (" + p.name +
@@ -87,7 +87,8 @@ MarkerPlacement parse_marker(const json& m, const std::string& where, double* we
   *fixed = false;
   if (m.contains("fixed")) {
     if (!m.at("fixed").is_boolean()) {
-      throw InvalidArgument(where + ".fixed: expected true or false, found " + m.at("fixed").dump());
+      throw InvalidArgument(where + ".fixed: expected true or false, found " +
+                            m.at("fixed").dump());
     }
     *fixed = m.at("fixed").get<bool>();
   }

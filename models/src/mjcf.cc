@@ -112,7 +112,8 @@ void add_defaults(tinyxml2::XMLElement* root, const PhysicsOptions& o) {
          {"condim", "3"},
          {"friction", fmt(o.friction) + " 0.005 0.0001"},
          {"material", "body"}});
-  child(defaults, "joint", {{"solreflimit", fmt(solref_time_constant(o, o.limit_time_constant_s)) + " 1"}});
+  child(defaults, "joint",
+        {{"solreflimit", fmt(solref_time_constant(o, o.limit_time_constant_s)) + " 1"}});
   child(defaults, "site",
         {{"size", fmt(kMarkerSiteRadius)},
          {"group", std::to_string(kMarkerSiteGroup)},
@@ -150,8 +151,7 @@ void add_inertial(tinyxml2::XMLElement* body, const Segment& s) {
     set(inertial, "diaginertia", fmt(Vector3d(I(0, 0), I(1, 1), I(2, 2))));
   } else {
     set(inertial, "fullinertia",
-        fmt(Vector3d(I(0, 0), I(1, 1), I(2, 2))) + " " +
-            fmt(Vector3d(I(0, 1), I(0, 2), I(1, 2))));
+        fmt(Vector3d(I(0, 0), I(1, 1), I(2, 2))) + " " + fmt(Vector3d(I(0, 1), I(0, 2), I(1, 2))));
   }
 }
 

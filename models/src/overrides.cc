@@ -31,7 +31,8 @@ std::map<std::string, SegmentOverride> parse_overrides(const std::string& json_t
   for (const auto& [name, fields] : doc["segments"].items()) {
     const std::string where = source + ": segments." + name;
     if (!fields.is_object()) {
-      throw InvalidArgument(where + ": expected an object with mass_kg, length_m and/or width_m, found " +
+      throw InvalidArgument(where +
+                            ": expected an object with mass_kg, length_m and/or width_m, found " +
                             std::string(fields.type_name()));
     }
     SegmentOverride o;

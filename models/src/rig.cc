@@ -16,9 +16,9 @@ using Eigen::Vector3d;
 
 // Body-name stem -> anatomical joint name (character.cc builds these bodies).
 const std::pair<const char*, const char*> kJointNames[] = {
-    {"trunk", "trunk"},   {"lumbar", "lumbar"},     {"thorax", "thorax"},      {"neck", "neck"},
-    {"head", "head"},     {"clavicle", "clavicle"}, {"upper_arm", "shoulder"}, {"forearm", "elbow"},
-    {"hand", "wrist"},    {"thigh", "hip"},         {"shank", "knee"},         {"foot", "ankle"},
+    {"trunk", "trunk"}, {"lumbar", "lumbar"},     {"thorax", "thorax"},      {"neck", "neck"},
+    {"head", "head"},   {"clavicle", "clavicle"}, {"upper_arm", "shoulder"}, {"forearm", "elbow"},
+    {"hand", "wrist"},  {"thigh", "hip"},         {"shank", "knee"},         {"foot", "ankle"},
     {"toes", "toe"}};
 
 // The generated character's names (character.cc, mjcf.cc).
@@ -28,7 +28,6 @@ constexpr const char* kMarkerSitePrefix = "marker_";
 const char* const kTrunkBodies[] = {"thorax", "trunk", "lumbar"};  // what a "trunk" push pushes
 
 constexpr const char* kHowToGetOne = " (a generated character has it: biodyn model)";
-
 
 int id_or_none(const std::map<std::string, int>& ids, const std::string& name) {
   const auto it = ids.find(name);
@@ -65,7 +64,8 @@ Sole find_sole(const mjModel& m, int foot_body) {
 
 std::string joint_name_for_body(const std::string& body_name) {
   std::string stem = body_name, suffix;
-  if (stem.size() > 2 && (stem.substr(stem.size() - 2) == "_l" || stem.substr(stem.size() - 2) == "_r")) {
+  if (stem.size() > 2 &&
+      (stem.substr(stem.size() - 2) == "_l" || stem.substr(stem.size() - 2) == "_r")) {
     suffix = stem.substr(stem.size() - 2);
     stem = stem.substr(0, stem.size() - 2);
   }
@@ -108,8 +108,9 @@ std::vector<JointGroup> find_joint_groups(const mjModel& m) {
       } else if (m.jnt_type[j] == mjJNT_HINGE) {
         g.dof_names.push_back(joint_name);
         const double inf = std::numeric_limits<double>::infinity();
-        g.range_rad.push_back(m.jnt_limited[j] ? Eigen::Vector2d(m.jnt_range[2 * j], m.jnt_range[2 * j + 1])
-                                               : Eigen::Vector2d(-inf, inf));
+        g.range_rad.push_back(m.jnt_limited[j]
+                                  ? Eigen::Vector2d(m.jnt_range[2 * j], m.jnt_range[2 * j + 1])
+                                  : Eigen::Vector2d(-inf, inf));
         g.axes_B.push_back(sim::vec3_at(m.jnt_axis + 3 * j).normalized());
       } else {
         throw sim::InvalidArgument("joint groups: joint '" + joint_name +
@@ -142,7 +143,8 @@ int find_group(const std::vector<JointGroup>& groups, const std::string& name) {
   return -1;
 }
 
-Rig::Rig(const mjModel& m) : groups_(find_joint_groups(m)), foot_part_(static_cast<std::size_t>(m.nbody), 0) {
+Rig::Rig(const mjModel& m)
+    : groups_(find_joint_groups(m)), foot_part_(static_cast<std::size_t>(m.nbody), 0) {
   for (int b = 0; b < m.nbody; ++b) {
     const char* name = mj_id2name(&m, mjOBJ_BODY, b);
     if (name != nullptr) bodies_.emplace(name, b);
@@ -150,11 +152,13 @@ Rig::Rig(const mjModel& m) : groups_(find_joint_groups(m)), foot_part_(static_ca
   const std::string prefix = kMarkerSitePrefix;
   for (int s = 0; s < m.nsite; ++s) {
     const char* name = mj_id2name(&m, mjOBJ_SITE, s);
-    if (name != nullptr && std::string(name).rfind(prefix, 0) == 0) marker_sites_.emplace(name + prefix.size(), s);
+    if (name != nullptr && std::string(name).rfind(prefix, 0) == 0)
+      marker_sites_.emplace(name + prefix.size(), s);
   }
   floor_geom_ = mj_name2id(&m, mjOBJ_GEOM, kFloorGeom);
   pelvis_ = body(kPelvis);
-  if (pelvis_ >= 0 && m.body_jntnum[pelvis_] > 0 && m.jnt_type[m.body_jntadr[pelvis_]] == mjJNT_FREE) {
+  if (pelvis_ >= 0 && m.body_jntnum[pelvis_] > 0 &&
+      m.jnt_type[m.body_jntadr[pelvis_]] == mjJNT_FREE) {
     root_joint_ = m.body_jntadr[pelvis_];
   }
   for (const char* n : kTrunkBodies) {
@@ -171,7 +175,8 @@ Rig::Rig(const mjModel& m) : groups_(find_joint_groups(m)), foot_part_(static_ca
     leg.knee = group("knee" + sfx);
     leg.ankle = group("ankle" + sfx);
     leg.toe = group("toe" + sfx);
-    leg.foot_weld = mj_name2id(&m, mjOBJ_EQUALITY, (std::string(kFootWeldPrefix) + (side == kLeft ? "l" : "r")).c_str());
+    leg.foot_weld = mj_name2id(
+        &m, mjOBJ_EQUALITY, (std::string(kFootWeldPrefix) + (side == kLeft ? "l" : "r")).c_str());
     if (leg.foot >= 0) {
       foot_part_[static_cast<std::size_t>(leg.foot)] = 1;
       try {
@@ -186,7 +191,8 @@ Rig::Rig(const mjModel& m) : groups_(find_joint_groups(m)), foot_part_(static_ca
     if (leg.foot >= 0) leg.shank_length_m = sim::vec3_at(m.body_pos + 3 * leg.foot).norm();
   }
   if (legs_[0].thigh >= 0 && legs_[1].thigh >= 0) {
-    hip_spacing_m_ = std::abs(m.body_pos[3 * legs_[0].thigh + 1] - m.body_pos[3 * legs_[1].thigh + 1]);
+    hip_spacing_m_ =
+        std::abs(m.body_pos[3 * legs_[0].thigh + 1] - m.body_pos[3 * legs_[1].thigh + 1]);
   }
   for (int b = 1; b < m.nbody; ++b) mass_kg_ += m.body_mass[b];
 }
@@ -202,7 +208,8 @@ void Rig::require_root(const std::string& user) const {
 }
 
 void Rig::require_floor(const std::string& user) const {
-  if (floor_geom_ < 0) throw RigError(user + ": the model has no geom '" + kFloorGeom + "'" + kHowToGetOne);
+  if (floor_geom_ < 0)
+    throw RigError(user + ": the model has no geom '" + kFloorGeom + "'" + kHowToGetOne);
 }
 
 void Rig::require_legs(const std::string& user) const {
@@ -210,16 +217,21 @@ void Rig::require_legs(const std::string& user) const {
   for (int side = 0; side < 2; ++side) {
     const std::string sfx = kSideSuffix[side];
     const RigLeg& leg = legs_[static_cast<std::size_t>(side)];
-    const std::pair<int, std::string> bodies[] = {{leg.thigh, "thigh"}, {leg.shank, "shank"}, {leg.foot, "foot"}};
+    const std::pair<int, std::string> bodies[] = {
+        {leg.thigh, "thigh"}, {leg.shank, "shank"}, {leg.foot, "foot"}};
     for (const auto& [id, stem] : bodies) {
-      if (id < 0) throw RigError(user + ": the model has no body '" + stem + sfx + "'" + kHowToGetOne);
+      if (id < 0)
+        throw RigError(user + ": the model has no body '" + stem + sfx + "'" + kHowToGetOne);
     }
-    const std::pair<int, std::string> joints[] = {{leg.hip, "hip"}, {leg.knee, "knee"}, {leg.ankle, "ankle"}};
+    const std::pair<int, std::string> joints[] = {
+        {leg.hip, "hip"}, {leg.knee, "knee"}, {leg.ankle, "ankle"}};
     for (const auto& [g, stem] : joints) {
-      if (g < 0) throw RigError(user + ": the model has no joint group '" + stem + sfx + "'" + kHowToGetOne);
+      if (g < 0)
+        throw RigError(user + ": the model has no joint group '" + stem + sfx + "'" + kHowToGetOne);
     }
     if (!leg.has_sole) {
-      throw RigError(user + ": body 'foot" + sfx + "' and its children have no box geom (a sole)" + kHowToGetOne);
+      throw RigError(user + ": body 'foot" + sfx + "' and its children have no box geom (a sole)" +
+                     kHowToGetOne);
     }
   }
   require_floor(user);
@@ -228,8 +240,8 @@ void Rig::require_legs(const std::string& user) const {
 void Rig::require_foot_welds(const std::string& user) const {
   for (int side = 0; side < 2; ++side) {
     if (legs_[static_cast<std::size_t>(side)].foot_weld < 0) {
-      throw RigError(user + ": the model has no equality '" + kFootWeldPrefix + (side == kLeft ? "l" : "r") + "'" +
-                     kHowToGetOne);
+      throw RigError(user + ": the model has no equality '" + kFootWeldPrefix +
+                     (side == kLeft ? "l" : "r") + "'" + kHowToGetOne);
     }
   }
 }

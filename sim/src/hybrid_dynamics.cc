@@ -70,8 +70,7 @@ HybridDynamics::HybridDynamics(const mjModel& m, HybridDynamicsOptions options)
   eq_rows_.reserve(ne_max);
 }
 
-void HybridDynamics::project_on_equalities(const mjData& d,
-                                           const std::uint8_t* actuated,
+void HybridDynamics::project_on_equalities(const mjData& d, const std::uint8_t* actuated,
                                            const mjtNum* qacc_desired) {
   // Root DOFs are nearly free to change: inverse weight 1e6 against 1 for actuated DOFs.
   constexpr double kRootInverseWeight = 1e6;
@@ -85,12 +84,14 @@ void HybridDynamics::project_on_equalities(const mjData& d,
   const auto inv_w = [&](int i) { return actuated[i] ? 1.0 : kRootInverseWeight; };
   // (E W^-1 E') lambda = E a0 - aref;  a = a0 - W^-1 E' lambda.
   for (int r = 0; r < n; ++r) {
-    const mjtNum* Er = J_ + static_cast<std::ptrdiff_t>(eq_rows_[static_cast<std::size_t>(r)]) * nv_;
+    const mjtNum* Er =
+        J_ + static_cast<std::ptrdiff_t>(eq_rows_[static_cast<std::size_t>(r)]) * nv_;
     mjtNum rhs = -d.efc_aref[eq_rows_[static_cast<std::size_t>(r)]];
     for (int i = 0; i < nv_; ++i) rhs += Er[i] * desired_[static_cast<std::size_t>(i)];
     eq_rhs_[static_cast<std::size_t>(r)] = rhs;
     for (int c = 0; c <= r; ++c) {
-      const mjtNum* Ec = J_ + static_cast<std::ptrdiff_t>(eq_rows_[static_cast<std::size_t>(c)]) * nv_;
+      const mjtNum* Ec =
+          J_ + static_cast<std::ptrdiff_t>(eq_rows_[static_cast<std::size_t>(c)]) * nv_;
       mjtNum v = 0;
       for (int i = 0; i < nv_; ++i) v += Er[i] * inv_w(i) * Ec[i];
       eq_lhs_[static_cast<std::size_t>(r * n + c)] = v;
@@ -101,9 +102,11 @@ void HybridDynamics::project_on_equalities(const mjData& d,
   if (!cholesky(eq_lhs_.data(), n)) return;  // degenerate: keep the wish as it is
   cholesky_solve(eq_lhs_.data(), n, eq_rhs_.data());
   for (int r = 0; r < n; ++r) {
-    const mjtNum* Er = J_ + static_cast<std::ptrdiff_t>(eq_rows_[static_cast<std::size_t>(r)]) * nv_;
+    const mjtNum* Er =
+        J_ + static_cast<std::ptrdiff_t>(eq_rows_[static_cast<std::size_t>(r)]) * nv_;
     const mjtNum lambda = eq_rhs_[static_cast<std::size_t>(r)];
-    for (int i = 0; i < nv_; ++i) desired_[static_cast<std::size_t>(i)] -= inv_w(i) * Er[i] * lambda;
+    for (int i = 0; i < nv_; ++i)
+      desired_[static_cast<std::size_t>(i)] -= inv_w(i) * Er[i] * lambda;
   }
 }
 
@@ -139,9 +142,8 @@ int HybridDynamics::minimize(const mjModel& m, mjData& d, bool* converged) {
     // Hessian block: M_UU + sum over force-carrying rows of D J_rU' J_rU.
     for (int r = 0; r < n; ++r)
       for (int c = 0; c < n; ++c)
-        H_[static_cast<std::size_t>(r * n + c)] =
-            M_[static_cast<std::size_t>(unknown_[static_cast<std::size_t>(r)] * nv_ +
-                                        unknown_[static_cast<std::size_t>(c)])];
+        H_[static_cast<std::size_t>(r * n + c)] = M_[static_cast<std::size_t>(
+            unknown_[static_cast<std::size_t>(r)] * nv_ + unknown_[static_cast<std::size_t>(c)])];
     // The cone zone's exact Hessian (MuJoCo's, per contact: J_c' H_c J_c, set by evaluate at
     // a_); with the quadratic zone's D J'J in its place Newton converged only linearly
     // (hundreds of N of residual after 20 iterations with the feet on an edge).
@@ -153,7 +155,8 @@ int HybridDynamics::minimize(const mjModel& m, mjData& d, bool* converged) {
         for (int k = 0; k < dim; ++k) {
           const mjtNum* J = J_ + static_cast<std::ptrdiff_t>(e + k) * nv_;
           for (int u = 0; u < n; ++u)
-            cone_rows_[static_cast<std::size_t>(k * n + u)] = J[unknown_[static_cast<std::size_t>(u)]];
+            cone_rows_[static_cast<std::size_t>(k * n + u)] =
+                J[unknown_[static_cast<std::size_t>(u)]];
         }
         for (int k = 0; k < dim; ++k) {
           for (int l = 0; l < dim; ++l) {
@@ -187,7 +190,8 @@ int HybridDynamics::minimize(const mjModel& m, mjData& d, bool* converged) {
           H_[static_cast<std::size_t>(r * n + c)] += wr * row_[static_cast<std::size_t>(c)];
       }
     }
-    for (int u = 0; u < n; ++u) step_[static_cast<std::size_t>(u)] = -g_[static_cast<std::size_t>(u)];
+    for (int u = 0; u < n; ++u)
+      step_[static_cast<std::size_t>(u)] = -g_[static_cast<std::size_t>(u)];
     if (!cholesky(H_.data(), n)) {
       *converged = false;
       return iter;
@@ -221,10 +225,9 @@ int HybridDynamics::minimize(const mjModel& m, mjData& d, bool* converged) {
 }
 
 HybridDynamicsResult HybridDynamics::solve(const mjModel& m, mjData& d,
-                                           const std::uint8_t* actuated,
-                                           const mjtNum* qacc_desired, const mjtNum* force_min,
-                                           const mjtNum* force_max, const mjtNum* qfrc_other,
-                                           mjtNum* force, mjtNum* qacc) {
+                                           const std::uint8_t* actuated, const mjtNum* qacc_desired,
+                                           const mjtNum* force_min, const mjtNum* force_max,
+                                           const mjtNum* qfrc_other, mjtNum* force, mjtNum* qacc) {
   HybridDynamicsResult result;
   if (J_dense_.empty()) {
     J_ = d.efc_J;

@@ -7,10 +7,7 @@
 #include "biodyn/sim/errors.h"
 
 namespace biodyn::sim {
-namespace {
-
-
-}  // namespace
+namespace {}  // namespace
 
 CenterOfMass center_of_mass(const mjModel& m, const mjData& d) {
   CenterOfMass com;
@@ -75,7 +72,8 @@ int floor_contact_count(const mjModel& m, const mjData& d, int floor_geom, int b
 }
 
 bool foot_touches_floor(const mjModel& m, const mjData& d, int floor_geom, int foot, int toes) {
-  return floor_contact_count(m, d, floor_geom, foot) > 0 || (toes >= 0 && floor_contact_count(m, d, floor_geom, toes) > 0);
+  return floor_contact_count(m, d, floor_geom, foot) > 0 ||
+         (toes >= 0 && floor_contact_count(m, d, floor_geom, toes) > 0);
 }
 
 Pose body_pose(const mjModel& m, const mjData& d, int body) {

@@ -51,19 +51,19 @@ namespace {
 template <typename Data, typename F>
 void for_each_array(const mjModel* m, Data* d, F&& f) {
   MJDATA_POINTERS_PREAMBLE(m)
+  (void)nv;  // the preamble declares nv and njmax for the macro's sizes
+  (void)njmax;
   const auto in_use = [&](const char* dim, std::size_t size) -> std::size_t {
     const std::string_view name(dim);
     if (name.find("njmax") != std::string_view::npos) return static_cast<std::size_t>(d->nefc);
     if (name == "nconmax") return static_cast<std::size_t>(d->ncon);
     return size;
   };
-#define X(type, name, nr, nc)                                                                \
-  f(d->name, sizeof(type) * in_use(#nr, static_cast<std::size_t>(m->nr)) *                           \
-        in_use(#nc, static_cast<std::size_t>(nc)));
+#define X(type, name, nr, nc)                                              \
+  f(d->name, sizeof(type) * in_use(#nr, static_cast<std::size_t>(m->nr)) * \
+                 in_use(#nc, static_cast<std::size_t>(nc)));
   MJDATA_POINTERS
 #undef X
-  (void)nv;
-  (void)njmax;
 }
 
 }  // namespace
@@ -89,7 +89,7 @@ void DataCheckpoint::save(const mjModel& m, const mjData& d) {
 
 void DataCheckpoint::restore(mjModel& m, mjData& d) const {
   if (!saved_) throw Error("DataCheckpoint::restore: nothing was saved");
-  // The counters first: they size the arrays in use.
+    // The counters first: they size the arrays in use.
 #define X(type, name) d.name = counters_.name;
   X(int, pstack)
   X(int, maxuse_stack)
@@ -106,7 +106,8 @@ void DataCheckpoint::restore(mjModel& m, mjData& d) const {
   std::copy(std::begin(counters_.warning), std::end(counters_.warning), std::begin(d.warning));
   std::copy(std::begin(counters_.timer), std::end(counters_.timer), std::begin(d.timer));
   std::copy(std::begin(counters_.solver), std::end(counters_.solver), std::begin(d.solver));
-  std::copy(std::begin(counters_.solver_fwdinv), std::end(counters_.solver_fwdinv), std::begin(d.solver_fwdinv));
+  std::copy(std::begin(counters_.solver_fwdinv), std::end(counters_.solver_fwdinv),
+            std::begin(d.solver_fwdinv));
   std::copy(std::begin(counters_.energy), std::end(counters_.energy), std::begin(d.energy));
   const unsigned char* in = arrays_.data();
   for_each_array(&m, &d, [&](void* p, std::size_t bytes) {

@@ -3,15 +3,15 @@
 #include <cmath>
 #include <vector>
 
+#include "biodyn/controllers/control_pipeline.h"
 #include "biodyn/controllers/gait_core.h"
 #include "biodyn/controllers/support_polygon.h"
 #include "biodyn/controllers/torque_walker.h"
-#include "biodyn/controllers/control_pipeline.h"
-#include "biodyn/models/rig.h"
 #include "biodyn/models/mjcf.h"
+#include "biodyn/models/rig.h"
 #include "biodyn/sim/errors.h"
-#include "biodyn/sim/simulation.h"
 #include "biodyn/sim/queries.h"
+#include "biodyn/sim/simulation.h"
 #include "test_support.h"
 
 using namespace biodyn;
@@ -23,10 +23,10 @@ struct WalkResult {
   double time_s = 0, distance_m = 0, lateral_m = 0, root_force_max = 0;
   int strikes = 0;
   double mean_step_m = 0;
-  std::vector<int> state_order;   // each state entered, in order (first 12)
-  double state0_time_s = 0;       // time spent in state 0
+  std::vector<int> state_order;  // each state entered, in order (first 12)
+  double state0_time_s = 0;      // time spent in state 0
   int state0_entries = 0;
-  double state0_both_feet = 0;    // fraction of state 0's steps with both feet on the floor
+  double state0_both_feet = 0;  // fraction of state 0's steps with both feet on the floor
   int base_polygon_steps = 0;
   double tolerance_area_ratio = 0;  // tolerance / support polygon area, at the last evaluation
   bool tolerance_inside_support = false;
@@ -44,22 +44,25 @@ double polygon_area(const std::vector<Eigen::Vector2d>& p) {
 
 // Walks the default character from standing for `duration_s` with the default parameters.
 WalkResult walk(double duration_s, const char* weld,
-               const controllers::TorqueWalkerParams& params = controllers::TorqueWalkerParams{}) {
-  sim::Simulation sim(testing::load_inline(models::to_mjcf(models::generate_character(models::CharacterSpec{}))));
+                const controllers::TorqueWalkerParams& params = controllers::TorqueWalkerParams{}) {
+  sim::Simulation sim(
+      testing::load_inline(models::to_mjcf(models::generate_character(models::CharacterSpec{}))));
   const mjModel& m = sim.model();
   mjData& d = sim.data();
   const models::Rig rig(m);
   const auto& groups = rig.groups();
   controllers::ControlPipelineConfig config;
   config.weld.mode = controllers::parse_weld_mode(weld);
-  controllers::ControlPipeline controller(&sim, rig, controllers::default_params(m, groups), config);
+  controllers::ControlPipeline controller(&sim, rig, controllers::default_params(m, groups),
+                                          config);
   controller.reset_in_pose(controllers::pose_scenario("stand", groups, 0)[0]);
   controllers::TorqueWalker gait(rig, params);
   const int floor = rig.floor_geom();
   const int feet[2] = {rig.leg(models::kLeft).foot, rig.leg(models::kRight).foot};
   const int toes[2] = {rig.leg(models::kLeft).toes, rig.leg(models::kRight).toes};
   const auto down = [&](int s) {
-    return sim::floor_contact_count(m, d, floor, feet[s]) > 0 || sim::floor_contact_count(m, d, floor, toes[s]) > 0;
+    return sim::floor_contact_count(m, d, floor, feet[s]) > 0 ||
+           sim::floor_contact_count(m, d, floor, toes[s]) > 0;
   };
   gait.reset(d);
   controller.set_driver(&gait);
@@ -79,7 +82,8 @@ WalkResult walk(double duration_s, const char* weld,
       ++state0_steps;
       if (down(0) && down(1)) ++both_feet_steps;
     }
-    for (int k = 0; k < 6; ++k) r.root_force_max = std::max(r.root_force_max, std::abs(d.qfrc_applied[k]));
+    for (int k = 0; k < 6; ++k)
+      r.root_force_max = std::max(r.root_force_max, std::abs(d.qfrc_applied[k]));
     if (gait.strike_count() != last) {
       last = gait.strike_count();
       if (last > 4) {  // past the start
@@ -104,14 +108,17 @@ WalkResult walk(double duration_s, const char* weld,
   if (support.size() >= 3 && tolerance.size() == support.size()) {
     r.tolerance_area_ratio = polygon_area(tolerance) / polygon_area(support);
     r.tolerance_inside_support = true;
-    for (const Eigen::Vector2d& q : tolerance) r.tolerance_inside_support &= controllers::inside_convex(support, q);
+    for (const Eigen::Vector2d& q : tolerance)
+      r.tolerance_inside_support &= controllers::inside_convex(support, q);
   }
   return r;
 }
 
 }  // namespace
 
-TEST_CASE("The torque walker walks from standing by joint torques and contacts only", "[gait][walk]") {
+TEST_CASE_METHOD(biodyn::testing::SimulationTest,
+                 "The torque walker walks from standing by joint torques and contacts only",
+                 "[gait][walk]") {
   for (const char* weld : {"off", "honest"}) {
     INFO("weld " << weld);
     const WalkResult r = walk(10.0, weld);
@@ -127,13 +134,16 @@ TEST_CASE("The torque walker walks from standing by joint torques and contacts o
   }
 }
 
-TEST_CASE("The walker's states are data: a double support state added in front runs in order", "[gait][walk]") {
+TEST_CASE_METHOD(
+    biodyn::testing::SimulationTest,
+    "The walker's states are data: a double support state added in front runs in order",
+    "[gait][walk]") {
   controllers::TorqueWalkerParams p;
   controllers::TorqueWalkerPhase ds;
   ds.name = "double support";
   ds.duration_s = 0.08;
   ds.swing_foot_down = true;
-  ds.swing_hip_rad = -0.3;    // the trailing thigh behind the hip
+  ds.swing_hip_rad = -0.3;  // the trailing thigh behind the hip
   ds.swing_knee_rad = 0.3;
   ds.swing_ankle_rad = -0.2;  // push-off
   ds.stance_knee_rad = p.phases[0].stance_knee_rad;
@@ -152,7 +162,10 @@ TEST_CASE("The walker's states are data: a double support state added in front r
   CHECK(r.state0_both_feet > 0.8);
 }
 
-TEST_CASE("Base-polygon balance: the rule leaves the tuned gait alone and moves steps when the CoM runs off", "[gait][walk]") {
+TEST_CASE_METHOD(biodyn::testing::SimulationTest,
+                 "Base-polygon balance: the rule leaves the tuned gait alone and moves steps when "
+                 "the CoM runs off",
+                 "[gait][walk]") {
   // The tuned gait: its velocity feedback already steps further than the rule asks, so the
   // rule moves no step and the walk is the same with it off (measured: 0 steps at 0.5-1.5 m/s).
   controllers::TorqueWalkerParams off;
@@ -177,34 +190,42 @@ TEST_CASE("Base-polygon balance: the rule leaves the tuned gait alone and moves 
   CHECK(walk(2.0, "honest", weak).base_polygon_steps == 0);
 }
 
-TEST_CASE("The torque walker rejects invalid parameters and models without legs by name", "[gait]") {
-  const sim::Model model = testing::load_inline(models::to_mjcf(models::generate_character(models::CharacterSpec{})));
+TEST_CASE_METHOD(biodyn::testing::SimulationTest,
+                 "The torque walker rejects invalid parameters and models without legs by name",
+                 "[gait]") {
+  const sim::Model model =
+      testing::load_inline(models::to_mjcf(models::generate_character(models::CharacterSpec{})));
   const mjModel& m = *model.get();
   const models::Rig rig(m);
   controllers::TorqueWalkerParams p;
   p.phases[0].duration_s = 0;
-  CHECK_THROWS_WITH(controllers::TorqueWalker(rig, p), Catch::Matchers::Contains("states[0].duration_s"));
+  CHECK_THROWS_WITH(controllers::TorqueWalker(rig, p),
+                    Catch::Matchers::Contains("states[0].duration_s"));
   p = controllers::TorqueWalkerParams{};
   p.phases[1].ends_at_strike = false;  // no state ends at the strike
   CHECK_THROWS_WITH(controllers::TorqueWalker(rig, p),
-                    Catch::Matchers::Contains("states[1].end") && Catch::Matchers::Contains("must end at the strike"));
+                    Catch::Matchers::Contains("states[1].end") &&
+                        Catch::Matchers::Contains("must end at the strike"));
   p = controllers::TorqueWalkerParams{};
   p.phases[1].name = p.phases[0].name;
   CHECK_THROWS_WITH(controllers::TorqueWalker(rig, p), Catch::Matchers::Contains("states[1].name"));
   p = controllers::TorqueWalkerParams{};
   p.phases.clear();
-  CHECK_THROWS_WITH(controllers::TorqueWalker(rig, p), Catch::Matchers::Contains("at least one state"));
+  CHECK_THROWS_WITH(controllers::TorqueWalker(rig, p),
+                    Catch::Matchers::Contains("at least one state"));
   p = controllers::TorqueWalkerParams{};
   p.damping_time_s = -1;
   CHECK_THROWS_WITH(controllers::TorqueWalker(rig, p), Catch::Matchers::Contains("damping_time_s"));
   const sim::Model ball = testing::load_inline(
-      "<mujoco><worldbody><body name='pelvis'><freejoint/><geom size='0.1'/></body></worldbody></mujoco>");
+      "<mujoco><worldbody><body name='pelvis'><freejoint/><geom "
+      "size='0.1'/></body></worldbody></mujoco>");
   const models::Rig ball_rig(*ball.get());
   CHECK_THROWS_WITH(controllers::TorqueWalker(ball_rig, controllers::TorqueWalkerParams{}),
                     Catch::Matchers::Contains("thigh_l"));
 }
 
-TEST_CASE("The torque walker's parameter file round-trips and overrides only what it names", "[gait]") {
+TEST_CASE("The torque walker's parameter file round-trips and overrides only what it names",
+          "[gait]") {
   controllers::TorqueWalkerParams p;
   p.phases[0].duration_s = 0.41;
   p.phases[1].swing_knee_rad = 0.3;
@@ -219,42 +240,17 @@ TEST_CASE("The torque walker's parameter file round-trips and overrides only wha
   CHECK(r.knee_kp == 300);
   CHECK(r.hip_kp == controllers::TorqueWalkerParams{}.hip_kp);
   // Errors leave the params as they were.
-  CHECK_THROWS_WITH(controllers::apply_torque_walker_json(R"({"knee_kp": "stiff"})", "bad.json", &r),
-                    Catch::Matchers::Contains("bad.json.knee_kp") && Catch::Matchers::Contains("number"));
+  CHECK_THROWS_WITH(
+      controllers::apply_torque_walker_json(R"({"knee_kp": "stiff"})", "bad.json", &r),
+      Catch::Matchers::Contains("bad.json.knee_kp") && Catch::Matchers::Contains("number"));
   CHECK(r.knee_kp == 300);
 }
 
-TEST_CASE("The leg IK triangle puts the ankle where asked, or points the straight leg at it", "[gait][stones]") {
-  const double l1 = 0.44, l2 = 0.45;
-  // Forward kinematics of (thigh pitch, knee): the thigh hangs from the hip rotated forward by
-  // the pitch; the shank bends back from the thigh by the knee angle.
-  const auto ankle = [&](const controllers::LegTriangle& ik) {
-    const double a = ik.hip_flexion_rad, b = ik.hip_flexion_rad - ik.knee_flexion_rad;
-    return std::make_pair(l1 * std::sin(a) + l2 * std::sin(b), -l1 * std::cos(a) - l2 * std::cos(b));
-  };
-  for (const auto& [dx, dz] : {std::make_pair(0.3, -0.75), std::make_pair(-0.25, -0.7), std::make_pair(0.0, -0.5),
-                               std::make_pair(0.45, -0.6)}) {
-    INFO("target " << dx << ", " << dz);
-    const controllers::LegTriangle ik = controllers::solve_leg_triangle(l1, l2, {dx, 0, dz}, 1.0, 0.0, 2.0);
-    CHECK(ik.reachable);
-    CHECK(ik.knee_flexion_rad > 0);  // the knee bends backwards only
-    const auto [x, z] = ankle(ik);
-    CHECK(x == Approx(dx).margin(1e-9));
-    CHECK(z == Approx(dz).margin(1e-9));
-  }
-  // Out of reach: the straight leg along the hip-target line (the closest reachable state).
-  const controllers::LegTriangle far = controllers::solve_leg_triangle(l1, l2, {0.6, 0, -0.8}, 1.0, 0.0, 2.0);
-  CHECK_FALSE(far.reachable);
-  CHECK(far.knee_flexion_rad == 0.0);
-  CHECK(far.hip_flexion_rad == Approx(std::atan2(0.6, 0.8)));
-  // Too close: the most flexed knee allowed.
-  const controllers::LegTriangle near = controllers::solve_leg_triangle(l1, l2, {0.0, 0, -0.1}, 1.0, 0.0, 2.0);
-  CHECK_FALSE(near.reachable);
-  CHECK(near.knee_flexion_rad == Approx(2.0));
-}
-
-TEST_CASE("The torque walker rejects a step plan out of range, naming the step", "[gait][stones]") {
-  const sim::Model model = testing::load_inline(models::to_mjcf(models::generate_character(models::CharacterSpec{})));
+TEST_CASE_METHOD(biodyn::testing::SimulationTest,
+                 "The torque walker rejects a step plan out of range, naming the step",
+                 "[gait][stones]") {
+  const sim::Model model =
+      testing::load_inline(models::to_mjcf(models::generate_character(models::CharacterSpec{})));
   const models::Rig rig(*model.get());
   controllers::TorqueWalker gait(rig, controllers::TorqueWalkerParams{});
   CHECK_THROWS_WITH(gait.plan_steps({0.5, -0.2}), Catch::Matchers::Contains("planned step 2") &&

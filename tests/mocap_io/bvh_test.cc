@@ -297,7 +297,8 @@ TEST_CASE("BVH: CRLF, tabs, blank lines, a BOM, case and names with spaces are t
   CHECK(spaced.joints[2].name == "Upper Chest_end");
 }
 
-TEST_CASE("BVH: units and up axis map the file to biodyn's world", "[bvh]") {
+TEST_CASE_METHOD(biodyn::testing::SimulationTest,
+                 "BVH: units and up axis map the file to biodyn's world", "[bvh]") {
   const BvhMotion m = mocap_io::parse_bvh(
       "HIERARCHY\nROOT A\n{\n OFFSET 100 200 300\n CHANNELS 1 Yrotation\n End Site\n {\n"
       "  OFFSET 0 0 10\n }\n}\nMOTION\nFrames: 1\nFrame Time: 0.1\n90\n",
@@ -528,7 +529,8 @@ TEST_CASE("BVH: format_bvh round-trips small motions", "[bvh]") {
   CHECK(coarse.values(1, 1) == 123000.0);
 }
 
-TEST_CASE("BVH: format_bvh and write_bvh refuse what they cannot write", "[bvh]") {
+TEST_CASE_METHOD(biodyn::testing::SimulationTest,
+                 "BVH: format_bvh and write_bvh refuse what they cannot write", "[bvh]") {
   const BvhMotion good = mocap_io::parse_bvh(kBase, "base.bvh");
   BvhMotion m = good;
   m.frame_time_s = 0;

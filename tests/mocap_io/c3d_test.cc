@@ -363,8 +363,9 @@ TEST_CASE("C3D processor and storage names", "[mocap_io][c3d]") {
   CHECK(std::string(to_string(C3dStorage::kFloat)) == "float");
 }
 
-TEST_CASE("write_c3d round-trips through read_c3d in every processor and storage",
-          "[mocap_io][c3d]") {
+TEST_CASE_METHOD(biodyn::testing::SimulationTest,
+                 "write_c3d round-trips through read_c3d in every processor and storage",
+                 "[mocap_io][c3d]") {
   const C3dFile capture = synthetic_capture();
   for (const C3dProcessor processor :
        {C3dProcessor::kIntel, C3dProcessor::kDec, C3dProcessor::kMips}) {
@@ -527,7 +528,8 @@ TEST_CASE("Header and parameter disagreements are reported, the parameters used"
   CHECK(c.analog.values == original.analog.values);
 }
 
-TEST_CASE("Malformed C3D files throw ParseError naming the byte", "[mocap_io][c3d]") {
+TEST_CASE_METHOD(biodyn::testing::SimulationTest,
+                 "Malformed C3D files throw ParseError naming the byte", "[mocap_io][c3d]") {
   const std::vector<std::uint8_t> walking = read_bytes(kWalking);
   const std::size_t data_start = 13 * 512;  // POINT:DATA_START 14
 
@@ -626,7 +628,9 @@ TEST_CASE("Corrupted headers and parameters never crash the reader", "[mocap_io]
   CHECK(parse_errors > 0);
 }
 
-TEST_CASE("write_c3d refuses what C3D cannot hold and leaves the old file", "[mocap_io][c3d]") {
+TEST_CASE_METHOD(biodyn::testing::SimulationTest,
+                 "write_c3d refuses what C3D cannot hold and leaves the old file",
+                 "[mocap_io][c3d]") {
   const std::string path = scratch("refused.c3d");
   const C3dFile good = synthetic_capture();
   write_c3d(path, good);

@@ -32,13 +32,14 @@ double torque(const mjModel& m, int a, double t, unsigned seed, double amp) {
   std::uniform_real_distribution<double> u(0.0, 1.0);
   const double f1 = 0.5 + 2 * u(rng), f2 = 2 + 4 * u(rng), p1 = 6.28 * u(rng), p2 = 6.28 * u(rng);
   const double limit = m.actuator_ctrlrange[2 * a + 1];
-  return amp * limit * (0.6 * std::sin(2 * kPi * f1 * t + p1) + 0.4 * std::sin(2 * kPi * f2 * t + p2));
+  return amp * limit *
+         (0.6 * std::sin(2 * kPi * f1 * t + p1) + 0.4 * std::sin(2 * kPi * f2 * t + p2));
 }
 
 }  // namespace
 
-TEST_CASE("Inverse dynamics recovers the torques the simulator applied", "[mocap_io][id]") {
-  testing::MujocoWarningGuard guard;
+TEST_CASE_METHOD(biodyn::testing::SimulationTest,
+                 "Inverse dynamics recovers the torques the simulator applied", "[mocap_io][id]") {
   sim::Model model = character(1.8, 80.0);
   mjModel* m = model.get();
   // In the air, no limits: nothing but the applied torques, gravity and passive forces acts.
@@ -78,8 +79,8 @@ TEST_CASE("Inverse dynamics recovers the torques the simulator applied", "[mocap
   const double rms = std::sqrt(sq / n);
   const double residual = id.residual_force_N.cwiseAbs().maxCoeff();
   WARN("ID vs applied torques: RMS error " << rms << " N m = " << 100 * rms / peak
-                                          << "% of the peak " << peak << " N m; max root residual "
-                                          << residual << " N");
+                                           << "% of the peak " << peak << " N m; max root residual "
+                                           << residual << " N");
   CHECK(rms < kMaxTorqueErrorOfPeak * peak);
   // Nothing external acted: the root residual is ~0 next to the body weight (785 N).
   CHECK(residual < 0.01 * 80 * 9.81);
@@ -135,14 +136,13 @@ double mass_scaling_error(models::Detail detail, bool armature) {
 // thing: the shoulders broaden with mass (the clavicle spans the torso's width, sized from its
 // mass), moving the arms by 6 mm between 60 and 80 kg (in the gait body they are fused into
 // the trunk, moving its CoM). Measured: 0.07% (gait) and 0.13% (full) of the peak torque.
-TEST_CASE("Inverse dynamics torques scale with body mass", "[mocap_io][id]") {
-  testing::MujocoWarningGuard guard;
+TEST_CASE_METHOD(biodyn::testing::SimulationTest, "Inverse dynamics torques scale with body mass",
+                 "[mocap_io][id]") {
   const double gait = mass_scaling_error(models::Detail::kGait, false);
   const double full = mass_scaling_error(models::Detail::kFull, false);
   const double with_armature = mass_scaling_error(models::Detail::kGait, true);
-  WARN("torque scaling error (of the peak): gait " << gait << ", full " << full
-                                                   << ", gait with armature/damping "
-                                                   << with_armature);
+  WARN("torque scaling error (of the peak): gait "
+       << gait << ", full " << full << ", gait with armature/damping " << with_armature);
   constexpr double kShoulderBreadthEffect = 2e-3;  // of the peak torque
   CHECK(gait < kShoulderBreadthEffect);
   CHECK(full < kShoulderBreadthEffect);
@@ -151,7 +151,9 @@ TEST_CASE("Inverse dynamics torques scale with body mass", "[mocap_io][id]") {
   CHECK(with_armature > 2 * gait);
 }
 
-TEST_CASE("The zero-lag low-pass keeps slow signals and removes fast ones", "[mocap_io][id]") {
+TEST_CASE_METHOD(biodyn::testing::SimulationTest,
+                 "The zero-lag low-pass keeps slow signals and removes fast ones",
+                 "[mocap_io][id]") {
   const double rate = 250.0;
   Eigen::MatrixXd x(1000, 2);
   for (int i = 0; i < 1000; ++i) {

@@ -45,9 +45,7 @@ void check_map_error(const std::string& text, const std::string& field, const st
   }
 }
 
-BvhMotion cmu_walk() {
-  return mocap_io::read_bvh(biodyn::testing::source_dir() + kCmuWalk);
-}
+BvhMotion cmu_walk() { return mocap_io::read_bvh(biodyn::testing::source_dir() + kCmuWalk); }
 
 /// m, world positions of the bodies named like the BVH's joints, from MuJoCo's kinematics.
 Eigen::Matrix3Xd body_positions(const mjModel& m, mjData* d, const BvhMotion& bvh) {
@@ -72,26 +70,28 @@ TEST_CASE("Joint maps: bad fields are errors naming the file, the field, the rul
                   "unknown keypoint 'elbow_l'");
   check_map_error(map_with(kLegs + R"(, "head": {"joints": "H", "weight": -1})"),
                   "keypoints.head.weight", "-1");
-  check_map_error(map_with(kLegs + R"(, "head": {"joints": "H", "wieght": 1})"),
-                  "keypoints.head", "unknown field 'wieght'");
+  check_map_error(map_with(kLegs + R"(, "head": {"joints": "H", "wieght": 1})"), "keypoints.head",
+                  "unknown field 'wieght'");
   check_map_error(map_with(kLegs + R"(, "head": {"joints": []})"), "keypoints.head.joints",
                   "at least one joint");
   std::string no_toes = kLegs;
   no_toes = no_toes.substr(0, no_toes.find(R"(, "toes_r")"));
   check_map_error(map_with(no_toes), "keypoints", "missing required keypoint 'toes_r'");
-  check_map_error(R"({"name": "t", "units": {"metres_per_unit": 0, "up": "y"}, "keypoints": {)" +
-                      kLegs + "}}",
-                  "units.metres_per_unit", "0");
-  check_map_error(R"({"name": "t", "units": {"metres_per_unit": 1, "up": "x"}, "keypoints": {)" +
-                      kLegs + "}}",
-                  "units.up", "\"x\"");
+  check_map_error(
+      R"({"name": "t", "units": {"metres_per_unit": 0, "up": "y"}, "keypoints": {)" + kLegs + "}}",
+      "units.metres_per_unit", "0");
+  check_map_error(
+      R"({"name": "t", "units": {"metres_per_unit": 1, "up": "x"}, "keypoints": {)" + kLegs + "}}",
+      "units.up", "\"x\"");
   check_map_error(map_with(kLegs + R"(, "toes_l": "LA")"), "keypoints.toes_l", "given twice");
   CHECK_THROWS_WITH(mocap_io::builtin_joint_map("vicon"), Contains("cmu"));
 }
 
-TEST_CASE("Joint maps: the built-in maps parse; CMU resolves on the CMU clip, a missing joint "
-          "is named",
-          "[retarget]") {
+TEST_CASE_METHOD(
+    biodyn::testing::SimulationTest,
+    "Joint maps: the built-in maps parse, CMU resolves on the CMU clip, a missing joint "
+    "is named",
+    "[retarget]") {
   for (const std::string& name : mocap_io::builtin_joint_map_names()) {
     INFO(name);
     const JointMap map = mocap_io::builtin_joint_map(name);
@@ -117,8 +117,9 @@ TEST_CASE("Joint maps: the built-in maps parse; CMU resolves on the CMU clip, a 
   CHECK(mocap_io::find_bvh_joint(prefixed, "LeftKnee") >= 0);
 }
 
-TEST_CASE("Retargeting refuses a map with a zero-length leg bone and absurd frame times",
-          "[retarget]") {
+TEST_CASE_METHOD(biodyn::testing::SimulationTest,
+                 "Retargeting refuses a map with a zero-length leg bone and absurd frame times",
+                 "[retarget]") {
   BvhMotion walk = cmu_walk();
   walk.values.conservativeResize(40, Eigen::NoChange);
   const models::CharacterSpec spec;
@@ -139,8 +140,9 @@ TEST_CASE("Retargeting refuses a map with a zero-length leg bone and absurd fram
   for (const double frame_time : {1e-12, 1e308}) {
     BvhMotion odd = walk;
     odd.frame_time_s = frame_time;
-    CHECK_THROWS_WITH(mocap_io::retarget_bvh(odd, mocap_io::builtin_joint_map("cmu"), spec, options),
-                      Contains("frame time must be within"));
+    CHECK_THROWS_WITH(
+        mocap_io::retarget_bvh(odd, mocap_io::builtin_joint_map("cmu"), spec, options),
+        Contains("frame time must be within"));
   }
   // Lengths that overflow in metres.
   options.units = mocap_io::BvhUnits{1e300, mocap_io::UpAxis::kY};
@@ -148,8 +150,10 @@ TEST_CASE("Retargeting refuses a map with a zero-length leg bone and absurd fram
                     Contains("not finite or beyond"));
 }
 
-TEST_CASE("Character BVH: its forward kinematics is MuJoCo's body positions for random poses",
-          "[retarget]") {
+TEST_CASE_METHOD(
+    biodyn::testing::SimulationTest,
+    "Character BVH: its forward kinematics is MuJoCo's body positions for random poses",
+    "[retarget]") {
   models::CharacterSpec spec;
   const models::Character c = models::generate_character(spec);
   const sim::Model model = sim::Model::from_string(models::to_mjcf(c), "character");
@@ -183,9 +187,8 @@ TEST_CASE("Character BVH: its forward kinematics is MuJoCo's body positions for 
     }
     for (int k = 0; k < model->nq; ++k) qpos(f, k) = data->qpos[k];
   }
-  for (const mocap_io::BvhUnits units :
-       {mocap_io::BvhUnits{0.01, mocap_io::UpAxis::kY}, mocap_io::BvhUnits{1.0,
-                                                                             mocap_io::UpAxis::kZ}}) {
+  for (const mocap_io::BvhUnits units : {mocap_io::BvhUnits{0.01, mocap_io::UpAxis::kY},
+                                         mocap_io::BvhUnits{1.0, mocap_io::UpAxis::kZ}}) {
     const BvhMotion bvh = mocap_io::character_bvh(c, *model, qpos, 1.0 / 120.0, units);
     REQUIRE(bvh.frame_count() == kFrames);
     REQUIRE(bvh.joints.size() >= c.segments.size());
@@ -198,10 +201,9 @@ TEST_CASE("Character BVH: its forward kinematics is MuJoCo's body positions for 
       const mocap_io::BvhPose pose = mocap_io::forward_kinematics(reread, f, units);
       for (size_t j = 0; j < bvh.joints.size(); ++j) {
         if (bvh.joints[j].end_site) continue;
-        worst = std::max(worst,
-                         (pose.positions_W.col(static_cast<long>(j)) -
-                          expected.col(static_cast<long>(j)))
-                             .norm());
+        worst = std::max(
+            worst, (pose.positions_W.col(static_cast<long>(j)) - expected.col(static_cast<long>(j)))
+                       .norm());
       }
     }
     INFO("metres per unit " << units.metres_per_unit);
@@ -211,9 +213,11 @@ TEST_CASE("Character BVH: its forward kinematics is MuJoCo's body positions for 
                   sim::InvalidArgument);
 }
 
-TEST_CASE("Retargeting: the CMU walk on 1.50 m and 2.00 m bodies keeps stance feet planted and "
-          "on the ground",
-          "[retarget][regression]") {
+TEST_CASE_METHOD(
+    biodyn::testing::SimulationTest,
+    "Retargeting: the CMU walk on 1.50 m and 2.00 m bodies keeps stance feet planted and "
+    "on the ground",
+    "[retarget][regression]") {
   const BvhMotion walk = cmu_walk();
   const JointMap cmu = mocap_io::builtin_joint_map("cmu");
   for (const double height : {1.50, 2.00}) {
@@ -253,17 +257,18 @@ TEST_CASE("Retargeting: the CMU walk on 1.50 m and 2.00 m bodies keeps stance fe
       } else {
         // A step that slides 1 cm or more does so only where the capture's pose is beyond the
         // character's range of motion: that leg is on a joint limit at its worst frame.
-        INFO("step " << step.side << " " << step.first_frame << "-" << step.last_frame
-                     << " slide " << step.slide_m);
+        INFO("step " << step.side << " " << step.first_frame << "-" << step.last_frame << " slide "
+                     << step.slide_m);
         CHECK_FALSE(step.joints_at_limit.empty());
         CHECK(step.slide_m < 0.03);
       }
       CHECK(step.height_error_m < 0.02);
     }
-    std::printf("retarget %.2f m: %d of %zu steps slide < 1 cm, max %.1f mm; penetration %.1f mm; "
-                "keypoint RMS %.1f mm; %.0f frames/s\n",
-                height, under_1cm, r.steps.size(), 1e3 * s.max_slide_m,
-                1e3 * s.max_penetration_m, 1e3 * s.keypoint_rms_m, s.frames / s.total_seconds);
+    std::printf(
+        "retarget %.2f m: %d of %zu steps slide < 1 cm, max %.1f mm; penetration %.1f mm; "
+        "keypoint RMS %.1f mm; %.0f frames/s\n",
+        height, under_1cm, r.steps.size(), 1e3 * s.max_slide_m, 1e3 * s.max_penetration_m,
+        1e3 * s.keypoint_rms_m, s.frames / s.total_seconds);
     // Measured: 17 of 18 (1.50 m) and 17 of 19 (2.00 m); the others are in the kneel and the
     // stop, with the ankle, toes or knee on their limits. A regression guard, not the goal.
     CHECK(under_1cm >= 16);
@@ -271,7 +276,9 @@ TEST_CASE("Retargeting: the CMU walk on 1.50 m and 2.00 m bodies keeps stance fe
   }
 }
 
-TEST_CASE("Retargeting: the character's own BVH retargets back onto the same body", "[retarget]") {
+TEST_CASE_METHOD(biodyn::testing::SimulationTest,
+                 "Retargeting: the character's own BVH retargets back onto the same body",
+                 "[retarget]") {
   // A motion the character can do exactly (the CMU walk on the default body, first 300 frames:
   // walking, no kneel), written as its BVH, retargeted through the built-in "biodyn" map onto
   // that body: the joint centres come back where they were.
@@ -299,8 +306,8 @@ TEST_CASE("Retargeting: the character's own BVH retargets back onto the same bod
     mj_kinematics(model.get(), a.get());
     mj_kinematics(model.get(), b.get());
     for (int body = 1; body < model->nbody; ++body) {
-      const double e = (Eigen::Vector3d(a->xpos + 3 * body) - Eigen::Vector3d(b->xpos + 3 * body))
-                           .norm();
+      const double e =
+          (Eigen::Vector3d(a->xpos + 3 * body) - Eigen::Vector3d(b->xpos + 3 * body)).norm();
       sum_sq += e * e;
       worst = std::max(worst, e);
       ++n;

@@ -112,8 +112,7 @@ TEST_CASE("TRC: malformed files name the line, the rule and the value", "[mocap_
   require_parse_error(with_line(3, "100\t100\t3\t2\tinch\t100\t5\t3"), "line 3", "inch");
   require_parse_error(with_line(3, "fast\t100\t3\t2\tmm\t100\t5\t3"), "line 3", "fast");
   require_parse_error(with_line(3, "-5\t100\t3\t2\tmm\t100\t5\t3"), "line 3", "-5");
-  require_parse_error(with_line(2, "DataRate\tCameraRate\tNumFrames\tUnits"), "line 2",
-                      "DataRate");
+  require_parse_error(with_line(2, "DataRate\tCameraRate\tNumFrames\tUnits"), "line 2", "DataRate");
   require_parse_error(with_line(4, "Frame#\tTime\tA\t\t\tB\t\t\tC"), "line 4", "3");
   require_parse_error(with_line(8, "6\t0.01\t1.5\t2\t3\t4"), "line 8", "6 fields");
   require_parse_error(with_line(8, "6\t0.01\t1.5\tabc\t3\t4\t5\t6"), "line 8", "abc");

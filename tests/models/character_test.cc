@@ -135,9 +135,9 @@ void check_character(const models::CharacterSpec& spec) {
 
 }  // namespace
 
-TEST_CASE("Generated characters meet the anthropometric and physical invariants",
-          "[models][character]") {
-  MujocoWarningGuard guard;
+TEST_CASE_METHOD(biodyn::testing::SimulationTest,
+                 "Generated characters meet the anthropometric and physical invariants",
+                 "[models][character][slow]") {
   for (const double height : {1.40, 1.62, 1.85, 2.10}) {
     for (const double mass : {40.0, 80.0, 150.0}) {
       for (const models::Sex sex : {models::Sex::kMale, models::Sex::kFemale}) {
@@ -149,8 +149,9 @@ TEST_CASE("Generated characters meet the anthropometric and physical invariants"
   }
 }
 
-TEST_CASE("Invariants hold for random bodies across the supported range", "[models][character]") {
-  MujocoWarningGuard guard;
+TEST_CASE_METHOD(biodyn::testing::SimulationTest,
+                 "Invariants hold for random bodies across the supported range",
+                 "[models][character]") {
   std::mt19937 rng(20261122);  // seeded: the same bodies every run
   std::uniform_real_distribution<double> height(1.40, 2.10), mass(40.0, 150.0);
   for (int i = 0; i < 24; ++i) {
@@ -158,7 +159,8 @@ TEST_CASE("Invariants hold for random bodies across the supported range", "[mode
                      mass(rng),
                      i % 2 ? models::Sex::kMale : models::Sex::kFemale,
                      (i / 2) % 2 ? models::Detail::kFull : models::Detail::kGait,
-                     {}, {}});
+                     {},
+                     {}});
   }
 }
 
@@ -182,8 +184,9 @@ TEST_CASE("Generated MJCF compiles in stock MuJoCo 2.2.2 (mujoco-compile)", "[mo
   }
 }
 
-TEST_CASE("Joint ranges, torque limits and markers come from the tables", "[models][character]") {
-  MujocoWarningGuard guard;
+TEST_CASE_METHOD(biodyn::testing::SimulationTest,
+                 "Joint ranges, torque limits and markers come from the tables",
+                 "[models][character]") {
   models::CharacterSpec spec;  // 1.80 m, 80 kg, male, full
   const models::Character c = models::generate_character(spec);
   sim::Simulation sim(testing::load_inline(models::to_mjcf(c)));

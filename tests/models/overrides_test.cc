@@ -29,8 +29,8 @@ TEST_CASE("A mass override fixes the segment and the tables share the rest",
   CHECK(asym.find("thigh_r")->mass_kg == Approx(10.0));
 }
 
-TEST_CASE("A length override changes the segment and the stature", "[models][overrides]") {
-  testing::MujocoWarningGuard guard;
+TEST_CASE_METHOD(biodyn::testing::SimulationTest,
+                 "A length override changes the segment and the stature", "[models][overrides]") {
   models::CharacterSpec spec;
   const models::Character base = models::generate_character(spec);
   spec.overrides["shank"].length_m = base.find("shank_l")->length_m + 0.05;

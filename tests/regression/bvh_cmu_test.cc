@@ -11,8 +11,8 @@
 
 #include "biodyn/mocap_io/bvh.h"
 #include "biodyn/models/tables.h"
-#include "biodyn/sim/model.h"
 #include "biodyn/sim/file_io.h"
+#include "biodyn/sim/model.h"
 #include "test_support.h"
 
 using namespace biodyn;
@@ -178,12 +178,12 @@ TEST_CASE("CMU clip: hierarchy, frames and channel orders as in the file", "[bvh
   CHECK(m.values(m.frame_count() - 1, m.channel_count() - 1) == 19.734);
 }
 
-TEST_CASE("CMU clip: forward kinematics equals MuJoCo's kinematics of the same hierarchy",
-          "[bvh][regression]") {
+TEST_CASE_METHOD(biodyn::testing::SimulationTest,
+                 "CMU clip: forward kinematics equals MuJoCo's kinematics of the same hierarchy",
+                 "[bvh][regression]") {
   const BvhMotion& m = cmu();
   const BvhUnits units = BvhUnits::cmu();
   const Eigen::Matrix3d R_WF = mocap_io::file_to_world(units.up);
-  MujocoWarningGuard guard;
   sim::Model model = biodyn::testing::load_inline(mjcf_from_bvh(m));
   REQUIRE(model->nq == m.channel_count());
   sim::Data data(*model);
@@ -252,7 +252,8 @@ TEST_CASE("CMU clip: the skeleton stands on the floor and has an adult size", "[
   }
 }
 
-TEST_CASE("CMU clip: format_bvh and write_bvh round trips", "[bvh][regression]") {
+TEST_CASE_METHOD(biodyn::testing::SimulationTest, "CMU clip: format_bvh and write_bvh round trips",
+                 "[bvh][regression]") {
   const BvhMotion& m = cmu();
   const auto check_same = [&](const BvhMotion& back) {
     REQUIRE(back.joints.size() == m.joints.size());

@@ -31,10 +31,16 @@ using nlohmann::json;
 namespace {
 
 // Fields that measure the machine (time, rates), not the result.
-const std::set<std::string> kTimingFields = {
-    "wall_s",           "realtime_factor",        "frames_per_second", "frames_per_s",
-    "physics_s",        "render_s",               "encode_s",          "render_frames_per_s",
-    "physics_realtime_factor", "physics_steps_per_s"};
+const std::set<std::string> kTimingFields = {"wall_s",
+                                             "realtime_factor",
+                                             "frames_per_second",
+                                             "frames_per_s",
+                                             "physics_s",
+                                             "render_s",
+                                             "encode_s",
+                                             "render_frames_per_s",
+                                             "physics_realtime_factor",
+                                             "physics_steps_per_s"};
 
 struct Output {
   std::string file;
@@ -43,13 +49,16 @@ struct Output {
 
 struct Case {
   Case(std::string name_, std::string args_, std::vector<Output> outputs_, int exit_code_ = 0)
-      : name(std::move(name_)), args(std::move(args_)), outputs(std::move(outputs_)), exit_code(exit_code_) {}
+      : name(std::move(name_)),
+        args(std::move(args_)),
+        outputs(std::move(outputs_)),
+        exit_code(exit_code_) {}
   std::string name;
   std::string args;             // biodyn's arguments, run in <build>/digests/<name>
   std::vector<Output> outputs;  // files compared
   int exit_code = 0;
-  bool viewer = false;          // run under xvfb-run (biodyn view)
-  std::string script;           // biodyn view --script
+  bool viewer = false;  // run under xvfb-run (biodyn view)
+  std::string script;   // biodyn view --script
 };
 
 void drop_fields(json* j, const std::set<std::string>& drop) {
@@ -89,7 +98,9 @@ std::string digest(const fs::path& path, const Output& out) {
   return fnv1a(j.dump());
 }
 
-fs::path digest_file() { return fs::path(biodyn::testing::source_dir()) / "tests/regression/result_digests.json"; }
+fs::path digest_file() {
+  return fs::path(biodyn::testing::source_dir()) / "tests/regression/result_digests.json";
+}
 
 // Runs the cases and compares (or, with BIODYN_WRITE_DIGESTS, records) their digests.
 void check_cases(const std::vector<Case>& cases) {
@@ -98,8 +109,10 @@ void check_cases(const std::vector<Case>& cases) {
   if (write_to == nullptr) {
     expected = json::parse(slurp(digest_file()));
   }
-  json written = write_to != nullptr && fs::exists(write_to) ? json::parse(slurp(write_to)) : json::object();
-  const fs::path data = fs::path(biodyn::testing::source_dir()) / ".." / "shared" / "data" / "mocap";
+  json written =
+      write_to != nullptr && fs::exists(write_to) ? json::parse(slurp(write_to)) : json::object();
+  const fs::path data =
+      fs::path(biodyn::testing::source_dir()) / ".." / "shared" / "data" / "mocap";
   const fs::path root = fs::path(biodyn::testing::binary_dir()) / "digests";
   fs::create_directories(root);
   for (const Case& c : cases) {
@@ -111,7 +124,7 @@ void check_cases(const std::vector<Case>& cases) {
     if (c.viewer) {
       std::ofstream(dir / "script.txt") << c.script;
       const std::string exe = biodyn::testing::binary_dir() + "/apps/biodyn";
-      r = run_shell("timeout 300 xvfb-run -a -s '-screen 0 1280x720x24' '" + exe + "' " + c.args, dir);
+      r = run_shell(biodyn::testing::under_xvfb() + "'" + exe + "' " + c.args, dir);
     } else {
       r = run_biodyn(c.args, dir);
     }
@@ -144,12 +157,16 @@ TEST_CASE("Result digests: biodyn walk", "[regression][digests][slow]") {
       {"walk_weld_off", "walk --weld off --duration 20 --json r.json --csv r.csv", kWalkOutputs},
       {"walk_speed_15", "walk --speed 1.5 --duration 20 --json r.json --csv r.csv", kWalkOutputs},
       // The paper's stones; the walker falls 3 s after them (issue 28): exit 1, same figures.
-      {"walk_steps", "walk --steps 0.60,0.20,0.50,0.16,0.50,0.30 --duration 12 --json r.json --csv r.csv",
+      {"walk_steps",
+       "walk --steps 0.60,0.20,0.50,0.16,0.50,0.30 --duration 12 --json r.json --csv r.csv",
        kWalkOutputs, 1},
       {"walk_stop", "walk --stop-at 8 --duration 14 --json r.json --csv r.csv", kWalkOutputs},
-      {"walk_small", "walk --height 1.55 --mass 50 --sex female --duration 20 --json r.json --csv r.csv",
+      {"walk_small",
+       "walk --height 1.55 --mass 50 --sex female --duration 20 --json r.json --csv r.csv",
        kWalkOutputs},
-      {"walk_glue", "walk --weld glue --reaction-time 0.1 --heading-rate 10 --duration 12 --json r.json --csv r.csv",
+      {"walk_glue",
+       "walk --weld glue --reaction-time 0.1 --heading-rate 10 --duration 12 --json r.json --csv "
+       "r.csv",
        kWalkOutputs},
   });
 }
@@ -160,22 +177,32 @@ TEST_CASE("Result digests: biodyn pose and stand-push", "[regression][digests][s
       {"pose_squat", "pose --scenario squat --json r.json --csv r.csv", kWalkOutputs},
       {"pose_reach", "pose --scenario reach --json r.json --csv r.csv", kWalkOutputs},
       {"pose_one-leg", "pose --scenario one-leg --json r.json --csv r.csv", kWalkOutputs},
-      {"pose_pd", "pose --scenario stand --controller pd --duration 3 --json r.json --csv r.csv", kWalkOutputs},
-      {"pose_push", "pose --scenario stand --weld glue --push 150,0.2,90 --duration 4 --json r.json --csv r.csv",
+      {"pose_pd", "pose --scenario stand --controller pd --duration 3 --json r.json --csv r.csv",
        kWalkOutputs},
-      {"stand_push", "stand-push --directions 0,90 --welds off,honest --resolution 40 --json r.json", {{"r.json"}}},
+      {"pose_push",
+       "pose --scenario stand --weld glue --push 150,0.2,90 --duration 4 --json r.json --csv r.csv",
+       kWalkOutputs},
+      {"stand_push",
+       "stand-push --directions 0,90 --welds off,honest --resolution 40 --json r.json",
+       {{"r.json"}}},
   });
 }
 
 TEST_CASE("Result digests: biodyn push and push-sweep", "[regression][digests][slow]") {
-  const std::vector<Output> sweep = {{"out/results.csv"}, {"out/summary.json"}, {"out/polar.dat"}, {"out/polar.gp"}};
+  const std::vector<Output> sweep = {
+      {"out/results.csv"}, {"out/summary.json"}, {"out/polar.dat"}, {"out/polar.gp"}};
   check_cases({
       {"push_side", "push --force 250 --direction 90 --json r.json --csv r.csv", kWalkOutputs},
-      {"push_trunk", "push --force 300 --body trunk --onset-phase 0.5 --weld off --json r.json", {{"r.json"}}},
+      {"push_trunk",
+       "push --force 300 --body trunk --onset-phase 0.5 --weld off --json r.json",
+       {{"r.json"}}},
       {"sweep",
-       "push-sweep --directions 2 --durations 0.2 --phases 2 --resolution 100 --max-force 300 --threads 2 --out out",
+       "push-sweep --directions 2 --durations 0.2 --phases 2 --resolution 100 --max-force 300 "
+       "--threads 2 --out out",
        sweep},
-      {"sweep_fixed", "push-sweep --directions 4 --durations 0.2 --phases 1 --fixed-force 200 --threads 2 --out out",
+      {"sweep_fixed",
+       "push-sweep --directions 4 --durations 0.2 --phases 1 --fixed-force 200 --threads 2 --out "
+       "out",
        sweep},
   });
 }
@@ -183,24 +210,37 @@ TEST_CASE("Result digests: biodyn push and push-sweep", "[regression][digests][s
 TEST_CASE("Result digests: biodyn mocap ik retarget and id", "[regression][digests][slow]") {
   check_cases({
       {"mocap",
-       "mocap ik --c3d data/c3d/opensim_walking5.c3d --static data/c3d/opensim_walking5.c3d -o motion.csv "
+       "mocap ik --c3d data/c3d/opensim_walking5.c3d --static data/c3d/opensim_walking5.c3d -o "
+       "motion.csv "
        "--json stats.json && '" +
            biodyn::testing::binary_dir() +
            "/apps/biodyn' mocap id --motion motion.csv --height 1.872142 --mass 72 --grf from-c3d "
            "--c3d data/c3d/opensim_walking5.c3d -o id",
-       {{"motion.csv"}, {"stats.json"}, {"id/torques.csv"}, {"id/residuals.csv"}, {"id/summary.json"}}},
+       {{"motion.csv"},
+        {"stats.json"},
+        {"id/torques.csv"},
+        {"id/residuals.csv"},
+        {"id/summary.json"}}},
       {"retarget",
-       "mocap retarget --bvh data/bvh/cmu_131_01_start_walk_stop.bvh --height 2.0 --mass 90 -o out && '" +
+       "mocap retarget --bvh data/bvh/cmu_131_01_start_walk_stop.bvh --height 2.0 --mass 90 -o out "
+       "&& '" +
            biodyn::testing::binary_dir() +
-           "/apps/biodyn' mocap id --motion out/motion.csv --height 2.0 --mass 90 --grf contact -o id",
-       {{"out/motion.csv"}, {"out/stats.json"}, {"out/character.bvh"}, {"id/torques.csv"}, {"id/residuals.csv"},
+           "/apps/biodyn' mocap id --motion out/motion.csv --height 2.0 --mass 90 --grf contact -o "
+           "id",
+       {{"out/motion.csv"},
+        {"out/stats.json"},
+        {"out/character.bvh"},
+        {"id/torques.csv"},
+        {"id/residuals.csv"},
         {"id/summary.json"}}},
   });
 }
 
-TEST_CASE("Result digests: biodyn render and the viewer's scripted session", "[regression][digests][slow]") {
+TEST_CASE("Result digests: biodyn render and the viewer's scripted session",
+          "[regression][digests][slow]") {
   const std::vector<Output> render = {{"s.json"}, {"f.png"}};
-  Case view{"view", "view --size 640x360 --msaa 0 --script script.txt --summary s.json",
+  Case view{"view",
+            "view --size 640x360 --msaa 0 --script script.txt --summary s.json",
             {{"s.json", {"frames"}}, {"walker.json"}, {"controller.json"}}};
   view.viewer = true;
   view.script =
@@ -210,11 +250,15 @@ TEST_CASE("Result digests: biodyn render and the viewer's scripted session", "[r
       "at 3.0 save-params walker.json controller.json\n"
       "at 3.0 quit\n";
   check_cases({
-      {"render_walk", "render --scenario walk --duration 3 --size 320x240 --png f.png --summary s.json", render},
-      {"render_stones", "render --scenario stones --duration 9 --size 320x240 --png f.png --summary s.json", render},
-      {"render_squat", "render --scenario squat --duration 4 --size 320x240 --png f.png --summary s.json", render},
+      {"render_walk",
+       "render --scenario walk --duration 3 --size 320x240 --png f.png --summary s.json", render},
+      {"render_stones",
+       "render --scenario stones --duration 9 --size 320x240 --png f.png --summary s.json", render},
+      {"render_squat",
+       "render --scenario squat --duration 4 --size 320x240 --png f.png --summary s.json", render},
       {"render_track",
-       "render --scenario mocap --motion data/bvh/cmu_131_01_start_walk_stop.bvh --motion-from 4.0 --motion-to 6.2 "
+       "render --scenario mocap --motion data/bvh/cmu_131_01_start_walk_stop.bvh --motion-from 4.0 "
+       "--motion-to 6.2 "
        "--track --duration 2.5 --size 320x240 --png f.png --summary s.json",
        render},
       view,

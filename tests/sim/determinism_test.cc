@@ -33,8 +33,8 @@ const char* kActuatedChain = R"(
 </mujoco>)";
 }  // namespace
 
-TEST_CASE("Same model and inputs give bit-identical rollouts", "[sim][determinism]") {
-  MujocoWarningGuard guard;
+TEST_CASE_METHOD(biodyn::testing::SimulationTest,
+                 "Same model and inputs give bit-identical rollouts", "[sim][determinism]") {
   const biodyn::sim::Model model = load_inline(kActuatedChain);
   const auto a = biodyn::sim::check_deterministic_rollout(model, 1000, 7);
   {
@@ -54,8 +54,8 @@ TEST_CASE("Same model and inputs give bit-identical rollouts", "[sim][determinis
                   biodyn::sim::InvalidArgument);
 }
 
-TEST_CASE("state_digest changes with any state bit", "[sim][determinism]") {
-  MujocoWarningGuard guard;
+TEST_CASE_METHOD(biodyn::testing::SimulationTest, "state_digest changes with any state bit",
+                 "[sim][determinism]") {
   biodyn::sim::Simulation sim(load_inline(kActuatedChain));
   const auto d0 = biodyn::sim::state_digest(sim.model(), sim.data());
   sim.data().qvel[7] = std::nextafter(sim.data().qvel[7], 1.0);

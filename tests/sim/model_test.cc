@@ -21,16 +21,17 @@ const char* kPendulum = R"(
 </mujoco>)";
 }  // namespace
 
-TEST_CASE("Model loads MJCF text and names objects", "[sim][model]") {
-  MujocoWarningGuard guard;
+TEST_CASE_METHOD(biodyn::testing::SimulationTest, "Model loads MJCF text and names objects",
+                 "[sim][model]") {
   Model m = Model::from_string(kPendulum);
   CHECK(m->nv == 1);
   CHECK(m.id(mjOBJ_JOINT, "hinge") == 0);
   CHECK_THROWS_WITH(m.id(mjOBJ_BODY, "nope"), Catch::Contains("body") && Catch::Contains("nope"));
 }
 
-TEST_CASE("MuJoCo's compile error becomes a ModelLoadError naming the source", "[sim][model]") {
-  MujocoWarningGuard guard;
+TEST_CASE_METHOD(biodyn::testing::SimulationTest,
+                 "MuJoCo's compile error becomes a ModelLoadError naming the source",
+                 "[sim][model]") {
   const std::string bad =
       "<mujoco><worldbody><body><joint type='hinge'/></body></worldbody></mujoco>";
   try {
@@ -44,8 +45,8 @@ TEST_CASE("MuJoCo's compile error becomes a ModelLoadError naming the source", "
   CHECK_THROWS_AS(Model::from_string("<mujoco><worldbody>", "truncated.xml"), ModelLoadError);
 }
 
-TEST_CASE("Loading a missing or broken file names the file", "[sim][model]") {
-  MujocoWarningGuard guard;
+TEST_CASE_METHOD(biodyn::testing::SimulationTest, "Loading a missing or broken file names the file",
+                 "[sim][model]") {
   CHECK_THROWS_WITH(Model::from_file("/nonexistent/dir/model.xml"),
                     Catch::StartsWith("/nonexistent/dir/model.xml: "));
   const std::string path = biodyn::testing::binary_dir() + "/broken_model_test.xml";
@@ -53,16 +54,16 @@ TEST_CASE("Loading a missing or broken file names the file", "[sim][model]") {
   CHECK_THROWS_WITH(Model::from_file(path), Catch::StartsWith(path + ": "));
 }
 
-TEST_CASE("Model::copy is deep and independent", "[sim][model]") {
-  MujocoWarningGuard guard;
+TEST_CASE_METHOD(biodyn::testing::SimulationTest, "Model::copy is deep and independent",
+                 "[sim][model]") {
   Model a = Model::from_string(kPendulum);
   Model b = a.copy();
   b->opt.timestep = 0.5;
   CHECK(a->opt.timestep != 0.5);
 }
 
-TEST_CASE("copy_state transfers the state bit-exactly", "[sim][model]") {
-  MujocoWarningGuard guard;
+TEST_CASE_METHOD(biodyn::testing::SimulationTest, "copy_state transfers the state bit-exactly",
+                 "[sim][model]") {
   Model m = Model::from_string(kPendulum);
   biodyn::sim::Data a(*m), b(*m);
   a->qpos[0] = 0.3;

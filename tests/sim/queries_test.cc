@@ -45,8 +45,8 @@ const char* kArm = R"(
 </mujoco>)";
 }  // namespace
 
-TEST_CASE("Centre of mass and its velocity match the closed form", "[sim][queries]") {
-  MujocoWarningGuard guard;
+TEST_CASE_METHOD(biodyn::testing::SimulationTest,
+                 "Centre of mass and its velocity match the closed form", "[sim][queries]") {
   Simulation sim(load_inline(kBoxAndBall));
   auto com = biodyn::sim::center_of_mass(sim.model(), sim.data());
   CHECK(std::abs(com.mass - 4.0) < kTight);
@@ -59,8 +59,8 @@ TEST_CASE("Centre of mass and its velocity match the closed form", "[sim][querie
   CHECK((com.velocity_W - Eigen::Vector3d(1.0, 0, -0.5)).norm() < kTight);
 }
 
-TEST_CASE("Floor contacts report where and how hard the floor pushes", "[sim][queries]") {
-  MujocoWarningGuard guard;
+TEST_CASE_METHOD(biodyn::testing::SimulationTest,
+                 "Floor contacts report where and how hard the floor pushes", "[sim][queries]") {
   Simulation sim(load_inline(kBoxAndBall));
   for (int i = 0; i < 500; ++i) sim.step();  // settle 1 s
   sim.forward();
@@ -84,8 +84,8 @@ TEST_CASE("Floor contacts report where and how hard the floor pushes", "[sim][qu
   MujocoWarningGuard::check(sim);
 }
 
-TEST_CASE("Relative orientations and ball-joint quaternions", "[sim][queries]") {
-  MujocoWarningGuard guard;
+TEST_CASE_METHOD(biodyn::testing::SimulationTest,
+                 "Relative orientations and ball-joint quaternions", "[sim][queries]") {
   Simulation sim(load_inline(kArm));
   const mjModel& m = sim.model();
   const double angle = 0.7;
@@ -111,8 +111,8 @@ TEST_CASE("Relative orientations and ball-joint quaternions", "[sim][queries]") 
         1e-9);
 }
 
-TEST_CASE("Mechanical energy is conserved by a frictionless free flight", "[sim][queries]") {
-  MujocoWarningGuard guard;
+TEST_CASE_METHOD(biodyn::testing::SimulationTest,
+                 "Mechanical energy is conserved by a frictionless free flight", "[sim][queries]") {
   Simulation sim(load_inline(kBoxAndBall));
   sim.data().qvel[6] = 1.0;
   sim.data().qvel[8] = 3.0;

@@ -37,8 +37,8 @@ const char* kTooManyContacts = R"(
 </mujoco>)";
 }  // namespace
 
-TEST_CASE("A push changes velocity by F*duration/m, then stops", "[sim][push]") {
-  MujocoWarningGuard guard;
+TEST_CASE_METHOD(biodyn::testing::SimulationTest,
+                 "A push changes velocity by F*duration/m, then stops", "[sim][push]") {
   Simulation sim(load_inline(kFloatingBox));
   const int box = 1;
   Push p;
@@ -56,8 +56,8 @@ TEST_CASE("A push changes velocity by F*duration/m, then stops", "[sim][push]") 
   MujocoWarningGuard::check(sim);
 }
 
-TEST_CASE("Pushes are validated when scheduled", "[sim][push]") {
-  MujocoWarningGuard guard;
+TEST_CASE_METHOD(biodyn::testing::SimulationTest, "Pushes are validated when scheduled",
+                 "[sim][push]") {
   Simulation sim(load_inline(kFloatingBox));
   Push p;
   p.body = 99;
@@ -68,8 +68,9 @@ TEST_CASE("Pushes are validated when scheduled", "[sim][push]") {
   CHECK_THROWS_WITH(sim.schedule_push(p), Catch::Contains("duration"));
 }
 
-TEST_CASE("Stepping counts MuJoCo warnings and routes them to the logger", "[sim][warnings]") {
-  MujocoWarningGuard guard;
+TEST_CASE_METHOD(biodyn::testing::SimulationTest,
+                 "Stepping counts MuJoCo warnings and routes them to the logger",
+                 "[sim][warnings]") {
   Simulation sim(load_inline(kTooManyContacts));
   long counted = 0;
   for (int i = 0; i < 10; ++i) counted += sim.step().new_warnings.count[mjWARN_CONTACTFULL];
@@ -87,8 +88,9 @@ TEST_CASE("Stepping counts MuJoCo warnings and routes them to the logger", "[sim
   guard.take_messages();  // the reset's forward pass overflows again: expected here
 }
 
-TEST_CASE("The scratch data answers queries without disturbing the simulation", "[sim][scratch]") {
-  MujocoWarningGuard guard;
+TEST_CASE_METHOD(biodyn::testing::SimulationTest,
+                 "The scratch data answers queries without disturbing the simulation",
+                 "[sim][scratch]") {
   Simulation sim(load_inline(kFloatingBox));
   sim.data().qvel[0] = 1.5;
   for (int i = 0; i < 10; ++i) sim.step();

@@ -31,6 +31,13 @@ class MujocoWarningGuard {
   sim::LogSink previous_;
 };
 
+/// The fixture of every test that simulates in-process: any MuJoCo warning or error logged while
+/// the test runs fails it (TEST_CASE_METHOD(biodyn::testing::SimulationTest, ...)); `guard`
+/// takes the messages a test expects (take_messages).
+struct SimulationTest {
+  MujocoWarningGuard guard;
+};
+
 /// Compiles inline MJCF, failing the test with MuJoCo's message if it does not compile.
 sim::Model load_inline(const std::string& xml);
 

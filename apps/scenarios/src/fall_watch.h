@@ -11,10 +11,13 @@ namespace biodyn::scenarios {
 
 class FallWatch {
  public:
-  FallWatch(const models::Rig& rig, double pelvis_fraction) : rig_(&rig), fraction_(pelvis_fraction) {}
+  FallWatch(const models::Rig& rig, double pelvis_fraction)
+      : rig_(&rig), fraction_(pelvis_fraction) {}
 
   /// Reads the pelvis's standing height from `d` (positions computed): call once placed.
-  void start(const mjData& d) { pelvis_start_ = rig_->pelvis() >= 0 ? d.xpos[3 * rig_->pelvis() + 2] : 0; }
+  void start(const mjData& d) {
+    pelvis_start_ = rig_->pelvis() >= 0 ? d.xpos[3 * rig_->pelvis() + 2] : 0;
+  }
 
   bool foot_body(int body) const { return rig_->is_foot_part(body); }
   int floor_geom() const { return rig_->floor_geom(); }

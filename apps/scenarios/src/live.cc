@@ -15,7 +15,8 @@ namespace biodyn::scenarios {
 LiveScenario::LiveScenario(ScenarioConfig config) {
   config.validate();
   const models::Character character = models::generate_character(config.character);
-  sim_ = std::make_unique<sim::Simulation>(sim::Model::from_string(models::to_mjcf(character), "generated character"));
+  sim_ = std::make_unique<sim::Simulation>(
+      sim::Model::from_string(models::to_mjcf(character), "generated character"));
   scenario_ = make_scenario(sim_.get(), config);
   walk_ = scenario_->walk();
   mocap_ = scenario_->mocap();
@@ -68,7 +69,9 @@ const TrackingStats& LiveScenario::tracking_stats() const {
   return mocap_ ? mocap_->tracking_stats() : kNone;
 }
 
-TrackingReport LiveScenario::tracking_report() const { return mocap_ ? mocap_->tracking_report() : TrackingReport{}; }
+TrackingReport LiveScenario::tracking_report() const {
+  return mocap_ ? mocap_->tracking_report() : TrackingReport{};
+}
 
 void LiveScenario::save_checkpoint() {
   // Once per step index: after a rewind the replay passes checkpoints it already has.
@@ -105,7 +108,8 @@ void LiveScenario::record(std::function<void(Scenario&)> apply) {
 }
 
 void LiveScenario::set_controller_params(const controllers::ControllerParams& params) {
-  if (scenario_->controller_params() == nullptr) scenario_->set_controller_params(params);  // throws
+  if (scenario_->controller_params() == nullptr)
+    scenario_->set_controller_params(params);  // throws
   params.validate(sim_->model().opt.timestep);
   record([params](Scenario& s) { s.set_controller_params(params); });
 }
@@ -133,8 +137,10 @@ void LiveScenario::set_weld_mode(controllers::WeldMode mode) {
   record([mode](Scenario& s) { s.set_weld_mode(mode); });
 }
 
-void LiveScenario::push(const std::string& body, const Eigen::Vector3d& force_W, double duration_s) {
-  if (playback()) throw sim::InvalidArgument("push: the mocap scenario plays its motion kinematically");
+void LiveScenario::push(const std::string& body, const Eigen::Vector3d& force_W,
+                        double duration_s) {
+  if (playback())
+    throw sim::InvalidArgument("push: the mocap scenario plays its motion kinematically");
   const int id = rig().body(body);
   if (id < 0) throw sim::InvalidArgument("push body: no body named '" + body + "'");
   if (!(duration_s > 0) || !std::isfinite(duration_s) || !force_W.allFinite()) {
@@ -158,8 +164,8 @@ void LiveScenario::reset() {
 
 void LiveScenario::rewind_to(long step) {
   if (step < 0 || step > step_index()) {
-    throw sim::InvalidArgument("rewind: step must be within [0, " + std::to_string(step_index()) + "], got " +
-                               std::to_string(step));
+    throw sim::InvalidArgument("rewind: step must be within [0, " + std::to_string(step_index()) +
+                               "], got " + std::to_string(step));
   }
   // Edits made but not applied yet (say, in a panel while scrubbed back) belong to the point
   // rewound to: they take effect there and start a new future.

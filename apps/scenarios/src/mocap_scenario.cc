@@ -14,7 +14,8 @@ namespace biodyn::scenarios {
 namespace {
 
 // A BVH retargeted onto `character` with the first built-in joint map that fits it.
-mocap_io::Motion retarget_with_builtin_map(const std::string& path, const models::CharacterSpec& character) {
+mocap_io::Motion retarget_with_builtin_map(const std::string& path,
+                                           const models::CharacterSpec& character) {
   const mocap_io::BvhMotion bvh = mocap_io::read_bvh(path);
   std::string tried;
   for (const std::string& name : mocap_io::builtin_joint_map_names()) {
@@ -29,8 +30,10 @@ mocap_io::Motion retarget_with_builtin_map(const std::string& path, const models
     options.source = path;
     return mocap_io::retarget_bvh(bvh, map, character, options).motion;
   }
-  throw sim::InvalidArgument(path + ": no built-in joint map fits this BVH (retarget it with "
-                                    "biodyn mocap retarget --map, then play motion.csv):" + tried);
+  throw sim::InvalidArgument(path +
+                             ": no built-in joint map fits this BVH (retarget it with "
+                             "biodyn mocap retarget --map, then play motion.csv):" +
+                             tried);
 }
 
 }  // namespace
@@ -44,7 +47,8 @@ struct MocapScenario::State : ScenarioState {
   TrackingStats stats;
 };
 
-MocapScenario::MocapScenario(sim::Simulation* sim, ScenarioConfig config) : Scenario(sim, std::move(config)) {
+MocapScenario::MocapScenario(sim::Simulation* sim, ScenarioConfig config)
+    : Scenario(sim, std::move(config)) {
   load_motion();
   sim->reset();
   fall_ = std::make_unique<FallWatch>(rig_, kWalkingFallPelvisFraction);
@@ -68,7 +72,8 @@ MocapScenario::~MocapScenario() = default;
 void MocapScenario::load_motion() {
   const std::string& path = config_.motion_path;
   std::string ext = path.substr(path.find_last_of('.') + 1);
-  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
+  std::transform(ext.begin(), ext.end(), ext.begin(),
+                 [](unsigned char c) { return std::tolower(c); });
   const mjModel& m = sim_->model();
   mocap_io::Motion motion;
   if (ext == "bvh") {
@@ -89,19 +94,21 @@ void MocapScenario::load_motion() {
   }
   if (rows.size() < 2) {
     const double length = motion.frame_count() > 0 ? motion.times_s.back() - t0 : 0.0;
-    throw sim::InvalidArgument(path + ": fewer than 2 solved frames to play" +
-                               (config_.motion_from_s != 0 || config_.motion_to_s >= 0
-                                    ? " from " + std::to_string(config_.motion_from_s) + " s to " +
-                                          (config_.motion_to_s < 0 ? std::string("the end")
-                                                                   : std::to_string(config_.motion_to_s) + " s") +
-                                          " (the motion is " + std::to_string(length) + " s long)"
-                                    : std::string()));
+    throw sim::InvalidArgument(
+        path + ": fewer than 2 solved frames to play" +
+        (config_.motion_from_s != 0 || config_.motion_to_s >= 0
+             ? " from " + std::to_string(config_.motion_from_s) + " s to " +
+                   (config_.motion_to_s < 0 ? std::string("the end")
+                                            : std::to_string(config_.motion_to_s) + " s") +
+                   " (the motion is " + std::to_string(length) + " s long)"
+             : std::string()));
   }
   if (config_.track && rows.back() - rows.front() + 1 != static_cast<int>(rows.size())) {
     // Tracking needs a motion without gaps in time: solved frames must be consecutive.
-    throw sim::InvalidArgument(path + ": unsolved frames inside the motion (" +
-                               std::to_string(motion.frame_count() - static_cast<int>(rows.size())) +
-                               "); tracking needs a continuous motion (play it kinematically, or trim it)");
+    throw sim::InvalidArgument(
+        path + ": unsolved frames inside the motion (" +
+        std::to_string(motion.frame_count() - static_cast<int>(rows.size())) +
+        "); tracking needs a continuous motion (play it kinematically, or trim it)");
   }
   frames_.resize(static_cast<Eigen::Index>(rows.size()), m.nq);
   times_.clear();
@@ -131,7 +138,8 @@ void MocapScenario::start_tracking() {
   mjData& d = sim_->data();
   // The velocity over the first kVelocityWindow_s (frame-to-frame differences carry the
   // capture's jitter: motion_tracker.h).
-  const std::size_t f1 = std::max<std::size_t>(1, tracked_.frame_at(controllers::TrackedMotion::kVelocityWindow_s));
+  const std::size_t f1 =
+      std::max<std::size_t>(1, tracked_.frame_at(controllers::TrackedMotion::kVelocityWindow_s));
   std::vector<mjtNum> q0(static_cast<std::size_t>(m.nq)), q1(static_cast<std::size_t>(m.nq));
   for (int k = 0; k < m.nq; ++k) {
     q0[static_cast<std::size_t>(k)] = tracked_.qpos(0, k);
@@ -162,7 +170,9 @@ void MocapScenario::advance() {
 void MocapScenario::after_step() {
   // Tracking error while upright and while the motion lasts (after it, the targets hold its
   // last frame).
-  if (!tracker_ || fell_at_s_ >= 0 || steps_ % 10 != 0 || sim_->data().time > motion_length_s() + 1e-9) return;
+  if (!tracker_ || fell_at_s_ >= 0 || steps_ % 10 != 0 ||
+      sim_->data().time > motion_length_s() + 1e-9)
+    return;
   const controllers::MotionTracker::Error e = tracker_->error(sim_->model(), sim_->data());
   ++stats_.samples;
   stats_.joint_sum_sq_rad2 += e.joint_rms_rad * e.joint_rms_rad;
@@ -205,11 +215,14 @@ void MocapScenario::set_weld_mode(controllers::WeldMode mode) {
 }
 
 void MocapScenario::push(int body, const Eigen::Vector3d& force_W, double duration_s) {
-  if (playback()) throw sim::InvalidArgument("push: the mocap scenario plays its motion kinematically");
+  if (playback())
+    throw sim::InvalidArgument("push: the mocap scenario plays its motion kinematically");
   Scenario::push(body, force_W, duration_s);
 }
 
-std::unique_ptr<ScenarioState> MocapScenario::new_state() const { return std::make_unique<State>(); }
+std::unique_ptr<ScenarioState> MocapScenario::new_state() const {
+  return std::make_unique<State>();
+}
 
 void MocapScenario::save(ScenarioState* out) const {
   State& s = static_cast<State&>(*out);

@@ -34,7 +34,8 @@ class PoseMetrics : public StepObserver {
  public:
   PoseMetrics(const PoseScenario& s, double velocity_window_s, PoseRunResult* r)
       : r_(r),
-        window_steps_(std::max(1, static_cast<int>(std::lround(velocity_window_s / s.simulation().model().opt.timestep)))) {
+        window_steps_(std::max(1, static_cast<int>(std::lround(
+                                      velocity_window_s / s.simulation().model().opt.timestep)))) {
     contact_points_.reserve(64);
   }
 
@@ -61,12 +62,15 @@ class PoseMetrics : public StepObserver {
       if (!pose.stance[static_cast<std::size_t>(side)]) continue;
       const int foot = s.rig().leg(side).foot;
       const Vector2d now(d.xpos[3 * foot], d.xpos[3 * foot + 1]);
-      r_->max_foot_displacement_m = std::max(r_->max_foot_displacement_m, (now - s.foot_start(side)).norm());
+      r_->max_foot_displacement_m =
+          std::max(r_->max_foot_displacement_m, (now - s.foot_start(side)).norm());
     }
     velocity_rms(s, d);
   }
 
-  void finish() { r_->weld_active_fraction = r_->steps > 0 ? weld_active_steps_ / (2.0 * r_->steps) : 0; }
+  void finish() {
+    r_->weld_active_fraction = r_->steps > 0 ? weld_active_steps_ / (2.0 * r_->steps) : 0;
+  }
 
  private:
   // The orientation error of every joint at the pose's reach time.
@@ -90,10 +94,12 @@ class PoseMetrics : public StepObserver {
         tc.worst_joint = groups[g].name;
       }
       const auto it = pose.angles_rad.find(groups[g].name);
-      const Eigen::Vector3d angles = it == pose.angles_rad.end() ? Eigen::Vector3d::Zero() : it->second;
+      const Eigen::Vector3d angles =
+          it == pose.angles_rad.end() ? Eigen::Vector3d::Zero() : it->second;
       const Eigen::Quaterniond q_pose = controllers::orientation_from_angles(groups[g], angles);
       const Eigen::Quaterniond q_now = sim::relative_orientation(m, d, groups[g].body);
-      tc.pose_error_deg = std::max(tc.pose_error_deg, controllers::rotation_angle(q_now.conjugate() * q_pose) * kDegPerRad);
+      tc.pose_error_deg = std::max(
+          tc.pose_error_deg, controllers::rotation_angle(q_now.conjugate() * q_pose) * kDegPerRad);
     }
     r_->max_orientation_error_deg = std::max(r_->max_orientation_error_deg, tc.error_deg);
     r_->max_pose_error_deg = std::max(r_->max_pose_error_deg, tc.pose_error_deg);
@@ -108,7 +114,8 @@ class PoseMetrics : public StepObserver {
       const mjContact& con = d.contact[c];
       const int other = con.geom1 == floor ? con.geom2 : con.geom2 == floor ? con.geom1 : -1;
       if (other < 0 || con.dist > kSupportGap_m) continue;
-      if (s.rig().is_foot_part(m.geom_bodyid[other])) contact_points_.emplace_back(con.pos[0], con.pos[1]);
+      if (s.rig().is_foot_part(m.geom_bodyid[other]))
+        contact_points_.emplace_back(con.pos[0], con.pos[1]);
     }
     if (contact_points_.size() < 3) return;
     controllers::convex_hull(&contact_points_, &hull_);
@@ -160,14 +167,17 @@ class PoseTrace : public StepObserver {
     const controllers::StepReport& rep = s.pipeline()->last_report();
     const Eigen::Vector3d com = sim::center_of_mass(m, d).position_W;
     const Eigen::Vector2d& e = s.pipeline()->balance().capture_point_error();
-    *out_ << d.time << ',' << s.poses()[s.pose_index()].name << ',' << com.x() << ',' << com.y() << ',' << com.z()
-          << ',' << d.xpos[3 * s.rig().pelvis() + 2] << ',' << e.x() << ',' << e.y() << ',' << rep.balance.sagittal_tilt
-          << ',' << rep.balance.frontal_tilt << ',' << rep.balance.hip_flexion << ',' << rep.weld_active[0] << ','
-          << rep.weld_active[1] << ',' << rep.weld[0].force_W.x() << ',' << rep.weld[0].force_W.y() << ','
-          << rep.weld[0].force_W.z() << ',' << rep.weld[1].force_W.x() << ',' << rep.weld[1].force_W.y() << ','
-          << rep.weld[1].force_W.z() << ',' << rep.weld[0].ground_force_W.z() << ',' << rep.weld[1].ground_force_W.z()
-          << ',' << rep.weld[0].tension_excess_N << ',' << rep.weld[1].tension_excess_N << ','
-          << rep.joints.max_torque_ratio << ',' << rep.joints.saturated_dofs << ',' << rep.redone << '\n';
+    *out_ << d.time << ',' << s.poses()[s.pose_index()].name << ',' << com.x() << ',' << com.y()
+          << ',' << com.z() << ',' << d.xpos[3 * s.rig().pelvis() + 2] << ',' << e.x() << ','
+          << e.y() << ',' << rep.balance.sagittal_tilt << ',' << rep.balance.frontal_tilt << ','
+          << rep.balance.hip_flexion << ',' << rep.weld_active[0] << ',' << rep.weld_active[1]
+          << ',' << rep.weld[0].force_W.x() << ',' << rep.weld[0].force_W.y() << ','
+          << rep.weld[0].force_W.z() << ',' << rep.weld[1].force_W.x() << ','
+          << rep.weld[1].force_W.y() << ',' << rep.weld[1].force_W.z() << ','
+          << rep.weld[0].ground_force_W.z() << ',' << rep.weld[1].ground_force_W.z() << ','
+          << rep.weld[0].tension_excess_N << ',' << rep.weld[1].tension_excess_N << ','
+          << rep.joints.max_torque_ratio << ',' << rep.joints.saturated_dofs << ',' << rep.redone
+          << '\n';
   }
 
  private:
@@ -179,12 +189,15 @@ class PoseTrace : public StepObserver {
 void PoseRunParams::validate() const {
   if (!is_pose_scenario(config.scenario)) {
     std::string known;
-    for (const std::string& n : controllers::pose_scenario_names()) known += (known.empty() ? "" : ", ") + n;
-    throw sim::InvalidArgument("scenario: must be one of " + known + ", got '" + config.scenario + "'");
+    for (const std::string& n : controllers::pose_scenario_names())
+      known += (known.empty() ? "" : ", ") + n;
+    throw sim::InvalidArgument("scenario: must be one of " + known + ", got '" + config.scenario +
+                               "'");
   }
   config.validate();
   if (!(velocity_window_s > 0)) {
-    throw sim::InvalidArgument("velocity_window_s: must be > 0 s, got " + std::to_string(velocity_window_s));
+    throw sim::InvalidArgument("velocity_window_s: must be > 0 s, got " +
+                               std::to_string(velocity_window_s));
   }
 }
 
@@ -223,8 +236,8 @@ PoseRunResult run_pose(sim::Simulation* sim, const PoseRunParams& params,
   r.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
   r.simulated_s = r.steps * dt;
   r.realtime_factor = r.wall_s > 0 ? r.simulated_s / r.wall_s : 0;
-  r.survived_push =
-      params.config.pose_push.has_value() && !r.fallen && r.max_foot_displacement_m < kNoStepFootMove_m;
+  r.survived_push = params.config.pose_push.has_value() && !r.fallen &&
+                    r.max_foot_displacement_m < kNoStepFootMove_m;
   return r;
 }
 
@@ -261,7 +274,10 @@ StandingPushScan scan_standing_push(sim::Simulation* sim, const PoseRunParams& b
     ++out.runs;
     if (!r.survived_push) {
       out.first_failure_N = push.force_N;
-      out.failure = r.fallen ? "fell" : "feet moved " + std::to_string(r.max_foot_displacement_m * 100).substr(0, 4) + " cm";
+      out.failure = r.fallen
+                        ? "fell"
+                        : "feet moved " +
+                              std::to_string(r.max_foot_displacement_m * 100).substr(0, 4) + " cm";
       break;
     }
     out.max_survived_N = push.force_N;

@@ -12,7 +12,8 @@ namespace biodyn::scenarios {
 namespace {
 
 // One run of `cell` with a push of `force_N`.
-WalkRunResult run_once(sim::Simulation* sim, const PushSweepSpec& spec, const PushSweepCell& cell, double force_N) {
+WalkRunResult run_once(sim::Simulation* sim, const PushSweepSpec& spec, const PushSweepCell& cell,
+                       double force_N) {
   WalkRunParams run = spec.walk;
   run.trace = nullptr;
   WalkPush push = spec.walk.config.walk_push.value_or(WalkPush{});
@@ -32,11 +33,13 @@ void PushSweepSpec::validate() const {
   if (durations_s.empty()) throw sim::InvalidArgument("--durations: at least one duration");
   for (double x : durations_s)
     if (!(x > 0 && x <= 10)) fail("--durations", "each must be in (0, 10] s", x);
-  if (!(fixed_force_N >= 0) || !std::isfinite(fixed_force_N)) fail("--fixed-force", "must be >= 0 N", fixed_force_N);
+  if (!(fixed_force_N >= 0) || !std::isfinite(fixed_force_N))
+    fail("--fixed-force", "must be >= 0 N", fixed_force_N);
   if (fixed_force_N == 0 && !(scan.resolution_N > 0 && scan.max_force_N >= scan.resolution_N)) {
     throw sim::InvalidArgument("--resolution/--max-force: need 0 < resolution <= max force");
   }
-  if (!walk.config.walk_push) throw sim::InvalidArgument("push sweep: the walk needs its push (body, settle strides)");
+  if (!walk.config.walk_push)
+    throw sim::InvalidArgument("push sweep: the walk needs its push (body, settle strides)");
   walk.validate();
 }
 
@@ -45,11 +48,13 @@ std::vector<PushSweepCell> push_sweep_cells(const PushSweepSpec& spec) {
   for (double duration : spec.durations_s)
     for (int k = 0; k < spec.directions; ++k)
       for (int p = 0; p < spec.phases; ++p)
-        cells.push_back({360.0 * k / spec.directions, duration, static_cast<double>(p) / spec.phases});
+        cells.push_back(
+            {360.0 * k / spec.directions, duration, static_cast<double>(p) / spec.phases});
   return cells;
 }
 
-PushCellResult run_push_cell(sim::Simulation* sim, const PushSweepSpec& spec, const PushSweepCell& cell) {
+PushCellResult run_push_cell(sim::Simulation* sim, const PushSweepSpec& spec,
+                             const PushSweepCell& cell) {
   PushCellResult out;
   out.cell = cell;
   // One push of a fixed force: survived or not.
@@ -92,8 +97,10 @@ PushCellResult run_push_cell(sim::Simulation* sim, const PushSweepSpec& spec, co
       hi = n;
       while (hi - lo > 1) {
         const int mid = (lo + hi) / 2;
-        if (survives(mid * scan.resolution_N).survived) lo = mid;
-        else hi = mid;
+        if (survives(mid * scan.resolution_N).survived)
+          lo = mid;
+        else
+          hi = mid;
       }
     }
     out.bisection_N = lo * scan.resolution_N;
@@ -101,7 +108,8 @@ PushCellResult run_push_cell(sim::Simulation* sim, const PushSweepSpec& spec, co
   return out;
 }
 
-PushSweepSummary summarize_push_sweep(const PushSweepSpec& spec, const std::vector<PushCellResult>& results) {
+PushSweepSummary summarize_push_sweep(const PushSweepSpec& spec,
+                                      const std::vector<PushCellResult>& results) {
   PushSweepSummary summary;
   const bool fixed = spec.fixed_force_N > 0;
   for (double duration : spec.durations_s) {
@@ -121,6 +129,12 @@ PushSweepSummary summarize_push_sweep(const PushSweepSpec& spec, const std::vect
         bis_sum += r.bisection_N;
         g.survived_phases += survived ? 1 : 0;
         ++g.phases;
+      }
+      if (g.phases == 0) {
+        std::ostringstream what;
+        what << "push sweep summary: no result for direction " << g.direction_deg
+             << " deg, duration " << duration << " s (give one per cell of push_sweep_cells)";
+        throw sim::InvalidArgument(what.str());
       }
       g.max_survived_worst_N = worst;
       g.max_survived_mean_N = sum / g.phases;

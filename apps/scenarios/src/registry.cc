@@ -26,7 +26,8 @@ const std::vector<ScenarioInfo>& scenario_registry() {
       {"one-leg", "the weight shifted onto the left leg and back", build<PoseScenario>},
       {"walk", "walking from standing under the torque walker", build<WalkScenario>},
       {"stones", "walking, then the stepping stones (paper §4.2)", build<WalkScenario>},
-      {"mocap", "a captured motion, played kinematically or tracked by the controllers", build<MocapScenario>},
+      {"mocap", "a captured motion, played kinematically or tracked by the controllers",
+       build<MocapScenario>},
   };
   return registry;
 }

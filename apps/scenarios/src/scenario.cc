@@ -19,11 +19,13 @@ void refuse_unless(bool allowed, const std::string& what) {
 }  // namespace
 
 void check_walk_speed(double m_s) {
-  if (!(m_s >= kMinWalkSpeed_m_s && m_s <= kMaxWalkSpeed_m_s)) fail("speed", "must be in [0.3, 2] m/s", m_s);
+  if (!(m_s >= kMinWalkSpeed_m_s && m_s <= kMaxWalkSpeed_m_s))
+    fail("speed", "must be in [0.3, 2] m/s", m_s);
 }
 
 void check_heading_rate(double deg_s) {
-  if (!(std::abs(deg_s) <= kMaxHeadingRate_deg_s)) fail("heading-rate", "must be within +-90 deg/s", deg_s);
+  if (!(std::abs(deg_s) <= kMaxHeadingRate_deg_s))
+    fail("heading-rate", "must be within +-90 deg/s", deg_s);
 }
 
 std::vector<double> paper_stepping_stones_m() { return {0.60, 0.20, 0.50, 0.16, 0.50, 0.30}; }
@@ -34,32 +36,45 @@ void ScenarioConfig::validate() const {
   if (reaction_time_s != 0 && !(reaction_time_s >= 0.001 && reaction_time_s <= 2.0))
     fail("reaction-time", "must be in [0.001, 2] s", reaction_time_s);
   // Pose scenarios.
-  if (!(pose_duration_s >= 0) || !std::isfinite(pose_duration_s)) fail("duration", "must be >= 0 s", pose_duration_s);
-  refuse_unless(pose || (pose_duration_s == 0 && !pose_push), "pose duration/push: only the pose scenarios");
+  if (!(pose_duration_s >= 0) || !std::isfinite(pose_duration_s))
+    fail("duration", "must be >= 0 s", pose_duration_s);
+  refuse_unless(pose || (pose_duration_s == 0 && !pose_push),
+                "pose duration/push: only the pose scenarios");
   if (pose_push) {
     const TimedPush& p = *pose_push;
-    if (!(p.force_N >= 0) || !std::isfinite(p.force_N)) fail("push force", "must be >= 0 N", p.force_N);
-    if (!(p.duration_s > 0) || !std::isfinite(p.duration_s)) fail("push duration", "must be > 0 s", p.duration_s);
+    if (!(p.force_N >= 0) || !std::isfinite(p.force_N))
+      fail("push force", "must be >= 0 N", p.force_N);
+    if (!(p.duration_s > 0) || !std::isfinite(p.duration_s))
+      fail("push duration", "must be > 0 s", p.duration_s);
     if (!std::isfinite(p.direction_deg)) fail("push direction", "must be finite", p.direction_deg);
     if (!(p.onset_s >= 0)) fail("push onset", "must be >= 0 s", p.onset_s);
   }
   // Walking.
   check_walk_speed(speed_m_s);
   check_heading_rate(heading_rate_deg_s);
-  refuse_unless(steps_m.empty() || scenario == "stones", "steps: only the stones scenario walks planned steps");
-  if (steps_m.size() > 1000) fail("steps", "at most 1000 step lengths", static_cast<double>(steps_m.size()));
+  refuse_unless(steps_m.empty() || scenario == "stones",
+                "steps: only the stones scenario walks planned steps");
+  if (steps_m.size() > 1000)
+    fail("steps", "at most 1000 step lengths", static_cast<double>(steps_m.size()));
   controllers::TorqueWalker::validate_plan(steps_m);
-  if (!(steps_start_s >= 0) || !std::isfinite(steps_start_s)) fail("steps start", "must be a time >= 0 s", steps_start_s);
+  if (!(steps_start_s >= 0) || !std::isfinite(steps_start_s))
+    fail("steps start", "must be a time >= 0 s", steps_start_s);
   if (!std::isfinite(stop_at_s)) fail("stop-at", "must be finite", stop_at_s);
-  refuse_unless(walking() || (stop_at_s < 0 && !walk_push), "stop/walk push: only the walking scenarios");
+  refuse_unless(walking() || (stop_at_s < 0 && !walk_push),
+                "stop/walk push: only the walking scenarios");
   if (walk_push) {
     const WalkPush& p = *walk_push;
-    if (!steps_m.empty()) throw sim::InvalidArgument("steps: stepping stones and a push cannot be combined in one run");
-    if (stop_at_s >= 0) throw sim::InvalidArgument("stop: stopping and a push cannot be combined in one run");
-    if (!(p.force_N >= 0) || !std::isfinite(p.force_N)) fail("push force", "must be >= 0 N", p.force_N);
-    if (!(p.duration_s > 0) || !(p.duration_s <= 10)) fail("push duration", "must be in (0, 10] s", p.duration_s);
+    if (!steps_m.empty())
+      throw sim::InvalidArgument("steps: stepping stones and a push cannot be combined in one run");
+    if (stop_at_s >= 0)
+      throw sim::InvalidArgument("stop: stopping and a push cannot be combined in one run");
+    if (!(p.force_N >= 0) || !std::isfinite(p.force_N))
+      fail("push force", "must be >= 0 N", p.force_N);
+    if (!(p.duration_s > 0) || !(p.duration_s <= 10))
+      fail("push duration", "must be in (0, 10] s", p.duration_s);
     if (!std::isfinite(p.direction_deg)) fail("push direction", "must be finite", p.direction_deg);
-    if (!(p.onset_phase >= 0 && p.onset_phase < 1)) fail("push onset-phase", "must be in [0, 1)", p.onset_phase);
+    if (!(p.onset_phase >= 0 && p.onset_phase < 1))
+      fail("push onset-phase", "must be in [0, 1)", p.onset_phase);
     if (!(p.settle_strides >= 1 && p.settle_strides <= 100))
       fail("push settle strides", "must be in [1, 100]", p.settle_strides);
     if (!(p.watch_s >= 0 && p.watch_s <= 60)) fail("push watch", "must be in [0, 60] s", p.watch_s);
@@ -68,17 +83,20 @@ void ScenarioConfig::validate() const {
   if (track && !mocap) throw sim::InvalidArgument("track: only the mocap scenario tracks a motion");
   tracker.validate();
   if (mocap != !motion_path.empty()) {
-    throw sim::InvalidArgument(mocap ? "scenario mocap: give the motion (--motion motion.csv or file.bvh)"
-                                     : "--motion: only the mocap scenario plays a motion");
+    throw sim::InvalidArgument(
+        mocap ? "scenario mocap: give the motion (--motion motion.csv or file.bvh)"
+              : "--motion: only the mocap scenario plays a motion");
   }
   if ((motion_from_s != 0 || motion_to_s >= 0) && !mocap) {
     throw sim::InvalidArgument("motion from/to: only the mocap scenario plays a motion");
   }
   if (!std::isfinite(motion_from_s) || motion_from_s < 0) {
-    throw sim::InvalidArgument("motion from: must be a time >= 0 s, got " + std::to_string(motion_from_s));
+    throw sim::InvalidArgument("motion from: must be a time >= 0 s, got " +
+                               std::to_string(motion_from_s));
   }
   if (!std::isfinite(motion_to_s) || (motion_to_s >= 0 && motion_to_s <= motion_from_s)) {
-    throw sim::InvalidArgument("motion to: must be after motion from (" + std::to_string(motion_from_s) + " s), got " +
+    throw sim::InvalidArgument("motion to: must be after motion from (" +
+                               std::to_string(motion_from_s) + " s), got " +
                                std::to_string(motion_to_s) + " s");
   }
 }
@@ -130,8 +148,8 @@ controllers::ControllerParams Scenario::controller_params_from_config() const {
   const mjModel& m = sim_->model();
   controllers::ControllerParams p = controllers::default_params(m, rig_.groups());
   if (!config_.controller_json.empty()) {
-    controllers::apply_params_file_json(config_.controller_json, config_.controller_source, rig_.groups(),
-                                        m.opt.timestep, &p);
+    controllers::apply_params_file_json(config_.controller_json, config_.controller_source,
+                                        rig_.groups(), m.opt.timestep, &p);
   }
   if (config_.reaction_time_s > 0) {
     for (controllers::JointParams& j : p.joints) j.reaction_time_s = config_.reaction_time_s;
@@ -140,7 +158,8 @@ controllers::ControllerParams Scenario::controller_params_from_config() const {
 }
 
 void Scenario::set_controller_params(const controllers::ControllerParams&) {
-  throw sim::InvalidArgument("controller parameters: the " + config_.scenario + " scenario has no controllers");
+  throw sim::InvalidArgument("controller parameters: the " + config_.scenario +
+                             " scenario has no controllers");
 }
 
 void Scenario::set_weld_mode(controllers::WeldMode) {
@@ -148,7 +167,8 @@ void Scenario::set_weld_mode(controllers::WeldMode) {
 }
 
 void Scenario::set_walker_params(const controllers::TorqueWalkerParams&) {
-  throw sim::InvalidArgument("walker parameters: the " + config_.scenario + " scenario does not walk");
+  throw sim::InvalidArgument("walker parameters: the " + config_.scenario +
+                             " scenario does not walk");
 }
 
 void Scenario::set_speed(double) {

@@ -9,9 +9,9 @@
 
 #include "biodyn/scenarios/walk_scenario.h"
 #include "biodyn/sim/errors.h"
-#include "checks.h"
 #include "biodyn/sim/queries.h"
 #include "biodyn/sim/units.h"
+#include "checks.h"
 
 namespace biodyn::scenarios {
 namespace {
@@ -33,7 +33,9 @@ constexpr double kStandingSpeed_m_s = 0.05;
 // Strides to find the push onset in before giving up (the walker stopped striking).
 constexpr double kMaxSettle_s = 120.0;
 
-Vector2d com_xy(const mjModel& m, const mjData& d) { return sim::center_of_mass(m, d).position_W.head<2>(); }
+Vector2d com_xy(const mjModel& m, const mjData& d) {
+  return sim::center_of_mass(m, d).position_W.head<2>();
+}
 
 // Per-angle [min, max] of the legs and the lumbar joint.
 struct AngleRanges {
@@ -47,8 +49,8 @@ struct AngleRanges {
   explicit AngleRanges(const std::vector<JointGroup>& groups) {
     for (std::size_t g = 0; g < groups.size(); ++g) {
       const std::string& n = groups[g].name;
-      const bool wanted = n.rfind("hip", 0) == 0 || n.rfind("knee", 0) == 0 || n.rfind("ankle", 0) == 0 ||
-                          n.rfind("toe", 0) == 0 || n == "lumbar";
+      const bool wanted = n.rfind("hip", 0) == 0 || n.rfind("knee", 0) == 0 ||
+                          n.rfind("ankle", 0) == 0 || n.rfind("toe", 0) == 0 || n == "lumbar";
       if (!wanted) continue;
       for (int k = 0; k < groups[g].dof_count; ++k) {
         static const char* const kBall[3] = {"_flexion", "_abduction", "_rotation"};
@@ -65,7 +67,8 @@ struct AngleRanges {
       const JointGroup& g = groups[static_cast<std::size_t>(e.group)];
       double a;
       if (g.ball) {
-        a = controllers::angles_from_orientation(g, sim::relative_orientation(m, d, g.body))[e.component];
+        a = controllers::angles_from_orientation(
+            g, sim::relative_orientation(m, d, g.body))[e.component];
       } else {
         a = d.qpos[m.jnt_qposadr[m.dof_jntid[g.dof_begin + e.component]]];
       }
@@ -82,8 +85,8 @@ struct FootWatch {
   bool touching = false;  // foot or toes on the floor
   bool flat = false;      // flat in this stance at least once
   Vector2d flat_at = Vector2d::Zero();
-  double slip = 0;        // this stance
-  double air_s = 0;       // time off the floor before the current touch
+  double slip = 0;   // this stance
+  double air_s = 0;  // time off the floor before the current touch
 };
 
 // The gait's figures (WalkRunResult), measured after every step.
@@ -96,9 +99,11 @@ class WalkMetrics : public StepObserver {
       feet_[side].foot = s.rig().leg(side).foot;
       feet_[side].toes = s.rig().leg(side).toes;
       feet_[side].sole = s.rig().leg(side).sole;
-      knee_dof_[side] = s.rig().groups()[static_cast<std::size_t>(s.rig().leg(side).knee)].dof_begin;
+      knee_dof_[side] =
+          s.rig().groups()[static_cast<std::size_t>(s.rig().leg(side).knee)].dof_begin;
     }
-    start_heading_ = Vector2d(std::cos(s.walker().heading_rad()), std::sin(s.walker().heading_rad()));
+    start_heading_ =
+        Vector2d(std::cos(s.walker().heading_rad()), std::sin(s.walker().heading_rad()));
     com_start_ = com_last_strike_ = com_xy(m, d);
   }
 
@@ -114,7 +119,8 @@ class WalkMetrics : public StepObserver {
     r_->weld_redone_steps += rep.redone > 0 ? 1 : 0;
     for (std::size_t side = 0; side < 2; ++side)
       r_->max_weld_force_N = std::max(r_->max_weld_force_N, rep.weld[side].force_W.norm());
-    for (int k = 0; k < 6; ++k) r_->max_root_force_N = std::max(r_->max_root_force_N, std::abs(d.qfrc_applied[k]));
+    for (int k = 0; k < 6; ++k)
+      r_->max_root_force_N = std::max(r_->max_root_force_N, std::abs(d.qfrc_applied[k]));
     const bool steady = d.time >= kWalkStartup_s;
     if (s.walker().strike_count() != strikes_seen_) on_strike(s, m, d, steady);
     watch_feet(m, d, s.rig().floor_geom());
@@ -125,7 +131,8 @@ class WalkMetrics : public StepObserver {
       knee_peak_now_ = std::max(knee_peak_now_, knee);
       ranges_.sample(m, d, s.rig().groups());
     }
-    for (std::size_t side = 0; side < 2; ++side) feet_down_[side] = feet_[side].touching || rep.weld_active[side];
+    for (std::size_t side = 0; side < 2; ++side)
+      feet_down_[side] = feet_[side].touching || rep.weld_active[side];
   }
 
   // The figures over the whole run, at its end.
@@ -134,12 +141,14 @@ class WalkMetrics : public StepObserver {
     const mjData& d = s.simulation().data();
     const sim::CenterOfMass com = sim::center_of_mass(m, d);
     r_->final_com_speed_m_s = com.velocity_W.head<2>().norm();
-    r_->standing_at_end = r_->stopped_at_s >= 0 && !r_->fallen && r_->final_com_speed_m_s < kStandingSpeed_m_s &&
-                          feet_down_[0] && feet_down_[1];
+    r_->standing_at_end = r_->stopped_at_s >= 0 && !r_->fallen &&
+                          r_->final_com_speed_m_s < kStandingSpeed_m_s && feet_down_[0] &&
+                          feet_down_[1];
     r_->steps = s.walker().strike_count();
     const double heading = s.walker().heading_rad();
     const Vector2d com_end = com.position_W.head<2>();
-    r_->distance_m += (com_end - com_last_strike_).dot(Vector2d(std::cos(heading), std::sin(heading)));
+    r_->distance_m +=
+        (com_end - com_last_strike_).dot(Vector2d(std::cos(heading), std::sin(heading)));
     r_->mean_speed_m_s = r_->simulated_s > 0 ? r_->distance_m / r_->simulated_s : 0;
     const Vector2d travel = com_end - com_start_;
     r_->lateral_drift_m = -start_heading_.y() * travel.x() + start_heading_.x() * travel.y();
@@ -151,7 +160,8 @@ class WalkMetrics : public StepObserver {
     for (const AngleRanges::Entry& e : ranges_.entries)
       if (e.hi >= e.lo) r_->joint_ranges_deg[e.name] = {e.lo * kDegPerRad, e.hi * kDegPerRad};
     r_->swing_knee_peak_deg = swing_count_ > 0 ? knee_peak_sum_ / swing_count_ * kDegPerRad : 0;
-    r_->heel_strike_fraction = touchdowns_ > 0 ? static_cast<double>(heel_strikes_) / touchdowns_ : 0;
+    r_->heel_strike_fraction =
+        touchdowns_ > 0 ? static_cast<double>(heel_strikes_) / touchdowns_ : 0;
     r_->base_polygon_steps = s.walker().base_polygon_steps();
     r_->mean_foot_slip_m = stances_ > 0 ? slip_sum_ / stances_ : 0;
   }
@@ -166,7 +176,8 @@ class WalkMetrics : public StepObserver {
     r_->step_times_s.push_back(st.time_s);
     const Vector2d c = com_xy(m, d);
     const Vector2d heading(std::cos(s.walker().heading_rad()), std::sin(s.walker().heading_rad()));
-    const double progress_m = (c - com_last_strike_).dot(heading);  // signed: backwards counts against
+    const double progress_m =
+        (c - com_last_strike_).dot(heading);  // signed: backwards counts against
     r_->distance_m += progress_m;
     if (steady) {
       if (steady_first_t_ < 0) {
@@ -258,8 +269,10 @@ class WalkMetrics : public StepObserver {
 class WalkTrace : public StepObserver {
  public:
   explicit WalkTrace(std::ostream* out) : out_(out) {
-    *out_ << "time_s,com_x,com_y,com_z,com_vx,com_vy,pelvis_z,heading_deg,stance,state,strikes,base_polygon_rule,"
-             "contacts_l,contacts_r,weld_l,weld_r,knee_l_deg,knee_r_deg,max_torque_ratio,push_fx,push_fy\n";
+    *out_ << "time_s,com_x,com_y,com_z,com_vx,com_vy,pelvis_z,heading_deg,stance,state,strikes,"
+             "base_polygon_rule,"
+             "contacts_l,contacts_r,weld_l,weld_r,knee_l_deg,knee_r_deg,max_torque_ratio,push_fx,"
+             "push_fy\n";
   }
   void on_step(const Scenario& scenario) override {
     const WalkScenario& s = static_cast<const WalkScenario&>(scenario);
@@ -273,21 +286,23 @@ class WalkTrace : public StepObserver {
     bool touching[2];
     for (int side = 0; side < 2; ++side) {
       const models::RigLeg& leg = s.rig().leg(side);
-      touching[side] = sim::floor_contact_count(m, d, s.rig().floor_geom(), leg.foot) +
-                           (leg.toes >= 0 ? sim::floor_contact_count(m, d, s.rig().floor_geom(), leg.toes) : 0) >
-                       0;
+      touching[side] =
+          sim::floor_contact_count(m, d, s.rig().floor_geom(), leg.foot) +
+              (leg.toes >= 0 ? sim::floor_contact_count(m, d, s.rig().floor_geom(), leg.toes) : 0) >
+          0;
     }
     const auto knee_deg = [&](int side) {
       const int dof = s.rig().groups()[static_cast<std::size_t>(s.rig().leg(side).knee)].dof_begin;
       return d.qpos[m.jnt_qposadr[m.dof_jntid[dof]]] * kDegPerRad;
     };
-    *out_ << d.time << ',' << com.position_W.x() << ',' << com.position_W.y() << ',' << com.position_W.z() << ','
-          << com.velocity_W.x() << ',' << com.velocity_W.y() << ',' << d.xpos[3 * s.rig().pelvis() + 2] << ','
-          << w.heading_rad() * kDegPerRad << ',' << w.stance_side() << ',' << w.phase() << ',' << w.strike_count()
-          << ',' << w.base_polygon_rule_active() << ',' << static_cast<int>(touching[0]) << ','
-          << static_cast<int>(touching[1]) << ',' << rep.weld_active[0] << ',' << rep.weld_active[1] << ','
-          << knee_deg(0) << ',' << knee_deg(1) << ',' << rep.joints.max_torque_ratio << ',' << (xf ? xf[0] : 0.0)
-          << ',' << (xf ? xf[1] : 0.0) << '\n';
+    *out_ << d.time << ',' << com.position_W.x() << ',' << com.position_W.y() << ','
+          << com.position_W.z() << ',' << com.velocity_W.x() << ',' << com.velocity_W.y() << ','
+          << d.xpos[3 * s.rig().pelvis() + 2] << ',' << w.heading_rad() * kDegPerRad << ','
+          << w.stance_side() << ',' << w.phase() << ',' << w.strike_count() << ','
+          << w.base_polygon_rule_active() << ',' << static_cast<int>(touching[0]) << ','
+          << static_cast<int>(touching[1]) << ',' << rep.weld_active[0] << ',' << rep.weld_active[1]
+          << ',' << knee_deg(0) << ',' << knee_deg(1) << ',' << rep.joints.max_torque_ratio << ','
+          << (xf ? xf[0] : 0.0) << ',' << (xf ? xf[1] : 0.0) << '\n';
   }
 
  private:
@@ -298,7 +313,8 @@ class WalkTrace : public StepObserver {
 // strides after it, done once 4 strides after the push have ended (or the watch is long over).
 class PushJudge : public StepObserver {
  public:
-  PushJudge(const WalkScenario& s, WalkPushOutcome* o) : o_(o), watch_s_(s.config().walk_push->watch_s) {
+  PushJudge(const WalkScenario& s, WalkPushOutcome* o)
+      : o_(o), watch_s_(s.config().walk_push->watch_s) {
     const WalkPush& p = *s.config().walk_push;
     o->force_N = p.force_N;
     o->duration_s = p.duration_s;
@@ -332,7 +348,8 @@ class PushJudge : public StepObserver {
       std::size_t after = 0;
       for (double t : left_strike_times_)
         if (t >= o_->end_s) ++after;
-      done_ = after >= static_cast<std::size_t>(kRecoveryStrides) + 1 || d.time >= o_->end_s + watch_s_ + kPushJudgeCap_s;
+      done_ = after >= static_cast<std::size_t>(kRecoveryStrides) + 1 ||
+              d.time >= o_->end_s + watch_s_ + kPushJudgeCap_s;
     }
   }
   bool done() const override { return done_; }
@@ -353,8 +370,11 @@ class PushJudge : public StepObserver {
       o.stride_speeds_after_m_s.push_back((left_strike_com_[i + 1] - left_strike_com_[i]).norm() /
                                           (left_strike_times_[i + 1] - left_strike_times_[i]));
     }
-    for (std::size_t k = 0; k < o.stride_speeds_after_m_s.size() && k < static_cast<std::size_t>(kRecoveryStrides); ++k) {
-      if (std::abs(o.stride_speeds_after_m_s[k] - o.speed_before_m_s) <= kRecoveredSpeedFraction * o.speed_before_m_s) {
+    for (std::size_t k = 0;
+         k < o.stride_speeds_after_m_s.size() && k < static_cast<std::size_t>(kRecoveryStrides);
+         ++k) {
+      if (std::abs(o.stride_speeds_after_m_s[k] - o.speed_before_m_s) <=
+          kRecoveredSpeedFraction * o.speed_before_m_s) {
         o.recovery_strides = static_cast<int>(k) + 1;
         break;
       }
@@ -362,7 +382,8 @@ class PushJudge : public StepObserver {
     if (o.fell) {
       o.outcome = PushOutcome::kFell;
       std::ostringstream s;
-      s << "fell at " << r.time_fallen_s << " s (" << r.time_fallen_s - o.onset_s << " s after the onset)";
+      s << "fell at " << r.time_fallen_s << " s (" << r.time_fallen_s - o.onset_s
+        << " s after the onset)";
       o.failure = s.str();
     } else if (o.recovery_strides < 0) {
       o.outcome = PushOutcome::kSpeedNotRecovered;
@@ -400,7 +421,8 @@ const char* to_string(PushOutcome outcome) {
 
 void WalkRunParams::validate() const {
   if (!config.walking()) {
-    throw sim::InvalidArgument("scenario: a walk runs the walk or stones scenario, got '" + config.scenario + "'");
+    throw sim::InvalidArgument("scenario: a walk runs the walk or stones scenario, got '" +
+                               config.scenario + "'");
   }
   if (!(duration_s > 0) || !std::isfinite(duration_s) || duration_s > 3600)
     fail("duration", "must be in (0, 3600] s", duration_s);
@@ -417,8 +439,10 @@ WalkRunResult run_walk(sim::Simulation* sim, const WalkRunParams& params,
   WalkScenario scenario(sim, params.config);
   const double dt = sim->model().opt.timestep;
   const std::optional<WalkPush>& push = params.config.walk_push;
-  const long max_steps = std::lround(
-      (push ? kMaxSettle_s + push->duration_s + push->watch_s + kPushJudgeCap_s : params.duration_s) / dt);
+  const long max_steps =
+      std::lround((push ? kMaxSettle_s + push->duration_s + push->watch_s + kPushJudgeCap_s
+                        : params.duration_s) /
+                  dt);
   scenario.set_max_steps(max_steps);
 
   WalkRunResult r;
@@ -444,7 +468,8 @@ WalkRunResult run_walk(sim::Simulation* sim, const WalkRunParams& params,
     const long step = scenario.step_index() - 1;
     if (!progress || step % 100 != 0) continue;
     if (push) {
-      const double horizon = judge->scheduled() ? outcome.end_s + push->watch_s + 1.0 : push->settle_strides * 1.2 + 8.0;
+      const double horizon = judge->scheduled() ? outcome.end_s + push->watch_s + 1.0
+                                                : push->settle_strides * 1.2 + 8.0;
       progress(std::min(0.99, sim->data().time / horizon));
     } else {
       progress(static_cast<double>(step + 1) / static_cast<double>(max_steps));
@@ -471,7 +496,8 @@ WalkRunResult run_walk(sim::Simulation* sim, const WalkRunParams& params,
       sq += e * e;
       stones.max_error_m = std::max(stones.max_error_m, std::abs(e));
     }
-    stones.rms_error_m = stones.errors_m.empty() ? 0 : std::sqrt(sq / static_cast<double>(stones.errors_m.size()));
+    stones.rms_error_m =
+        stones.errors_m.empty() ? 0 : std::sqrt(sq / static_cast<double>(stones.errors_m.size()));
     stones.complete = stones.lengths_m.size() == stones.targets_m.size();
     r.stones = stones;
   }

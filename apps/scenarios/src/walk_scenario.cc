@@ -52,7 +52,8 @@ WalkScenario::WalkScenario(sim::Simulation* sim, ScenarioConfig config)
       walker_params_(walker_params_from(config_)),
       pipeline_(sim, rig_, params_, pipeline_config(config_)),
       walker_(rig_, walker_params_) {
-  if (config_.scenario == "stones" && config_.steps_m.empty()) config_.steps_m = paper_stepping_stones_m();
+  if (config_.scenario == "stones" && config_.steps_m.empty())
+    config_.steps_m = paper_stepping_stones_m();
   run_.stones.reserve(config_.steps_m.size() + 1);  // the stop's closing step may be one more
   sim->reset();
   stand_pose_ = controllers::pose_scenario("stand", rig_.groups(), 0)[0];
@@ -75,7 +76,8 @@ void WalkScenario::advance() {
   const mjData& d = sim_->data();
   // Stopping: the walker plans its last steps; once the feet are side by side the standing
   // controller (pose and balance) takes over with both feet in stance.
-  if (config_.stop_at_s >= 0 && d.time >= config_.stop_at_s && !walker_.stopping()) walker_.request_stop();
+  if (config_.stop_at_s >= 0 && d.time >= config_.stop_at_s && !walker_.stopping())
+    walker_.request_stop();
   if (walker_.stopped() && pipeline_.driver() == &walker_) {
     pipeline_.set_driver(nullptr);
     pipeline_.set_stance(0, true);
@@ -93,7 +95,8 @@ void WalkScenario::on_strike() {
   const controllers::TorqueWalkerStrike& st = walker_.last_strike();
   // A planned step ends at this strike: its length walked. Then the plan starts at the first
   // strike at or after steps_start_s (from the swing that starts now).
-  if (!std::isnan(st.target_length_m) && !run_.stones.empty() && std::isnan(run_.stones.back().walked_m)) {
+  if (!std::isnan(st.target_length_m) && !run_.stones.empty() &&
+      std::isnan(run_.stones.back().walked_m)) {
     run_.stones.back().walked_m = st.step_length_m;
   }
   if (!config_.steps_m.empty() && !run_.stones_planned && d.time >= config_.steps_start_s) {
@@ -107,7 +110,8 @@ void WalkScenario::on_strike() {
   run_.last_left_strike_s[0] = run_.last_left_strike_s[1];
   run_.last_left_strike_s[1] = st.time_s;
   ++run_.left_strikes;
-  if (!config_.walk_push || !std::isnan(run_.push_onset_s) || run_.left_strikes < config_.walk_push->settle_strides + 1)
+  if (!config_.walk_push || !std::isnan(run_.push_onset_s) ||
+      run_.left_strikes < config_.walk_push->settle_strides + 1)
     return;
   const WalkPush& wp = *config_.walk_push;
   const double dt = sim_->model().opt.timestep;

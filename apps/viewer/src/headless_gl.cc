@@ -33,11 +33,10 @@ HeadlessGl::HeadlessGl() {
   if (display == EGL_NO_DISPLAY) fail("eglGetDisplay");
   EGLint major = 0, minor = 0;
   if (!eglInitialize(display, &major, &minor)) fail("eglInitialize");
-  const EGLint attributes[] = {EGL_RED_SIZE,        8, EGL_GREEN_SIZE, 8, EGL_BLUE_SIZE, 8,
-                               EGL_DEPTH_SIZE,      24, EGL_STENCIL_SIZE, 8,
-                               // No window: MuJoCo draws into its own framebuffer object.
-                               EGL_SURFACE_TYPE,    EGL_PBUFFER_BIT,
-                               EGL_RENDERABLE_TYPE, EGL_OPENGL_BIT, EGL_NONE};
+  const EGLint attributes[] = {
+      EGL_RED_SIZE, 8, EGL_GREEN_SIZE, 8, EGL_BLUE_SIZE, 8, EGL_DEPTH_SIZE, 24, EGL_STENCIL_SIZE, 8,
+      // No window: MuJoCo draws into its own framebuffer object.
+      EGL_SURFACE_TYPE, EGL_PBUFFER_BIT, EGL_RENDERABLE_TYPE, EGL_OPENGL_BIT, EGL_NONE};
   EGLConfig config = nullptr;
   EGLint count = 0;
   if (!eglChooseConfig(display, attributes, &config, 1, &count) || count < 1) {

@@ -3,8 +3,8 @@
 
 #include <stb/stb_image_write.h>
 
-#include <cmath>
 #include <sys/wait.h>
+#include <cmath>
 
 #include <csignal>
 #include <cstdio>
@@ -33,7 +33,8 @@ std::string slurp(const std::string& path) {
 
 }  // namespace
 
-void write_png(const std::string& path, int width, int height, const std::vector<std::uint8_t>& rgb) {
+void write_png(const std::string& path, int width, int height,
+               const std::vector<std::uint8_t>& rgb) {
   if (rgb.size() != 3 * static_cast<std::size_t>(width) * static_cast<std::size_t>(height)) {
     throw sim::InvalidArgument(path + ": image data does not match " + std::to_string(width) +
                                " x " + std::to_string(height) + " RGB");

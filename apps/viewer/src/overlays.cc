@@ -31,8 +31,8 @@ void polygon(const std::vector<Eigen::Vector2d>& p, const float rgba[4], double 
 }  // namespace
 
 void foot_support(const mjModel& m, const mjData& d, const models::Rig& rig, OverlayBuffers* b) {
-  const int feet[4] = {rig.leg(models::kLeft).foot, rig.leg(models::kRight).foot, rig.leg(models::kLeft).toes,
-                       rig.leg(models::kRight).toes};
+  const int feet[4] = {rig.leg(models::kLeft).foot, rig.leg(models::kRight).foot,
+                       rig.leg(models::kLeft).toes, rig.leg(models::kRight).toes};
   sim::floor_contacts(m, d, rig.floor_geom(), &b->contacts);
   controllers::contact_support_polygon(b->contacts, feet, 4, &b->points, &b->hull);
 }
@@ -110,7 +110,7 @@ void build_overlays(const scenarios::LiveScenario& s, const OverlayOptions& o, O
       g.from_W = Eigen::Vector3d(c.x(), c.y(), half_thick);
       g.half_size_m = Eigen::Vector3d(0.5 * (front - back), half_width, half_thick);
       g.yaw_rad = st.heading_rad;
-      const float* rgba = std::isnan(st.walked_m)                           ? kStone
+      const float* rgba = std::isnan(st.walked_m)                         ? kStone
                           : std::abs(st.walked_m - st.target_m) <= kHit_m ? kStoneHit
                                                                           : kStoneMissed;
       std::copy(rgba, rgba + 4, g.rgba);
@@ -124,7 +124,8 @@ void build_overlays(const scenarios::LiveScenario& s, const OverlayOptions& o, O
       const int body = s.rig().leg(side).foot;
       sim::OverlayGeom g;
       g.kind = sim::OverlayGeom::Kind::kSphere;
-      g.from_W = Eigen::Vector3d(d.xpos[3 * body], d.xpos[3 * body + 1], d.xpos[3 * body + 2] + 0.06);
+      g.from_W =
+          Eigen::Vector3d(d.xpos[3 * body], d.xpos[3 * body + 1], d.xpos[3 * body + 2] + 0.06);
       g.width_m = 0.018;
       const float on[4] = {0.1f, 0.9f, 0.1f, 1.0f}, tension[4] = {1.0f, 0.0f, 0.0f, 1.0f};
       std::copy(r.weld_tension ? tension : on, (r.weld_tension ? tension : on) + 4, g.rgba);

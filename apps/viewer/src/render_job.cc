@@ -66,7 +66,8 @@ RenderStats render_scenario(scenarios::LiveScenario* s, const RenderOptions& o,
     s->run_until(t);
     st.physics_s += seconds_since(phase);
     // Drawn only when filmed or when it is the PNG's frame (a PNG alone costs one frame).
-    const bool png_frame = !o.png_path.empty() && !png_taken && (t >= png_at - 0.5 / o.fps || f + 1 == frames);
+    const bool png_frame =
+        !o.png_path.empty() && !png_taken && (t >= png_at - 0.5 / o.fps || f + 1 == frames);
     if (progress) progress(static_cast<double>(f + 1) / frames);
     if (!video && !png_frame) continue;
     phase = Clock::now();

@@ -81,9 +81,10 @@ std::vector<ScriptCommand> parse_script(const std::string& path) {
                     (cmd == "screenshot" && n == 2) || (cmd == "rewind" && n == 2) ||
                     (cmd == "quit" && n == 1);
     if (!ok) {
-      fail("expected set <field> <value>, set tau_scale <group> <factor>, push <body> <N> <deg> "
-           "<s>, save-params <walker.json> <controller.json>, screenshot <file.png>, rewind <s> "
-           "or quit");
+      fail(
+          "expected set <field> <value>, set tau_scale <group> <factor>, push <body> <N> <deg> "
+          "<s>, save-params <walker.json> <controller.json>, screenshot <file.png>, rewind <s> "
+          "or quit");
     }
     out.push_back(c);
   }
@@ -118,7 +119,8 @@ struct History {
     entry_s = kEvery * timestep_s;
     step.assign(static_cast<std::size_t>(capacity), 0);
     time.assign(static_cast<std::size_t>(capacity), 0);
-    qpos.assign(static_cast<std::size_t>(capacity), std::vector<double>(static_cast<std::size_t>(nq)));
+    qpos.assign(static_cast<std::size_t>(capacity),
+                std::vector<double>(static_cast<std::size_t>(nq)));
   }
   int capacity() const { return static_cast<int>(step.size()); }
   void add(long s, double t, const double* q) {
@@ -139,7 +141,9 @@ struct History {
     }
   }
   double span_s() const {
-    return count < 2 ? 0.0 : time[static_cast<std::size_t>(at(0))] - time[static_cast<std::size_t>(at(count - 1))];
+    return count < 2 ? 0.0
+                     : time[static_cast<std::size_t>(at(0))] -
+                           time[static_cast<std::size_t>(at(count - 1))];
   }
 };
 
@@ -158,7 +162,8 @@ struct Plots {
     speed[static_cast<std::size_t>(head)] = v;
     contact_l[static_cast<std::size_t>(head)] = cl;
     contact_r[static_cast<std::size_t>(head)] = cr;
-    for (std::size_t g = 0; g < torque_ratio.size(); ++g) torque_ratio[g][static_cast<std::size_t>(head)] = ratios[g];
+    for (std::size_t g = 0; g < torque_ratio.size(); ++g)
+      torque_ratio[g][static_cast<std::size_t>(head)] = ratios[g];
     head = (head + 1) % kSamples;
   }
 };
@@ -171,7 +176,7 @@ struct Shared {
   double speed_factor = 1.0;  // simulated seconds per wall second
   double scrub_s = 0.0;       // <= 0: how far back the display is (paused)
   bool quit = false;
-  std::string message;        // one line shown in the status bar
+  std::string message;  // one line shown in the status bar
   History history;
   Plots plots;
   OverlayBuffers overlay_buffers;  // the render thread's (under the lock)
@@ -202,7 +207,9 @@ void sample_plots(Shared& sh) {
   const sim::CenterOfMass com = sim::center_of_mass(m, d);
   const Eigen::Vector2d c = com.position_W.head<2>();
   const float outside = static_cast<float>(controllers::distance_outside(b.hull, c));
-  const float tol = s.gait() ? static_cast<float>(controllers::distance_outside(s.gait()->tolerance_polygon(), c)) : 0.0f;
+  const float tol =
+      s.gait() ? static_cast<float>(controllers::distance_outside(s.gait()->tolerance_polygon(), c))
+               : 0.0f;
   bool on[2] = {false, false};
   for (const sim::FloorContact& k : b.contacts) {
     if (k.body == left.foot || k.body == left.toes) on[0] = true;
@@ -213,14 +220,17 @@ void sample_plots(Shared& sh) {
   for (std::size_t g = 0; pipeline != nullptr && g < sh.plots.group_index.size(); ++g) {
     const auto& tau = pipeline->joints().previous_torque();
     const auto& tau_max = pipeline->joints().tau_max();
-    const controllers::JointGroup& jg = s.rig().groups()[static_cast<std::size_t>(sh.plots.group_index[g])];
+    const controllers::JointGroup& jg =
+        s.rig().groups()[static_cast<std::size_t>(sh.plots.group_index[g])];
     for (int k = 0; k < jg.dof_count; ++k) {
       const std::size_t dof = static_cast<std::size_t>(jg.dof_begin + k);
-      if (tau_max[dof] > 0) sh.ratio_scratch[g] = std::max(sh.ratio_scratch[g], static_cast<float>(std::abs(tau[dof]) / tau_max[dof]));
+      if (tau_max[dof] > 0)
+        sh.ratio_scratch[g] =
+            std::max(sh.ratio_scratch[g], static_cast<float>(std::abs(tau[dof]) / tau_max[dof]));
     }
   }
-  sh.plots.push(outside, tol, static_cast<float>(com.velocity_W.head<2>().norm()), on[0] ? 1.0f : 0.0f,
-                on[1] ? 1.0f : 0.0f, sh.ratio_scratch);
+  sh.plots.push(outside, tol, static_cast<float>(com.velocity_W.head<2>().norm()),
+                on[0] ? 1.0f : 0.0f, on[1] ? 1.0f : 0.0f, sh.ratio_scratch);
 }
 
 void run_command(Shared& sh, const ScriptCommand& c, const std::string& script);
@@ -228,7 +238,9 @@ void run_command(Shared& sh, const ScriptCommand& c, const std::string& script);
 // The controller parameters in use; throws sim::InvalidArgument for a kinematic playback.
 controllers::ControllerParams current_controller_params(const scenarios::LiveScenario& s) {
   const controllers::ControllerParams* p = s.controller_params();
-  if (p == nullptr) throw sim::InvalidArgument("controller parameters: the motion plays kinematically, no controllers");
+  if (p == nullptr)
+    throw sim::InvalidArgument(
+        "controller parameters: the motion plays kinematically, no controllers");
   return *p;
 }
 
@@ -267,43 +279,45 @@ void physics_loop(Shared& sh) {
         goto idle;
       }
       {
-      const auto step_once = [&] {
-        s.step();
-        ++sh.steps_run;
-        if (s.step_index() % History::kEvery == 0) {
-          sh.history.add(s.step_index(), s.time_s(), s.simulation().data().qpos);
+        const auto step_once = [&] {
+          s.step();
+          ++sh.steps_run;
+          if (s.step_index() % History::kEvery == 0) {
+            sh.history.add(s.step_index(), s.time_s(), s.simulation().data().qpos);
+          }
+          if (s.step_index() % Plots::kEvery == 0) sample_plots(sh);
+        };
+        const bool scrubbed = sh.scrub_s < 0;
+        if ((!sh.paused || sh.single_steps > 0) && scrubbed) {
+          // Resuming from a point in the past: the scenario replays to it (exact, live.h).
+          const int back =
+              std::clamp(static_cast<int>(std::lround(-sh.scrub_s / sh.history.entry_s)), 0,
+                         sh.history.count - 1);
+          const long to = sh.history.step[static_cast<std::size_t>(sh.history.at(back))];
+          s.rewind_to(to);
+          sh.history.truncate_after(to);
+          sh.scrub_s = 0;
+          target = -1;
         }
-        if (s.step_index() % Plots::kEvery == 0) sample_plots(sh);
-      };
-      const bool scrubbed = sh.scrub_s < 0;
-      if ((!sh.paused || sh.single_steps > 0) && scrubbed) {
-        // Resuming from a point in the past: the scenario replays to it (exact, live.h).
-        const int back = std::clamp(static_cast<int>(std::lround(-sh.scrub_s / sh.history.entry_s)), 0, sh.history.count - 1);
-        const long to = sh.history.step[static_cast<std::size_t>(sh.history.at(back))];
-        s.rewind_to(to);
-        sh.history.truncate_after(to);
-        sh.scrub_s = 0;
-        target = -1;
-      }
-      if (sh.single_steps > 0) {
-        step_once();
-        --sh.single_steps;
-        target = -1;
-      } else if (!sh.paused) {
-        if (target < 0) target = s.time_s();
-        target += wall_dt * sh.speed_factor;
-        const auto budget_end = now + std::chrono::milliseconds(30);
-        const double t_start = s.time_s();
-        while (s.time_s() < target && Clock::now() < budget_end) {
+        if (sh.single_steps > 0) {
           step_once();
-          if (!run_script()) break;
+          --sh.single_steps;
+          target = -1;
+        } else if (!sh.paused) {
+          if (target < 0) target = s.time_s();
+          target += wall_dt * sh.speed_factor;
+          const auto budget_end = now + std::chrono::milliseconds(30);
+          const double t_start = s.time_s();
+          while (s.time_s() < target && Clock::now() < budget_end) {
+            step_once();
+            if (!run_script()) break;
+          }
+          if (s.time_s() < target - 0.1) target = s.time_s();  // behind: slow down, never spiral
+          sh.running_wall_s += wall_dt;
+          sh.running_sim_s += s.time_s() - t_start;
+        } else {
+          target = -1;
         }
-        if (s.time_s() < target - 0.1) target = s.time_s();  // behind: slow down, never spiral
-        sh.running_wall_s += wall_dt;
-        sh.running_sim_s += s.time_s() - t_start;
-      } else {
-        target = -1;
-      }
       }
     }
   idle:
@@ -316,7 +330,8 @@ void physics_loop(Shared& sh) {
 // ---------------------------------------------------------------------------------------------
 
 void set_walker_field(scenarios::LiveScenario& s, const std::string& field, double value) {
-  if (s.gait() == nullptr) throw sim::InvalidArgument("walker." + field + ": the scenario does not walk");
+  if (s.gait() == nullptr)
+    throw sim::InvalidArgument("walker." + field + ": the scenario does not walk");
   controllers::TorqueWalkerParams p = s.gait()->params();
   controllers::apply_torque_walker_json(nlohmann::json{{field, value}}.dump(), "walker", &p);
   s.set_gait_params(p);
@@ -334,7 +349,8 @@ void save_params(const scenarios::LiveScenario& s, const std::string& walker_pat
   if (!walker_path.empty() && s.gait() != nullptr) {
     sim::write_file_atomically(walker_path, s.gait_params_json());
   }
-  if (!controller_path.empty()) sim::write_file_atomically(controller_path, s.controller_params_json());
+  if (!controller_path.empty())
+    sim::write_file_atomically(controller_path, s.controller_params_json());
 }
 
 /// Runs one script command (physics lock held).
@@ -364,7 +380,8 @@ void run_command(Shared& sh, const ScriptCommand& c, const std::string& script) 
         throw sim::InvalidArgument("unknown field '" + w[1] + "'");
       }
     } else if (w[0] == "push") {
-      push_relative(s, w[1], number(w[2], "force"), number(w[3], "direction"), number(w[4], "duration"));
+      push_relative(s, w[1], number(w[2], "force"), number(w[3], "direction"),
+                    number(w[4], "duration"));
     } else if (w[0] == "save-params") {
       save_params(s, w[1], w[2]);
     } else if (w[0] == "screenshot") {
@@ -439,11 +456,13 @@ void simulation_panel(Shared& sh, UiState& ui, double fps, double sim_rate) {
     const controllers::MotionTracker::Error e = s.tracking_error();
     ImGui::Separator();
     ImGui::Text("Tracking (%s): joints %.1f deg off now, RMS %.1f deg",
-                s.config().tracker.balance ? "balance feedback" : "open loop", e.joint_rms_rad * kDegPerRad,
-                s.tracking_stats().joint_rms_rad() * kDegPerRad);
+                s.config().tracker.balance ? "balance feedback" : "open loop",
+                e.joint_rms_rad * kDegPerRad, s.tracking_stats().joint_rms_rad() * kDegPerRad);
     ImGui::Text("pelvis %.2f m from the motion's", e.root_horizontal_m);
-    if (s.time_s() > s.motion_length_s()) ImGui::Text("motion over at %.2f s: holding its last frame", s.motion_length_s());
-    if (s.fell_at_s() >= 0) ImGui::TextColored(ImVec4(1.0f, 0.5f, 0.3f, 1), "fell at %.2f s", s.fell_at_s());
+    if (s.time_s() > s.motion_length_s())
+      ImGui::Text("motion over at %.2f s: holding its last frame", s.motion_length_s());
+    if (s.fell_at_s() >= 0)
+      ImGui::TextColored(ImVec4(1.0f, 0.5f, 0.3f, 1), "fell at %.2f s", s.fell_at_s());
   }
   if (s.config().scenario == "stones") {
     ImGui::SameLine();
@@ -456,14 +475,147 @@ void simulation_panel(Shared& sh, UiState& ui, double fps, double sim_rate) {
       const double target = s.config().steps_m[i];
       if (i < stones.size() && !std::isnan(stones[i].walked_m)) {
         const double err = stones[i].walked_m - target;
-        ImGui::TextColored(std::abs(err) <= 0.02 ? ImVec4(0.4f, 0.9f, 0.5f, 1) : ImVec4(1.0f, 0.6f, 0.2f, 1),
-                           "%zu: %.2f m  walked %.3f m  (%+.1f cm)", i + 1, target, stones[i].walked_m, 100 * err);
+        ImGui::TextColored(
+            std::abs(err) <= 0.02 ? ImVec4(0.4f, 0.9f, 0.5f, 1) : ImVec4(1.0f, 0.6f, 0.2f, 1),
+            "%zu: %.2f m  walked %.3f m  (%+.1f cm)", i + 1, target, stones[i].walked_m, 100 * err);
       } else {
         ImGui::Text("%zu: %.2f m  %s", i + 1, target, i < stones.size() ? "in swing" : "");
       }
     }
   }
   ImGui::End();
+}
+
+// The torque walker's state machine: each phase's targets, the lean and the balance tolerance.
+void gait_section(scenarios::LiveScenario& s) {
+  if (ImGui::CollapsingHeader("Gait state machine", ImGuiTreeNodeFlags_DefaultOpen)) {
+    controllers::TorqueWalkerParams p = s.gait()->params();
+    bool changed = false;
+    for (std::size_t i = 0; i < p.phases.size(); ++i) {
+      controllers::TorqueWalkerPhase& st = p.phases[i];
+      ImGui::PushID(static_cast<int>(i));
+      ImGui::Text("%s%s", st.name.c_str(), st.ends_at_strike ? " (ends at strike)" : "");
+      float dur = static_cast<float>(st.duration_s);
+      if (!st.ends_at_strike && ImGui::SliderFloat("duration (s)", &dur, 0.05f, 1.0f)) {
+        st.duration_s = dur;
+        changed = true;
+      }
+      const auto angle = [&](const char* label, double* rad) {
+        float deg = static_cast<float>(*rad * kDegPerRad);
+        if (ImGui::SliderFloat(label, &deg, -90.0f, 120.0f, "%.1f deg")) {
+          *rad = deg * kRadPerDeg;
+          changed = true;
+        }
+      };
+      angle("swing hip", &st.swing_hip_rad);
+      angle("swing knee", &st.swing_knee_rad);
+      angle("swing ankle", &st.swing_ankle_rad);
+      angle("stance knee", &st.stance_knee_rad);
+      angle("stance ankle", &st.stance_ankle_rad);
+      ImGui::PopID();
+    }
+    float lean = static_cast<float>(p.pelvis_pitch_rad * kDegPerRad);
+    if (ImGui::SliderFloat("pelvis lean", &lean, -10.0f, 30.0f, "%.1f deg")) {
+      p.pelvis_pitch_rad = lean * kRadPerDeg;
+      changed = true;
+    }
+    float tol = static_cast<float>(p.tolerance_fraction);
+    if (ImGui::SliderFloat("balance tolerance", &tol, 0.0f, 0.5f)) {
+      p.tolerance_fraction = tol;
+      changed = true;
+    }
+    if (changed) s.set_gait_params(p);
+  }
+}
+
+// Each joint group's torque bound, reaction time and reach time (the controller's parameters).
+void joint_groups_section(scenarios::LiveScenario& s) {
+  if (ImGui::CollapsingHeader("Joint groups")) {
+    controllers::ControllerParams p = current_controller_params(s);
+    bool changed = false;
+    if (ImGui::BeginTable("groups", 4, ImGuiTableFlags_RowBg | ImGuiTableFlags_SizingStretchProp)) {
+      ImGui::TableSetupColumn("group");
+      ImGui::TableSetupColumn("tau_max (N m)");
+      ImGui::TableSetupColumn("reaction (ms)");
+      ImGui::TableSetupColumn("reach (s)");
+      ImGui::TableHeadersRow();
+      for (std::size_t g = 0; g < p.joints.size(); ++g) {
+        controllers::JointParams& j = p.joints[g];
+        ImGui::PushID(static_cast<int>(g));
+        ImGui::TableNextRow();
+        ImGui::TableNextColumn();
+        ImGui::TextUnformatted(p.names[g].c_str());
+        ImGui::TableNextColumn();
+        float tau = static_cast<float>(j.tau_max_Nm.x());
+        if (ImGui::DragFloat("##tau", &tau, 1.0f, 1.0f, 1000.0f, "%.0f")) {
+          j.tau_max_Nm *= tau / std::max(j.tau_max_Nm.x(), 1e-9);
+          changed = true;
+        }
+        ImGui::TableNextColumn();
+        float tr = static_cast<float>(j.reaction_time_s * 1000);
+        if (ImGui::DragFloat("##tr", &tr, 0.5f, 2.0f, 500.0f, "%.0f")) {
+          j.reaction_time_s = tr / 1000.0;
+          changed = true;
+        }
+        ImGui::TableNextColumn();
+        float reach = static_cast<float>(j.reach_time_s);
+        if (ImGui::DragFloat("##reach", &reach, 0.01f, 0.02f, 3.0f, "%.2f")) {
+          j.reach_time_s = reach;
+          changed = true;
+        }
+        ImGui::PopID();
+      }
+      ImGui::EndTable();
+    }
+    if (changed) s.set_controller_params(p);
+  }
+}
+
+void push_section(scenarios::LiveScenario& s, UiState& ui) {
+  if (ImGui::CollapsingHeader("Push", ImGuiTreeNodeFlags_DefaultOpen)) {
+    const char* bodies[] = {"pelvis", "thorax", "head"};
+    ImGui::Combo("body", &ui.push_body, bodies, 3);
+    ImGui::SliderFloat("force (N)", &ui.push_force_N, 0.0f, 1000.0f, "%.0f");
+    ImGui::SliderFloat("direction (deg)", &ui.push_direction_deg, -180.0f, 180.0f, "%.0f");
+    ImGui::SliderFloat("duration (s)", &ui.push_duration_s, 0.05f, 1.0f, "%.2f");
+    if (ImGui::Button("Push (P)")) {
+      push_relative(s, bodies[ui.push_body], ui.push_force_N, ui.push_direction_deg,
+                    ui.push_duration_s);
+    }
+    ImGui::TextDisabled("direction: 0 = forward along the heading, 90 = to the left");
+    ImGui::TextDisabled("or ctrl + drag on a body: 2 N per pixel, for the duration above");
+  }
+}
+
+// Save and load the walker's and the controller's parameters as the CLI reads them.
+void parameter_files_section(Shared& sh, scenarios::LiveScenario& s, UiState& ui) {
+  if (ImGui::CollapsingHeader("Parameter files")) {
+    ImGui::InputText("walker", ui.walker_path, sizeof ui.walker_path);
+    ImGui::InputText("controller", ui.controller_path, sizeof ui.controller_path);
+    if (ImGui::Button("Save")) {
+      save_params(s, ui.walker_path, ui.controller_path);
+      sh.message = std::string("saved ") + ui.walker_path + " and " + ui.controller_path +
+                   " (biodyn walk --params / --controller-params read them)";
+    }
+    ImGui::SameLine();
+    if (ImGui::Button("Load")) {
+      if (s.walking()) {
+        std::ifstream in(ui.walker_path);
+        std::stringstream text;
+        text << in.rdbuf();
+        controllers::TorqueWalkerParams p;
+        controllers::apply_torque_walker_json(text.str(), ui.walker_path, &p);
+        s.set_gait_params(p);
+      }
+      std::ifstream in(ui.controller_path);
+      std::stringstream text;
+      text << in.rdbuf();
+      controllers::ControllerParams p = current_controller_params(s);
+      controllers::apply_params_json(text.str(), ui.controller_path, s.rig().groups(), &p);
+      s.set_controller_params(p);
+      sh.message = "loaded the parameter files";
+    }
+  }
 }
 
 void control_panel(Shared& sh, UiState& ui) {
@@ -473,14 +625,16 @@ void control_panel(Shared& sh, UiState& ui) {
   ImGui::Begin("Controllers");
   try {
     if (s.controller() == nullptr) {
-      ImGui::TextDisabled("a kinematic playback: no controllers (biodyn mocap id gives its forces)");
+      ImGui::TextDisabled(
+          "a kinematic playback: no controllers (biodyn mocap id gives its forces)");
       ImGui::End();
       return;
     }
     // Foot contact.
     int weld = static_cast<int>(s.config().weld);
     const char* modes[] = {"off", "honest", "glue"};
-    if (ImGui::Combo("foot contact", &weld, modes, 3)) s.set_weld_mode(static_cast<controllers::WeldMode>(weld));
+    if (ImGui::Combo("foot contact", &weld, modes, 3))
+      s.set_weld_mode(static_cast<controllers::WeldMode>(weld));
     if (s.walking()) {
       float v = static_cast<float>(s.config().speed_m_s);
       if (ImGui::SliderFloat("speed (m/s)", &v, static_cast<float>(scenarios::kMinWalkSpeed_m_s),
@@ -489,124 +643,13 @@ void control_panel(Shared& sh, UiState& ui) {
       }
       float h = static_cast<float>(s.config().heading_rate_deg_s);
       const float max_rate = static_cast<float>(scenarios::kMaxHeadingRate_deg_s);
-      if (ImGui::SliderFloat("heading rate (deg/s)", &h, -max_rate, max_rate)) s.set_heading_rate(h);
-      if (ImGui::CollapsingHeader("Gait state machine", ImGuiTreeNodeFlags_DefaultOpen)) {
-        controllers::TorqueWalkerParams p = s.gait()->params();
-        bool changed = false;
-        for (std::size_t i = 0; i < p.phases.size(); ++i) {
-          controllers::TorqueWalkerPhase& st = p.phases[i];
-          ImGui::PushID(static_cast<int>(i));
-          ImGui::Text("%s%s", st.name.c_str(), st.ends_at_strike ? " (ends at strike)" : "");
-          float dur = static_cast<float>(st.duration_s);
-          if (!st.ends_at_strike && ImGui::SliderFloat("duration (s)", &dur, 0.05f, 1.0f)) {
-            st.duration_s = dur;
-            changed = true;
-          }
-          const auto angle = [&](const char* label, double* rad) {
-            float deg = static_cast<float>(*rad * kDegPerRad);
-            if (ImGui::SliderFloat(label, &deg, -90.0f, 120.0f, "%.1f deg")) {
-              *rad = deg * kRadPerDeg;
-              changed = true;
-            }
-          };
-          angle("swing hip", &st.swing_hip_rad);
-          angle("swing knee", &st.swing_knee_rad);
-          angle("swing ankle", &st.swing_ankle_rad);
-          angle("stance knee", &st.stance_knee_rad);
-          angle("stance ankle", &st.stance_ankle_rad);
-          ImGui::PopID();
-        }
-        float lean = static_cast<float>(p.pelvis_pitch_rad * kDegPerRad);
-        if (ImGui::SliderFloat("pelvis lean", &lean, -10.0f, 30.0f, "%.1f deg")) {
-          p.pelvis_pitch_rad = lean * kRadPerDeg;
-          changed = true;
-        }
-        float tol = static_cast<float>(p.tolerance_fraction);
-        if (ImGui::SliderFloat("balance tolerance", &tol, 0.0f, 0.5f)) {
-          p.tolerance_fraction = tol;
-          changed = true;
-        }
-        if (changed) s.set_gait_params(p);
-      }
+      if (ImGui::SliderFloat("heading rate (deg/s)", &h, -max_rate, max_rate))
+        s.set_heading_rate(h);
+      gait_section(s);
     }
-    if (ImGui::CollapsingHeader("Joint groups")) {
-      controllers::ControllerParams p = current_controller_params(s);
-      bool changed = false;
-      if (ImGui::BeginTable("groups", 4, ImGuiTableFlags_RowBg | ImGuiTableFlags_SizingStretchProp)) {
-        ImGui::TableSetupColumn("group");
-        ImGui::TableSetupColumn("tau_max (N m)");
-        ImGui::TableSetupColumn("reaction (ms)");
-        ImGui::TableSetupColumn("reach (s)");
-        ImGui::TableHeadersRow();
-        for (std::size_t g = 0; g < p.joints.size(); ++g) {
-          controllers::JointParams& j = p.joints[g];
-          ImGui::PushID(static_cast<int>(g));
-          ImGui::TableNextRow();
-          ImGui::TableNextColumn();
-          ImGui::TextUnformatted(p.names[g].c_str());
-          ImGui::TableNextColumn();
-          float tau = static_cast<float>(j.tau_max_Nm.x());
-          if (ImGui::DragFloat("##tau", &tau, 1.0f, 1.0f, 1000.0f, "%.0f")) {
-            j.tau_max_Nm *= tau / std::max(j.tau_max_Nm.x(), 1e-9);
-            changed = true;
-          }
-          ImGui::TableNextColumn();
-          float tr = static_cast<float>(j.reaction_time_s * 1000);
-          if (ImGui::DragFloat("##tr", &tr, 0.5f, 2.0f, 500.0f, "%.0f")) {
-            j.reaction_time_s = tr / 1000.0;
-            changed = true;
-          }
-          ImGui::TableNextColumn();
-          float reach = static_cast<float>(j.reach_time_s);
-          if (ImGui::DragFloat("##reach", &reach, 0.01f, 0.02f, 3.0f, "%.2f")) {
-            j.reach_time_s = reach;
-            changed = true;
-          }
-          ImGui::PopID();
-        }
-        ImGui::EndTable();
-      }
-      if (changed) s.set_controller_params(p);
-    }
-    if (ImGui::CollapsingHeader("Push", ImGuiTreeNodeFlags_DefaultOpen)) {
-      const char* bodies[] = {"pelvis", "thorax", "head"};
-      ImGui::Combo("body", &ui.push_body, bodies, 3);
-      ImGui::SliderFloat("force (N)", &ui.push_force_N, 0.0f, 1000.0f, "%.0f");
-      ImGui::SliderFloat("direction (deg)", &ui.push_direction_deg, -180.0f, 180.0f, "%.0f");
-      ImGui::SliderFloat("duration (s)", &ui.push_duration_s, 0.05f, 1.0f, "%.2f");
-      if (ImGui::Button("Push (P)")) {
-        push_relative(s, bodies[ui.push_body], ui.push_force_N, ui.push_direction_deg, ui.push_duration_s);
-      }
-      ImGui::TextDisabled("direction: 0 = forward along the heading, 90 = to the left");
-      ImGui::TextDisabled("or ctrl + drag on a body: 2 N per pixel, for the duration above");
-    }
-    if (ImGui::CollapsingHeader("Parameter files")) {
-      ImGui::InputText("walker", ui.walker_path, sizeof ui.walker_path);
-      ImGui::InputText("controller", ui.controller_path, sizeof ui.controller_path);
-      if (ImGui::Button("Save")) {
-        save_params(s, ui.walker_path, ui.controller_path);
-        sh.message = std::string("saved ") + ui.walker_path + " and " + ui.controller_path +
-                     " (biodyn walk --params / --controller-params read them)";
-      }
-      ImGui::SameLine();
-      if (ImGui::Button("Load")) {
-        if (s.walking()) {
-          std::ifstream in(ui.walker_path);
-          std::stringstream text;
-          text << in.rdbuf();
-          controllers::TorqueWalkerParams p;
-          controllers::apply_torque_walker_json(text.str(), ui.walker_path, &p);
-          s.set_gait_params(p);
-        }
-        std::ifstream in(ui.controller_path);
-        std::stringstream text;
-        text << in.rdbuf();
-        controllers::ControllerParams p = current_controller_params(s);
-        controllers::apply_params_json(text.str(), ui.controller_path, s.rig().groups(), &p);
-        s.set_controller_params(p);
-        sh.message = "loaded the parameter files";
-      }
-    }
+    joint_groups_section(s);
+    push_section(s, ui);
+    parameter_files_section(sh, s, ui);
   } catch (const sim::Error& e) {
     sh.message = e.what();  // a bad value or file, a file that cannot be written: said
   }
@@ -614,21 +657,28 @@ void control_panel(Shared& sh, UiState& ui) {
 }
 
 void plot_panel(Shared& sh, int window_width) {
-  ImGui::SetNextWindowPos(ImVec2(static_cast<float>(window_width) - 430, 10), ImGuiCond_FirstUseEver);
+  ImGui::SetNextWindowPos(ImVec2(static_cast<float>(window_width) - 430, 10),
+                          ImGuiCond_FirstUseEver);
   ImGui::SetNextWindowSize(ImVec2(420, 640), ImGuiCond_FirstUseEver);
   ImGui::Begin("Plots (last 10 s)");
   const Plots& p = sh.plots;
   const ImVec2 size(0, 50);
-  ImGui::PlotLines("CoM outside support (m)", p.com_outside.data(), Plots::kSamples, p.head, nullptr, 0.0f, 0.3f, size);
+  ImGui::PlotLines("CoM outside support (m)", p.com_outside.data(), Plots::kSamples, p.head,
+                   nullptr, 0.0f, 0.3f, size);
   if (sh.scenario->walking()) {
-    ImGui::PlotLines("CoM outside tolerance (m)", p.tolerance_outside.data(), Plots::kSamples, p.head, nullptr, 0.0f, 0.3f, size);
+    ImGui::PlotLines("CoM outside tolerance (m)", p.tolerance_outside.data(), Plots::kSamples,
+                     p.head, nullptr, 0.0f, 0.3f, size);
   }
-  ImGui::PlotLines("CoM speed (m/s)", p.speed.data(), Plots::kSamples, p.head, nullptr, 0.0f, 2.0f, size);
-  ImGui::PlotHistogram("left foot contact", p.contact_l.data(), Plots::kSamples, p.head, nullptr, 0.0f, 1.0f, ImVec2(0, 14));
-  ImGui::PlotHistogram("right foot contact", p.contact_r.data(), Plots::kSamples, p.head, nullptr, 0.0f, 1.0f, ImVec2(0, 14));
+  ImGui::PlotLines("CoM speed (m/s)", p.speed.data(), Plots::kSamples, p.head, nullptr, 0.0f, 2.0f,
+                   size);
+  ImGui::PlotHistogram("left foot contact", p.contact_l.data(), Plots::kSamples, p.head, nullptr,
+                       0.0f, 1.0f, ImVec2(0, 14));
+  ImGui::PlotHistogram("right foot contact", p.contact_r.data(), Plots::kSamples, p.head, nullptr,
+                       0.0f, 1.0f, ImVec2(0, 14));
   for (std::size_t g = 0; g < p.groups.size(); ++g) {
     const std::string label = "|tau| / tau_max " + p.groups[g];
-    ImGui::PlotLines(label.c_str(), p.torque_ratio[g].data(), Plots::kSamples, p.head, "limit = 1", 0.0f, 1.05f, ImVec2(0, 36));
+    ImGui::PlotLines(label.c_str(), p.torque_ratio[g].data(), Plots::kSamples, p.head, "limit = 1",
+                     0.0f, 1.05f, ImVec2(0, 36));
   }
   ImGui::End();
 }
@@ -642,8 +692,9 @@ class Window {
  public:
   explicit Window(const ViewerOptions& o) {
     if (!glfwInit()) {
-      throw sim::Error("view: cannot open a window (no display?): use biodyn render for headless "
-                       "output, or run under xvfb-run");
+      throw sim::Error(
+          "view: cannot open a window (no display?): use biodyn render for headless "
+          "output, or run under xvfb-run");
     }
     glfwWindowHint(GLFW_SAMPLES, o.msaa_samples);
     window_ = glfwCreateWindow(o.width, o.height, "biodyn view", nullptr, nullptr);
@@ -679,7 +730,8 @@ class Window {
 /// to run the panels.
 class Session {
  public:
-  Session(scenarios::LiveScenario& scenario, const std::vector<ScriptCommand>& script, const ViewerOptions& options)
+  Session(scenarios::LiveScenario& scenario, const std::vector<ScriptCommand>& script,
+          const ViewerOptions& options)
       : options_(options),
         renderer_(scenario.simulation().mutable_model(), 1920, 1080),
         display_(scenario.simulation().model()),
@@ -690,7 +742,8 @@ class Session {
     sh_.paused = options.start_paused;
     // 12 s of history (at 2 ms steps: an entry every 10 ms).
     const mjModel& m = scenario.simulation().model();
-    sh_.history.init(static_cast<int>(std::ceil(12.0 / (History::kEvery * m.opt.timestep))), m.nq, m.opt.timestep);
+    sh_.history.init(static_cast<int>(std::ceil(12.0 / (History::kEvery * m.opt.timestep))), m.nq,
+                     m.opt.timestep);
     const auto& groups = scenario.rig().groups();
     for (const char* g : {"hip_l", "knee_l", "ankle_l", "hip_r", "knee_r", "ankle_r", "lumbar"}) {
       for (std::size_t i = 0; i < groups.size(); ++i) {
@@ -791,7 +844,8 @@ class Session {
       sh_.scrub_s = 0;
     }
     if (ImGui::IsKeyPressed(GLFW_KEY_P, false)) {
-      push_relative(scenario, "pelvis", ui_.push_force_N, ui_.push_direction_deg, ui_.push_duration_s);
+      push_relative(scenario, "pelvis", ui_.push_force_N, ui_.push_direction_deg,
+                    ui_.push_duration_s);
     }
     if (ImGui::IsKeyPressed(GLFW_KEY_F2, false)) *take_screenshot = true;
     if (ImGui::IsKeyPressed(GLFW_KEY_F3, false)) {
@@ -800,7 +854,8 @@ class Session {
         sh_.message = "video written";
         video_.reset();
       } else {
-        const std::string path = options_.output_dir + "/biodyn_" + std::to_string(shot_counter_++) + ".mp4";
+        const std::string path =
+            options_.output_dir + "/biodyn_" + std::to_string(shot_counter_++) + ".mp4";
         video_.emplace(path, width & ~1, height & ~1, 30.0);
         sh_.message = "recording " + path + " (F3 stops)";
       }
@@ -822,8 +877,8 @@ class Session {
       mjtNum point[3] = {0, 0, 0};
       int geom = -1, skin = -1;
       const int body = mjv_select(&simulation.model(), &simulation.data(), &renderer_.options(),
-                                  static_cast<mjtNum>(win_w) / win_h, mx / win_w, 1.0 - my / win_h, &renderer_.scene(),
-                                  point, &geom, &skin);
+                                  static_cast<mjtNum>(win_w) / win_h, mx / win_w, 1.0 - my / win_h,
+                                  &renderer_.scene(), point, &geom, &skin);
       if (body > 0) drag_ = Drag{body, mx, my, Eigen::Vector3d::Zero()};
     }
     if (drag_.body >= 0) {
@@ -838,7 +893,8 @@ class Session {
       if (glfwGetMouseButton(window, GLFW_MOUSE_BUTTON_RIGHT) == GLFW_PRESS) {
         ui_.follow = false;
         const double a = v.azimuth_deg * kRadPerDeg, k = 0.002 * v.distance_m;
-        v.lookat_W += k * (dx * Eigen::Vector3d(std::sin(a), -std::cos(a), 0) + dy * Eigen::Vector3d(0, 0, 1));
+        v.lookat_W += k * (dx * Eigen::Vector3d(std::sin(a), -std::cos(a), 0) +
+                           dy * Eigen::Vector3d(0, 0, 1));
       }
       const float wheel = ImGui::GetIO().MouseWheel;
       if (wheel != 0) v.distance_m = std::clamp(v.distance_m * std::pow(0.9, wheel), 0.5, 30.0);
@@ -852,13 +908,15 @@ class Session {
   void drag_push(double mx, double my, bool left) {
     const double a = renderer_.view().azimuth_deg * kRadPerDeg;
     const Eigen::Vector3d right(std::sin(a), -std::cos(a), 0), ahead(std::cos(a), std::sin(a), 0);
-    drag_.force_W = kDragNewtonsPerPixel * ((mx - drag_.start_x) * right - (my - drag_.start_y) * ahead);
+    drag_.force_W =
+        kDragNewtonsPerPixel * ((mx - drag_.start_x) * right - (my - drag_.start_y) * ahead);
     if (left) return;
     if (drag_.force_W.norm() >= 1.0) {
       const char* name = mj_id2name(&sh_.scenario->simulation().model(), mjOBJ_BODY, drag_.body);
       sh_.scenario->push(name, drag_.force_W, ui_.push_duration_s);
-      sh_.message = std::string("pushed ") + name + " with " + std::to_string(static_cast<int>(drag_.force_W.norm())) +
-                    " N for " + std::to_string(ui_.push_duration_s) + " s";
+      sh_.message = std::string("pushed ") + name + " with " +
+                    std::to_string(static_cast<int>(drag_.force_W.norm())) + " N for " +
+                    std::to_string(ui_.push_duration_s) + " s";
     }
     drag_.body = -1;
   }
@@ -868,9 +926,10 @@ class Session {
   void update_scene() {
     sim::Simulation& simulation = sh_.scenario->simulation();
     if (sh_.scrub_s < 0 && sh_.history.count > 0) {
-      const int back =
-          std::clamp(static_cast<int>(std::lround(-sh_.scrub_s / sh_.history.entry_s)), 0, sh_.history.count - 1);
-      const std::vector<double>& q = sh_.history.qpos[static_cast<std::size_t>(sh_.history.at(back))];
+      const int back = std::clamp(static_cast<int>(std::lround(-sh_.scrub_s / sh_.history.entry_s)),
+                                  0, sh_.history.count - 1);
+      const std::vector<double>& q =
+          sh_.history.qpos[static_cast<std::size_t>(sh_.history.at(back))];
       std::copy(q.begin(), q.end(), display_->qpos);
       mj_forward(&simulation.model(), display_.get());
       overlays_.clear();
@@ -907,9 +966,12 @@ class Session {
     const scenarios::LiveScenario& s = *sh_.scenario;
     ImGui::SetNextWindowPos(ImVec2(10, static_cast<float>(height) - 30), ImGuiCond_Always);
     ImGui::Begin("status", nullptr,
-                 ImGuiWindowFlags_NoDecoration | ImGuiWindowFlags_AlwaysAutoResize | ImGuiWindowFlags_NoBackground);
-    ImGui::Text("%s  [space] pause  [.] step  [P] push  [ctrl+drag] push a body  [F2] screenshot  [F3] record  %s",
-                s.playback() ? "playback" : controllers::to_string(s.config().weld), sh_.message.c_str());
+                 ImGuiWindowFlags_NoDecoration | ImGuiWindowFlags_AlwaysAutoResize |
+                     ImGuiWindowFlags_NoBackground);
+    ImGui::Text(
+        "%s  [space] pause  [.] step  [P] push  [ctrl+drag] push a body  [F2] screenshot  [F3] "
+        "record  %s",
+        s.playback() ? "playback" : controllers::to_string(s.config().weld), sh_.message.c_str());
     ImGui::End();
   }
 
@@ -917,16 +979,18 @@ class Session {
   void outputs(int width, int height, bool take_screenshot, const std::string& screenshot_path) {
     if (take_screenshot) {
       renderer_.read_window(width, height, &rgb_);
-      const std::string path = screenshot_path.empty()
-                                   ? options_.output_dir + "/biodyn_" + std::to_string(shot_counter_++) + ".png"
-                                   : screenshot_path;
+      const std::string path =
+          screenshot_path.empty()
+              ? options_.output_dir + "/biodyn_" + std::to_string(shot_counter_++) + ".png"
+              : screenshot_path;
       write_png(path, width, height, rgb_);
       ++stats_.screenshots;
       std::lock_guard<std::mutex> lock(sh_.mutex);
       sh_.message = "screenshot " + path;
       sh_.screenshot_requested = false;  // the physics goes on
     }
-    if (video_ && std::chrono::duration<double>(Clock::now() - last_record_).count() >= 1.0 / 30.0) {
+    if (video_ &&
+        std::chrono::duration<double>(Clock::now() - last_record_).count() >= 1.0 / 30.0) {
       last_record_ = Clock::now();
       renderer_.read_window(width & ~1, height & ~1, &rgb_);
       video_->add_frame(rgb_);
@@ -939,7 +1003,8 @@ class Session {
     sh_.quit = true;
     const scenarios::LiveScenario& s = *sh_.scenario;
     stats_.simulated_s = s.time_s();
-    const sim::CenterOfMass com = sim::center_of_mass(s.simulation().model(), s.simulation().data());
+    const sim::CenterOfMass com =
+        sim::center_of_mass(s.simulation().model(), s.simulation().data());
     stats_.com_x_m = com.position_W.x();
     stats_.com_y_m = com.position_W.y();
     stats_.fallen = s.fallen();
@@ -947,7 +1012,8 @@ class Session {
     stats_.stones_plan_m = s.config().steps_m;
     stats_.stones = s.stones();
     stats_.tracking = s.tracking_report();
-    stats_.physics_steps_per_s = sh_.running_wall_s > 0 ? static_cast<double>(sh_.steps_run) / sh_.running_wall_s : 0;
+    stats_.physics_steps_per_s =
+        sh_.running_wall_s > 0 ? static_cast<double>(sh_.steps_run) / sh_.running_wall_s : 0;
     stats_.realtime_factor = sh_.running_wall_s > 0 ? sh_.running_sim_s / sh_.running_wall_s : 0;
   }
 
@@ -972,8 +1038,9 @@ class Session {
 }  // namespace
 
 ViewerStats run_viewer(scenarios::ScenarioConfig config, const ViewerOptions& options) {
-  const std::vector<ScriptCommand> script =
-      options.script_path.empty() ? std::vector<ScriptCommand>{} : parse_script(options.script_path);
+  const std::vector<ScriptCommand> script = options.script_path.empty()
+                                                ? std::vector<ScriptCommand>{}
+                                                : parse_script(options.script_path);
   scenarios::LiveScenario scenario(std::move(config));
   const Window window(options);
   Session session(scenario, script, options);

@@ -24,8 +24,9 @@ namespace biodyn::controllers {
 /// side, and forcing it would push the body up). `cop_fraction` in [0, 1]: the torque puts
 /// the CoP at that fraction of the contacts' length from the rear (sideways it is held
 /// central). A foot without contacts is left alone. No allocation.
-void limit_ankle_to_contacts(ControlFrame* frame, const mjModel& m, const mjData& d, const JointGroup& ankle,
-                             int foot, int toes, const std::vector<sim::FloorContact>& contacts, double load_N,
+void limit_ankle_to_contacts(ControlFrame* frame, const mjModel& m, const mjData& d,
+                             const JointGroup& ankle, int foot, int toes,
+                             const std::vector<sim::FloorContact>& contacts, double load_N,
                              double margin, double cop_fraction = -1);
 
 }  // namespace biodyn::controllers

@@ -21,10 +21,10 @@ struct StepReport {
   JointControlStatus joints;       ///< torque ratios, saturation, solver iterations
   std::array<WeldWrench, 2> weld;  ///< each foot weld's wrench (zero when off)
   std::array<bool, 2> weld_active = {false, false};
-  bool weld_tension = false;       ///< a kept step with a weld in tension (glue mode only)
-  int redone = 0;                  ///< honest-mode redos of this step
-  int joints_outside_limits = 0;   ///< ball joints outside their swing-twist limits
-  BalanceOffsets balance;          ///< the standing balance's offsets (zero under another driver)
+  bool weld_tension = false;      ///< a kept step with a weld in tension (glue mode only)
+  int redone = 0;                 ///< honest-mode redos of this step
+  int joints_outside_limits = 0;  ///< ball joints outside their swing-twist limits
+  BalanceOffsets balance;         ///< the standing balance's offsets (zero under another driver)
 };
 
 /// What a driver reads each step.
@@ -32,7 +32,8 @@ struct ControlInput {
   const mjModel& m;
   const mjData& d;  ///< after mj_step1: positions, velocities and contacts of the current state
   const models::Rig& rig;
-  const StepReport& last_report;  ///< the last kept step's (its weld wrenches give the feet's loads)
+  const StepReport&
+      last_report;  ///< the last kept step's (its weld wrenches give the feet's loads)
 };
 
 /// A stage that sets the joints' targets and commands each step: the standing controller, the

@@ -65,8 +65,8 @@ struct DofCommand {
   /// its torque: the solve projects every wish onto the welds' constraints.
   bool has_velocity = false;
   double velocity_rad_s = 0;
-  double stiffness_Nm_per_rad = 0;   ///< kSpring
-  double damping_Nm_s_per_rad = 0;   ///< kSpring
+  double stiffness_Nm_per_rad = 0;                                  ///< kSpring
+  double damping_Nm_s_per_rad = 0;                                  ///< kSpring
   double torque_min_Nm = -std::numeric_limits<double>::infinity();  ///< window, N m
   double torque_max_Nm = std::numeric_limits<double>::infinity();   ///< window, N m
 };
@@ -109,7 +109,9 @@ class ControlFrame {
 
   // --- Feet (this step) ---
   /// Foot `side` wanted in stance (may weld at strike) or swing (weld released).
-  void set_stance(int side, bool stance) { stance_wish_[static_cast<std::size_t>(side)] = stance ? 1 : 0; }
+  void set_stance(int side, bool stance) {
+    stance_wish_[static_cast<std::size_t>(side)] = stance ? 1 : 0;
+  }
   /// The wish of this step: 1 stance, 0 swing, -1 none (the feet stay as they are).
   int stance_wish(int side) const { return stance_wish_[static_cast<std::size_t>(side)]; }
 

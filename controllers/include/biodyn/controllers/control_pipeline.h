@@ -127,7 +127,7 @@ class ControlPipeline {
   JointControlStatus last_status_;
   int last_outside_ = 0;
   std::vector<mjtNum> qfrc_other_, torque_;  // nv scratch
-  std::vector<int> joint_motors_;            // actuators on joints: their torques go through qfrc_applied
+  std::vector<int> joint_motors_;  // actuators on joints: their torques go through qfrc_applied
 };
 
 }  // namespace biodyn::controllers

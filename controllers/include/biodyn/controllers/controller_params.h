@@ -31,7 +31,7 @@ namespace biodyn::controllers {
 /// 2001): the swing (rotation of the bone axis) must stay inside an ellipse whose half-axes
 /// depend on the quadrant; the twist about the bone axis inside [-external, internal].
 struct SwingTwistLimits {
-  double flexion_rad = 0, extension_rad = 0;  ///< swing half-axes forward / backward, rad
+  double flexion_rad = 0, extension_rad = 0;    ///< swing half-axes forward / backward, rad
   double abduction_rad = 0, adduction_rad = 0;  ///< swing half-axes outward / inward, rad
   double internal_rotation_rad = 0, external_rotation_rad = 0;  ///< twist range, rad
 };
@@ -45,8 +45,8 @@ struct JointParams {
   double reaction_time_s = 0.02;
   /// s, default reach ("optimal") time of a target that does not give its own.
   double reach_time_s = 0.3;
-  double pd_natural_frequency_hz = 5.0;  ///< Hz, PD controller only
-  double pd_damping_ratio = 1.0;         ///< 1 = critical, PD controller only
+  double pd_natural_frequency_hz = 5.0;         ///< Hz, PD controller only
+  double pd_damping_ratio = 1.0;                ///< 1 = critical, PD controller only
   std::optional<SwingTwistLimits> swing_twist;  ///< ball joints of the hips and shoulders
 };
 

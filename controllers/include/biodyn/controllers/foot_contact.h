@@ -47,10 +47,10 @@ WeldMode parse_weld_mode(const std::string& text, const std::string& field = "we
 
 struct FootWeldParams {
   WeldMode mode = WeldMode::kHonest;
-  double engage_max_speed_m_s = 0.005; ///< m/s, foot-origin speed below which a strike counts
+  double engage_max_speed_m_s = 0.005;  ///< m/s, foot-origin speed below which a strike counts
   double engage_max_angular_speed_rad_s = 0.05;  ///< rad/s
-  int engage_min_contacts = 3;         ///< floor contact points on the foot body (flat foot)
-  double reengage_delay_s = 0.1;       ///< s, after an honest release
+  int engage_min_contacts = 3;    ///< floor contact points on the foot body (flat foot)
+  double reengage_delay_s = 0.1;  ///< s, after an honest release
   /// Honest mode works with a margin inside the contact wrench cone (WeldWrench::margin):
   /// a weld is switched off, without undoing anything, once the margin falls below
   /// `release_margin`, and switched on only where the contacts alone give at least
@@ -60,7 +60,7 @@ struct FootWeldParams {
   double engage_margin = 0.5;
   /// Fraction of body weight a foot must carry to count as loaded (margin 0 at this load).
   double min_load_fraction = 0.05;
-  void validate() const;               ///< throws sim::InvalidArgument
+  void validate() const;  ///< throws sim::InvalidArgument
 };
 
 /// The wrench one weld applied to its foot in one step.
@@ -81,9 +81,9 @@ struct WeldWrench {
 /// What the foot welds carry from one step to the next (a copyable aggregate; the welds'
 /// activation and anchors are model fields, kept by sim::DataCheckpoint).
 struct FootWeldState {
-  std::array<bool, 2> stance = {true, true};        ///< the controller's wish per foot
+  std::array<bool, 2> stance = {true, true};           ///< the controller's wish per foot
   std::array<double, 2> released_at_s = {-1e9, -1e9};  ///< s, the last honest release
-  std::array<WeldWrench, 2> wrench;                 ///< the last measured wrenches
+  std::array<WeldWrench, 2> wrench;                    ///< the last measured wrenches
 };
 
 /// The foot-contact welds of a rig's feet (equalities foot_weld_l/r).

@@ -35,11 +35,15 @@ class HeadingFrame {
   }
   double heading_rad() const { return heading_rad_; }
   /// The frame's rotation from the world (about +z).
-  Eigen::Quaterniond rotation() const { return Eigen::Quaterniond(Eigen::AngleAxisd(heading_rad_, Eigen::Vector3d::UnitZ())); }
+  Eigen::Quaterniond rotation() const {
+    return Eigen::Quaterniond(Eigen::AngleAxisd(heading_rad_, Eigen::Vector3d::UnitZ()));
+  }
   /// Unit vector along the heading (world xy).
   Eigen::Vector2d along() const { return {std::cos(heading_rad_), std::sin(heading_rad_)}; }
   /// A world vector in the heading frame.
-  Eigen::Vector3d to_heading(const Eigen::Vector3d& v_W) const { return rotation().conjugate() * v_W; }
+  Eigen::Vector3d to_heading(const Eigen::Vector3d& v_W) const {
+    return rotation().conjugate() * v_W;
+  }
   /// A world xy vector in the heading frame (x along, y across to the left).
   Eigen::Vector2d to_heading(const Eigen::Vector2d& v_W) const {
     const double c = std::cos(heading_rad_), s = std::sin(heading_rad_);
@@ -80,8 +84,8 @@ class StrikeDetector {
 /// `toe_up_rad`, whatever the shank does (a foot that followed the shank back would scuff with
 /// its toes): `offset_rad` + the shank's pitch in the heading frame + `toe_up_rad` (the foot's
 /// pitch is shank pitch - dorsiflexion, dorsiflexion turning the foot about -y).
-double level_sole_dorsiflexion(const HeadingFrame& heading, const Eigen::Quaterniond& q_shank_W, double offset_rad,
-                               double toe_up_rad);
+double level_sole_dorsiflexion(const HeadingFrame& heading, const Eigen::Quaterniond& q_shank_W,
+                               double offset_rad, double toe_up_rad);
 
 /// The paper's 2D IK triangle (§4.2) for one leg: hip - knee - ankle.
 struct LegTriangle {
@@ -97,8 +101,8 @@ struct LegTriangle {
 /// `max_knee_rad`; a point beyond the leg's reach (or closer than the most flexed knee allows,
 /// and than 0.3 (l1 + l2)) gives the pose pointing at it with the nearest reachable length
 /// (paper: "the closest state to the desired foot position").
-LegTriangle solve_leg_triangle(double l1, double l2, const Eigen::Vector3d& hip_to_ankle, double sigma,
-                               double min_knee_rad, double max_knee_rad = M_PI);
+LegTriangle solve_leg_triangle(double l1, double l2, const Eigen::Vector3d& hip_to_ankle,
+                               double sigma, double min_knee_rad, double max_knee_rad = M_PI);
 
 /// Paper §4.3, read as: the next strike makes the base polygon long enough that the CoM, at
 /// `com_from_rear` (m) in front of the polygon's rear edge, lies on the new polygon's
@@ -143,9 +147,11 @@ struct BasePolygonStep {
 ///    would need a cross-over step: not taken (the legs would collide).
 /// `support`/`tolerance` from SupportPolygons (fewer than 3 support points: nothing asked).
 BasePolygonStep base_polygon_rule(const std::vector<Eigen::Vector2d>& support,
-                                  const std::vector<Eigen::Vector2d>& tolerance, double tolerance_fraction,
-                                  const Eigen::Vector3d& com_W, const Eigen::Vector3d& com_velocity_H,
-                                  const Eigen::Vector2d& stance_ankle_W, const HeadingFrame& heading,
-                                  int swing_side, double foot_length, double foot_width);
+                                  const std::vector<Eigen::Vector2d>& tolerance,
+                                  double tolerance_fraction, const Eigen::Vector3d& com_W,
+                                  const Eigen::Vector3d& com_velocity_H,
+                                  const Eigen::Vector2d& stance_ankle_W,
+                                  const HeadingFrame& heading, int swing_side, double foot_length,
+                                  double foot_width);
 
 }  // namespace biodyn::controllers

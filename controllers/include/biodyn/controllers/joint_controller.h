@@ -49,14 +49,15 @@ struct JointControlStatus {
 /// What the joint controllers carry from one step to the next (a copyable aggregate).
 struct JointControlState {
   std::vector<mjtNum> tau_prev;  ///< N m per DOF: the kept step's torques (the rate limit's start)
-  std::vector<mjtNum> tau;       ///< N m per DOF: the last compute()'s torques (commit() keeps them)
+  std::vector<mjtNum> tau;  ///< N m per DOF: the last compute()'s torques (commit() keeps them)
 };
 
 /// Joint controllers for every group of a rig. Construct -> reset -> (compute, commit)*.
 class JointController {
  public:
   /// Validates `params` against `m` (throws sim::InvalidArgument). Allocates everything.
-  JointController(const mjModel& m, const models::Rig& rig, ControllerParams params, ControllerKind kind);
+  JointController(const mjModel& m, const models::Rig& rig, ControllerParams params,
+                  ControllerKind kind);
 
   const std::vector<JointGroup>& groups() const { return rig_->groups(); }
   const ControllerParams& params() const { return params_; }
@@ -69,19 +70,21 @@ class JointController {
   /// the static load). `d` must have mj_forward run. Same for both kinds. `support_bodies` (the
   /// stance feet) choose the PD inertia: a joint with a support below it moves the rest of the
   /// body, not its own subtree.
-  void reset(const mjModel& m, mjData& d, ControlFrame* frame, const std::vector<int>& support_bodies = {});
+  void reset(const mjModel& m, mjData& d, ControlFrame* frame,
+             const std::vector<int>& support_bodies = {});
 
   /// PD kind: gains for the current supports (the feet on the ground now; the pipeline calls
   /// this each step, as a foot that leaves the floor no longer carries the body and a stance
   /// gain on its light subtree would be unstable). No allocation.
-  void update_pd_gains(const mjModel& m, const mjData& d, const int* support_bodies, int n_supports);
+  void update_pd_gains(const mjModel& m, const mjData& d, const int* support_bodies,
+                       int n_supports);
 
   /// Torques for the current state (call after mj_step1) reaching `frame`'s targets under its
   /// DOF commands. `qfrc_other` (nv): every other generalized force that acts in this step
   /// (the frame's extra forces, mapped pushes). Writes the muscle torques (nv; zero on the
   /// root) into `torque`. No allocation.
-  JointControlStatus compute(const mjModel& m, mjData& d, const ControlFrame& frame, const mjtNum* qfrc_other,
-                             mjtNum* torque);
+  JointControlStatus compute(const mjModel& m, mjData& d, const ControlFrame& frame,
+                             const mjtNum* qfrc_other, mjtNum* torque);
   /// The last computed torques become tau_prev (call once the step is kept).
   void commit();
 
@@ -118,6 +121,7 @@ class JointController {
 };
 
 /// Orientation error of a group, rad: angle of conj(q_current) * q_target.
-double orientation_error(const mjModel& m, const mjData& d, const JointGroup& group, const JointTarget& target);
+double orientation_error(const mjModel& m, const mjData& d, const JointGroup& group,
+                         const JointTarget& target);
 
 }  // namespace biodyn::controllers

@@ -60,8 +60,8 @@ struct TrackedMotion {
 /// with their box geoms), floored at its first frame (start_lift_m). Throws sim::InvalidArgument
 /// for fewer than 2 frames, times not increasing or a qpos row of the wrong size, and
 /// models::RigError for a model without feet.
-TrackedMotion make_tracked_motion(const mjModel& m, const models::Rig& rig, const std::vector<double>& times_s,
-                                  const Eigen::MatrixXd& qpos);
+TrackedMotion make_tracked_motion(const mjModel& m, const models::Rig& rig,
+                                  const std::vector<double>& times_s, const Eigen::MatrixXd& qpos);
 
 /// The motion's pose at time t (clamped to its ends): hinges interpolated linearly, ball joints
 /// and the root orientation by slerp. `qpos` must have nq entries.
@@ -70,23 +70,26 @@ void motion_pose_at(const mjModel& m, const TrackedMotion& motion, double t_s, d
 struct MotionTrackerParams {
   double lookahead_s = 0.1;  ///< s, targets are the motion this far ahead
   bool balance = true;       ///< the stance-hip pelvis control and the swing placement feedback
-  double sagittal_cd = 0.5;  ///< rad of swing hip flexion per m of CoM further ahead than the motion's
+  double sagittal_cd =
+      0.5;  ///< rad of swing hip flexion per m of CoM further ahead than the motion's
   double sagittal_cv = 0.2;  ///< rad per m/s of CoM faster forward than the motion's
   double frontal_cd = 0.5;   ///< rad of swing hip abduction (towards the CoM's side) per m
   double frontal_cv = 0.3;   ///< rad per m/s
-  double ankle_cd = 1.0;     ///< double support: rad of ankle plantarflexion per m of CoM ahead of the motion's
-  double ankle_cv = 0.3;     ///< rad per m/s
+  double ankle_cd =
+      1.0;  ///< double support: rad of ankle plantarflexion per m of CoM ahead of the motion's
+  double ankle_cv = 0.3;  ///< rad per m/s
   /// Feet on the floor (open loop too): ankle torques held to what the ground returns with the
   /// centre of pressure inside this fraction of the contacts' extent (ankle_window.h; 0: off).
   double ankle_cop_margin = 0.8;
-  void validate() const;     ///< throws sim::InvalidArgument naming the field
+  void validate() const;  ///< throws sim::InvalidArgument naming the field
 };
 
 class MotionTracker : public ControlDriver {
  public:
   /// Throws models::RigError for a rig without ball hips, ankles, thighs and feet, and
   /// sim::InvalidArgument for bad params. `rig` and `motion` must outlive the tracker.
-  MotionTracker(const mjModel& m, const models::Rig& rig, const TrackedMotion* motion, MotionTrackerParams params = {});
+  MotionTracker(const mjModel& m, const models::Rig& rig, const TrackedMotion* motion,
+                MotionTrackerParams params = {});
   void drive(const ControlInput& in, ControlFrame* frame) override;
 
   /// How far the body is from the motion at the current time: RMS over the joint groups of
@@ -101,7 +104,8 @@ class MotionTracker : public ControlDriver {
   const MotionTrackerParams& params() const { return params_; }
 
  private:
-  Eigen::Quaterniond group_orientation(const mjModel& m, const JointGroup& g, const double* qpos) const;
+  Eigen::Quaterniond group_orientation(const mjModel& m, const JointGroup& g,
+                                       const double* qpos) const;
 
   const models::Rig* rig_;
   const TrackedMotion* motion_;

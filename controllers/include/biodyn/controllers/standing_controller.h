@@ -15,10 +15,10 @@ namespace biodyn::controllers {
 
 /// What the standing controller carries from one step to the next (a copyable aggregate).
 struct StandingControllerState {
-  Pose pose;                                  ///< the pose being held
-  double pose_start_s = 0;                    ///< s, when it began
-  std::vector<Eigen::Vector3d> base_angles;   ///< rad, per group: the pose's angles
-  BalanceOffsets offsets;                     ///< the balance's offsets of the last step
+  Pose pose;                                 ///< the pose being held
+  double pose_start_s = 0;                   ///< s, when it began
+  std::vector<Eigen::Vector3d> base_angles;  ///< rad, per group: the pose's angles
+  BalanceOffsets offsets;                    ///< the balance's offsets of the last step
   StandingBalanceState balance;
 };
 

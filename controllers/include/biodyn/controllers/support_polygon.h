@@ -16,8 +16,9 @@ void convex_hull(std::vector<Eigen::Vector2d>* points, std::vector<Eigen::Vector
 
 /// The feet's support polygon: the convex hull of the contacts (touching or penetrating) whose
 /// body is one of `bodies[0..body_count)` (the feet and toes), into `hull`; `points` is scratch.
-void contact_support_polygon(const std::vector<sim::FloorContact>& contacts, const int* bodies, int body_count,
-                             std::vector<Eigen::Vector2d>* points, std::vector<Eigen::Vector2d>* hull);
+void contact_support_polygon(const std::vector<sim::FloorContact>& contacts, const int* bodies,
+                             int body_count, std::vector<Eigen::Vector2d>* points,
+                             std::vector<Eigen::Vector2d>* hull);
 
 /// The tolerance polygon of paper §4.3: `support` scaled about its vertex centroid so that its
 /// edges lie `fraction` of its extent from the centre (by 2 fraction). Empty for an empty support.

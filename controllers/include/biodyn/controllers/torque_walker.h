@@ -59,8 +59,8 @@ namespace biodyn::controllers {
 /// level sole (in a swing_foot_down phase it is the joint angle itself: the foot is on the floor).
 struct TorqueWalkerPhase {
   std::string name;
-  bool ends_at_strike = false;    ///< JSON "end": "time" (after duration_s) or "strike"
-  double duration_s = 0.3;        ///< a time phase's length at reference_speed_m_s
+  bool ends_at_strike = false;  ///< JSON "end": "time" (after duration_s) or "strike"
+  double duration_s = 0.3;      ///< a time phase's length at reference_speed_m_s
   /// The phase shortens by this much per m/s of commanded speed above the reference (people
   /// step faster as they walk faster, not only longer).
   double duration_per_m_s = 0;
@@ -68,7 +68,7 @@ struct TorqueWalkerPhase {
   double swing_knee_rad = 0;
   double swing_ankle_rad = 0;
   double stance_knee_rad = 0;
-  double stance_ankle_rad = 0;    ///< dorsiflexion positive
+  double stance_ankle_rad = 0;  ///< dorsiflexion positive
   /// Double support: the swing foot stays in stance (the welds may hold it) and a planned
   /// step's IK waits for the next state.
   bool swing_foot_down = false;
@@ -83,23 +83,23 @@ std::vector<TorqueWalkerPhase> default_torque_walker_phases();
 struct TorqueWalkerParams {
   /// The step's phases in order (JSON "states"); the last one ends at the strike (validate()).
   std::vector<TorqueWalkerPhase> phases = default_torque_walker_phases();
-  double sagittal_cd = 0.246;          ///< rad/m of CoM ahead of the stance ankle
-  double sagittal_cv = 0.225;          ///< rad per m/s of forward CoM velocity
-  double frontal_cd = -0.020;          ///< rad/m of CoM beside the stance ankle
-  double frontal_cv = 0.480;           ///< rad per m/s of sideways CoM velocity
-  double swing_hip_out_rad = -0.075;   ///< swing thigh roll outwards (the step width offset)
-  double toe_up_rad = 0.070;             ///< swing sole pitch, toes up
-  double pelvis_pitch_rad = 0.125;       ///< forward lean of the pelvis in the world
-  double start_pitch_rad = 0.073;        ///< extra lean for the first start_time_s (from standing)
+  double sagittal_cd = 0.246;         ///< rad/m of CoM ahead of the stance ankle
+  double sagittal_cv = 0.225;         ///< rad per m/s of forward CoM velocity
+  double frontal_cd = -0.020;         ///< rad/m of CoM beside the stance ankle
+  double frontal_cv = 0.480;          ///< rad per m/s of sideways CoM velocity
+  double swing_hip_out_rad = -0.075;  ///< swing thigh roll outwards (the step width offset)
+  double toe_up_rad = 0.070;          ///< swing sole pitch, toes up
+  double pelvis_pitch_rad = 0.125;    ///< forward lean of the pelvis in the world
+  double start_pitch_rad = 0.073;     ///< extra lean for the first start_time_s (from standing)
   double start_time_s = 1.934;
   double torso_kp = 1273;
   double hip_kp = 434;
   double knee_kp = 218;
   double ankle_kp = 52;
   double toe_kp = 30;
-  double trunk_kp = 600;    ///< lumbar, thorax
-  double arm_kp = 100;      ///< shoulders, clavicles
-  double distal_kp = 50;    ///< neck, head, elbows, forearms, wrists
+  double trunk_kp = 600;        ///< lumbar, thorax
+  double arm_kp = 100;          ///< shoulders, clavicles
+  double distal_kp = 50;        ///< neck, head, elbows, forearms, wrists
   double damping_time_s = 0.1;  ///< kd = kp damping_time_s
   /// Speed regulation (walking-notes.md: speed is set mostly by the forward lean). The gait
   /// walks at about reference_speed_m_s with the lean above; a commanded speed v adds
@@ -141,34 +141,36 @@ struct TorqueWalkerParams {
 /// {"hip_kp": 900, "states": [...]}; "states", the phases, replaces the whole list); unknown
 /// keys, non-numbers and values out of range are errors naming `source`, the field, the rule and
 /// the value (sim::InvalidArgument). On error `params` is unchanged.
-void apply_torque_walker_json(const std::string& json_text, const std::string& source, TorqueWalkerParams* params);
+void apply_torque_walker_json(const std::string& json_text, const std::string& source,
+                              TorqueWalkerParams* params);
 /// Every field as a JSON object that apply_torque_walker_json reads back identically.
 std::string torque_walker_json(const TorqueWalkerParams& params);
 
 /// One strike of the torque walker.
 struct TorqueWalkerStrike {
   double time_s = 0;
-  int side = 0;                 ///< the foot that struck (0 left, 1 right)
-  double step_length_m = 0;     ///< along the heading, ankle to ankle
-  double step_width_m = 0;      ///< across it
-  double target_length_m = std::numeric_limits<double>::quiet_NaN();  ///< the planned length; NaN: a free step
+  int side = 0;              ///< the foot that struck (0 left, 1 right)
+  double step_length_m = 0;  ///< along the heading, ankle to ankle
+  double step_width_m = 0;   ///< across it
+  double target_length_m =
+      std::numeric_limits<double>::quiet_NaN();  ///< the planned length; NaN: a free step
 };
 
 /// What the torque walker carries from one step to the next (a copyable aggregate).
 struct TorqueWalkerState {
   // The command (set between steps).
-  double speed_m_s = 1.0;            ///< m/s along the heading (0 once stopping)
+  double speed_m_s = 1.0;  ///< m/s along the heading (0 once stopping)
   double heading_rate_rad_s = 0;
   // The state machine.
-  int stance = 0;                    ///< the stance foot (0 left, 1 right)
-  int phase = 0;                     ///< index into params().phases
+  int stance = 0;  ///< the stance foot (0 left, 1 right)
+  int phase = 0;   ///< index into params().phases
   int strikes = 0;
   double phase_start_s = 0, start_s = 0;
   HeadingFrame heading;
   StrikeDetector strike;
   TorqueWalkerStrike last_strike;
   Eigen::Vector3d com_at_strike = Eigen::Vector3d::Zero();
-  double ankle_height_m = 0;         ///< the ankles' height standing flat, measured at reset
+  double ankle_height_m = 0;  ///< the ankles' height standing flat, measured at reset
   // Speed and drift regulation (rad).
   double lean_integral = 0, roll_integral = 0;
   // Base-polygon balance: the rule's step length and width for this swing (NaN: not moved).
@@ -253,9 +255,10 @@ class TorqueWalker : public ControlDriver {
 
  private:
   /// Sets and returns the PD torque of one hinge DOF (towards target at target_rate).
-  double hinge_pd(ControlFrame* f, const mjModel& m, const mjData& d, int dof, double target, double kp,
-                  double target_rate = 0) const;
-  void hip_torque(ControlFrame* f, const mjData& d, int side, const Eigen::Vector3d& torque_W) const;
+  double hinge_pd(ControlFrame* f, const mjModel& m, const mjData& d, int dof, double target,
+                  double kp, double target_rate = 0) const;
+  void hip_torque(ControlFrame* f, const mjData& d, int side,
+                  const Eigen::Vector3d& torque_W) const;
   /// The stop's closing step (the planned step of length 0 that brings the feet side by side).
   bool closing_step() const { return state_.stopping && state_.swing_target_m == 0.0; }
   /// The phase machine: time phases in order, then the last one until the swing foot strikes.
@@ -268,11 +271,13 @@ class TorqueWalker : public ControlDriver {
   /// Constrained stepping: the IK triangle for the planned step's ankle target (and its rates).
   LegTriangle placed_step_ik(const mjData& d, const TorqueWalkerPhase& ph);
   /// Knees, ankles (the swing sole level) and toes.
-  void leg_joints(ControlFrame* f, const mjModel& m, const mjData& d, const TorqueWalkerPhase& ph, bool placed,
-                  const LegTriangle& ik) const;
-  /// The swing thigh's goal pitch and roll (balance feedback, IK, base-polygon rule), heading frame.
-  Eigen::Vector2d swing_thigh_angles(const mjData& d, const TorqueWalkerPhase& ph, bool placed, const LegTriangle& ik,
-                                     const Eigen::Vector3d& rel, const Eigen::Vector3d& vel);
+  void leg_joints(ControlFrame* f, const mjModel& m, const mjData& d, const TorqueWalkerPhase& ph,
+                  bool placed, const LegTriangle& ik) const;
+  /// The swing thigh's goal pitch and roll (balance feedback, IK, base-polygon rule), heading
+  /// frame.
+  Eigen::Vector2d swing_thigh_angles(const mjData& d, const TorqueWalkerPhase& ph, bool placed,
+                                     const LegTriangle& ik, const Eigen::Vector3d& rel,
+                                     const Eigen::Vector3d& vel);
   /// Paper §4.3 during a swing: accumulates the rule's step for this swing (gait core).
   void apply_base_polygon_rule(const mjModel& m, const mjData& d, const Eigen::Vector3d& com_W,
                                const Eigen::Vector3d& com_velocity_H);

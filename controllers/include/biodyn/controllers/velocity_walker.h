@@ -69,13 +69,13 @@ struct GaitCommand {
 
 /// One foot strike.
 struct StrikeEvent {
-  int index = -1;           ///< 0, 1, ... in order
+  int index = -1;  ///< 0, 1, ... in order
   double time_s = 0;
-  int side = 0;             ///< the foot that struck (0 left, 1 right)
+  int side = 0;                                       ///< the foot that struck (0 left, 1 right)
   Eigen::Vector3d foot_W = Eigen::Vector3d::Zero();   ///< its foot origin (ankle), world
   Eigen::Vector3d other_W = Eigen::Vector3d::Zero();  ///< the stance foot origin, world
-  double step_length_m = 0;   ///< along the heading, between the feet at strike
-  double step_width_m = 0;    ///< across it
+  double step_length_m = 0;     ///< along the heading, between the feet at strike
+  double step_width_m = 0;      ///< across it
   double planned_length_m = 0;  ///< what the foot placement asked for at the strike
   bool timed_out = false;       ///< the swing ended on its time limit, not on contact
 };
@@ -117,7 +117,9 @@ class VelocityWalker : public ControlDriver {
   // Read-outs.
   int stance_side() const { return state_.stance; }
   int phase_index() const { return state_.phase; }
-  const std::string& phase_name() const { return params_.phases[static_cast<std::size_t>(state_.phase)].name; }
+  const std::string& phase_name() const {
+    return params_.phases[static_cast<std::size_t>(state_.phase)].name;
+  }
   int strike_count() const { return static_cast<int>(state_.strike_count); }
   const StrikeEvent& last_strike() const { return state_.last_strike; }
   double speed_target_m_s() const { return state_.speed_now_m_s; }

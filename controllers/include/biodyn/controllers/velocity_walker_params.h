@@ -129,9 +129,11 @@ VelocityWalkerParams default_velocity_walker_params();
 /// Applies the JSON text on top of `params` (only the fields present; a "states" array
 /// replaces all phases). `source` names the file in errors. Throws sim::InvalidArgument for
 /// malformed JSON, unknown keys, wrong types and out-of-range values (key path and value).
-void apply_velocity_walker_json(const std::string& json_text, const std::string& source, VelocityWalkerParams* params);
+void apply_velocity_walker_json(const std::string& json_text, const std::string& source,
+                                VelocityWalkerParams* params);
 
-/// The full gait as JSON (angles in degrees); apply_velocity_walker_json of it gives the same params.
+/// The full gait as JSON (angles in degrees); apply_velocity_walker_json of it gives the same
+/// params.
 nlohmann::json velocity_walker_json(const VelocityWalkerParams& params);
 
 }  // namespace biodyn::controllers

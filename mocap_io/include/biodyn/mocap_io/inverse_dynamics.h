@@ -30,7 +30,7 @@ void low_pass(Eigen::MatrixXd* samples, double rate_hz, const LowPassFilter& fil
 
 /// Where the ground reaction comes from.
 enum class GroundForces {
-  kNone,        ///< none applied: the root residual is the whole ground reaction the motion needs
+  kNone,         ///< none applied: the root residual is the whole ground reaction the motion needs
   kForcePlates,  ///< measured force plates, applied at the centre of pressure to the nearest foot
   /// MuJoCo's soft contact with the floor, inverted (forces from penetration and its rate):
   /// swings strongly with sub-millimetre penetration (mujoco-2.2.2.md), so an estimate only

@@ -21,11 +21,11 @@ namespace biodyn::mocap_io {
 
 /// Settings of the per-frame solve.
 struct MarkerIkOptions {
-  int max_iterations = 15;          ///< LM iterations per frame (the thesis's cap: 15)
+  int max_iterations = 15;  ///< LM iterations per frame (the thesis's cap: 15)
   /// m (or rad); stop when a step moves no DOF by more than this or lowers the weighted RMS
   /// marker error by less.
   double tolerance_m = 1e-6;
-  double initial_damping = 1e-3;    ///< LM lambda (relative to diag(J'J)) at the first step
+  double initial_damping = 1e-3;  ///< LM lambda (relative to diag(J'J)) at the first step
   /// 1/rad^2-like regulariser added to every DOF (in m^2 per unit of q): keeps DOFs the markers
   /// do not see (e.g. arms in a lower-body set) at the previous frame instead of drifting.
   double regularization = 1e-6;
@@ -39,11 +39,11 @@ struct MarkerIkOptions {
 
 /// What one frame's solve found.
 struct MarkerIkFrame {
-  bool solved = false;      ///< false: too few markers (qpos left as it was)
-  int iterations = 0;       ///< LM iterations taken
-  int markers_used = 0;     ///< visible mapped markers with weight > 0
-  double rms_error_m = 0;   ///< m, RMS distance marker - site over the used markers
-  double max_error_m = 0;   ///< m, largest distance
+  bool solved = false;        ///< false: too few markers (qpos left as it was)
+  int iterations = 0;         ///< LM iterations taken
+  int markers_used = 0;       ///< visible mapped markers with weight > 0
+  double rms_error_m = 0;     ///< m, RMS distance marker - site over the used markers
+  double max_error_m = 0;     ///< m, largest distance
   int max_error_marker = -1;  ///< index into the labels of the marker with max_error_m
 };
 

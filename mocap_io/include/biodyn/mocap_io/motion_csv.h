@@ -14,9 +14,9 @@
 namespace biodyn::mocap_io {
 
 struct Motion {
-  std::vector<std::string> columns;  ///< qpos names (without "time"), nq of them
-  std::vector<double> times_s;       ///< s, one per frame
-  Eigen::MatrixXd qpos;              ///< frames x nq (NaN rows: unsolved frames)
+  std::vector<std::string> columns;   ///< qpos names (without "time"), nq of them
+  std::vector<double> times_s;        ///< s, one per frame
+  Eigen::MatrixXd qpos;               ///< frames x nq (NaN rows: unsolved frames)
   std::vector<std::string> comments;  ///< the '#' lines, without the '#'
 
   int frame_count() const { return static_cast<int>(qpos.rows()); }

@@ -83,7 +83,7 @@ struct KeypointMapping {
 struct JointMap {
   std::string name;
   std::string description;
-  std::optional<BvhUnits> units;  ///< the rig's usual units, if the map states them
+  std::optional<BvhUnits> units;           ///< the rig's usual units, if the map states them
   std::vector<KeypointMapping> keypoints;  ///< sorted by keypoint name
 
   /// The mapping of `keypoint`, or nullptr.
@@ -216,15 +216,15 @@ struct StanceStep {
 /// Statistics measured on the output (MuJoCo kinematics of the output qpos).
 struct RetargetStats {
   int frames = 0;
-  int unsolved_frames = 0;      ///< frames IK could not solve (their qpos rows are NaN)
-  double scale = 1.0;           ///< character leg / BVH leg
-  double bvh_leg_m = 0.0;       ///< m, hip-knee + knee-ankle of the BVH (mean of the sides)
-  double character_leg_m = 0.0; ///< m, thigh + shank of the character
-  double keypoint_rms_m = 0.0;  ///< m, RMS keypoint site - target over all keypoints and frames
-  double keypoint_max_m = 0.0;  ///< m, the largest keypoint error
+  int unsolved_frames = 0;        ///< frames IK could not solve (their qpos rows are NaN)
+  double scale = 1.0;             ///< character leg / BVH leg
+  double bvh_leg_m = 0.0;         ///< m, hip-knee + knee-ankle of the BVH (mean of the sides)
+  double character_leg_m = 0.0;   ///< m, thigh + shank of the character
+  double keypoint_rms_m = 0.0;    ///< m, RMS keypoint site - target over all keypoints and frames
+  double keypoint_max_m = 0.0;    ///< m, the largest keypoint error
   std::string keypoint_max_name;  ///< the keypoint with keypoint_max_m
   int keypoint_max_frame = -1;
-  double max_slide_m = 0.0;     ///< m, the largest StanceStep::slide_m
+  double max_slide_m = 0.0;  ///< m, the largest StanceStep::slide_m
   /// m (>= 0): depth of the lowest geom point below the floor over the whole motion (0 when
   /// nothing goes below z = 0).
   double max_penetration_m = 0.0;
@@ -237,8 +237,8 @@ struct RetargetStats {
   /// Planted sole points released because the IK could not hold them (release_error_m).
   int released_contacts = 0;
   double mean_ik_iterations = 0.0;  ///< LM iterations per solve (re-solves included)
-  double ik_seconds = 0.0;     ///< s, wall time of the per-frame IK solves
-  double total_seconds = 0.0;  ///< s, wall time of retarget_bvh
+  double ik_seconds = 0.0;          ///< s, wall time of the per-frame IK solves
+  double total_seconds = 0.0;       ///< s, wall time of retarget_bvh
 };
 
 struct RetargetResult {

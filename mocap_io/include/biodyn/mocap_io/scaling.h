@@ -19,8 +19,8 @@ struct ScaleOptions {
   /// Estimate the stature from the measured segments when the caller gave none: the base
   /// height is multiplied by the mean scale factor (then the factors are measured again).
   bool estimate_height = true;
-  int placement_frames = 200;     ///< static frames (evenly spread) used to place markers
-  int placement_iterations = 4;   ///< IK fit -> move markers rounds
+  int placement_frames = 200;    ///< static frames (evenly spread) used to place markers
+  int placement_iterations = 4;  ///< IK fit -> move markers rounds
 };
 
 /// One scaling measurement's outcome.

@@ -36,7 +36,7 @@ TrcFile read_trc(const std::string& path);
 std::string format_trc(const MarkerData& markers, const std::string& units = "mm",
                        const std::string& file_name = "", int precision = 10);
 /// Writes format_trc(...) to `path` whole or not at all; throws sim::Error if it cannot.
-void write_trc(const std::string& path, const MarkerData& markers,
-               const std::string& units = "mm", int precision = 10);
+void write_trc(const std::string& path, const MarkerData& markers, const std::string& units = "mm",
+               int precision = 10);
 
 }  // namespace biodyn::mocap_io

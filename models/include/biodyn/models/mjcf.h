@@ -27,9 +27,9 @@ struct PhysicsOptions {
   int nconmax = 200;
   int njmax = 1000;
   double friction = 1.0;  ///< sliding friction of every geom and the floor
-  /// s, joint-limit solref time constant (written as at least 2 timesteps). MuJoCo's default 0.02 lets a heavy
-  /// body sink into its limits and store energy there that comes back later: measured on a
-  /// 1.40 m / 150 kg drop, 40 J (3.5% of the start energy) at 0.02, 7.5 J (0.6%) at 0.005.
+  /// s, joint-limit solref time constant (written as at least 2 timesteps). MuJoCo's default 0.02
+  /// lets a heavy body sink into its limits and store energy there that comes back later: measured
+  /// on a 1.40 m / 150 kg drop, 40 J (3.5% of the start energy) at 0.02, 7.5 J (0.6%) at 0.005.
   double limit_time_constant_s = 0.005;
   /// s, solref time constant of the foot-contact welds (MuJoCo's default; written as at least
   /// 2 timesteps).

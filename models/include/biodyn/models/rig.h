@@ -110,7 +110,9 @@ class Rig {
   // --- Legs, feet and joints ---
   const RigLeg& leg(int side) const { return legs_[static_cast<std::size_t>(side)]; }
   /// Whether `body` is a foot or toes (what may touch the floor without a fall).
-  bool is_foot_part(int body) const { return body >= 0 && foot_part_[static_cast<std::size_t>(body)] != 0; }
+  bool is_foot_part(int body) const {
+    return body >= 0 && foot_part_[static_cast<std::size_t>(body)] != 0;
+  }
   const std::vector<JointGroup>& groups() const { return groups_; }
   /// Index of the group called `name` ("lumbar", "knee_r"), or -1.
   int group(const std::string& name) const { return find_group(groups_, name); }

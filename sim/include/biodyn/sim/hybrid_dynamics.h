@@ -93,26 +93,26 @@ class HybridDynamics {
 
   HybridDynamicsOptions options_;
   int nv_ = 0;
-  std::vector<mjtNum> M_;          // nv x nv dense mass matrix
-  std::vector<mjtNum> b_;          // passive - bias + other, nv
-  std::vector<mjtNum> a_;          // current accelerations, nv
-  std::vector<mjtNum> trial_;      // line-search point, nv
-  std::vector<mjtNum> Ma_;         // M a, nv
-  std::vector<mjtNum> jar_;        // J a - aref, njmax
-  std::vector<mjtNum> fixed_;      // prescribed force on unknown-acceleration DOFs, nv
-  std::vector<int> unknown_;       // DOFs whose acceleration is unknown
+  std::vector<mjtNum> M_;           // nv x nv dense mass matrix
+  std::vector<mjtNum> b_;           // passive - bias + other, nv
+  std::vector<mjtNum> a_;           // current accelerations, nv
+  std::vector<mjtNum> trial_;       // line-search point, nv
+  std::vector<mjtNum> Ma_;          // M a, nv
+  std::vector<mjtNum> jar_;         // J a - aref, njmax
+  std::vector<mjtNum> fixed_;       // prescribed force on unknown-acceleration DOFs, nv
+  std::vector<int> unknown_;        // DOFs whose acceleration is unknown
   std::vector<std::uint8_t> mode_;  // per DOF: kPrescribedAcc, kZeroForce, kAtMin, kAtMax
-  std::vector<mjtNum> H_;          // |unknown|^2 Hessian block (Cholesky in place)
-  std::vector<mjtNum> g_;          // gradient on the unknowns
-  std::vector<mjtNum> step_;       // Newton step on the unknowns
-  std::vector<mjtNum> row_;        // one Jacobian row restricted to the unknowns
-  std::vector<mjtNum> cone_rows_;  // one elliptic contact's rows (<= 6) on the unknowns
-  std::vector<mjtNum> desired_;    // projected desired accelerations, nv
-  std::vector<mjtNum> eq_lhs_;     // projection system, (6 neq)^2
-  std::vector<mjtNum> eq_rhs_;     // 6 neq
-  std::vector<int> eq_rows_;       // efc rows of equality constraints
-  std::vector<mjtNum> J_dense_;    // efc_J expanded to dense rows (sparse models only)
-  const mjtNum* J_ = nullptr;      // dense efc_J rows of the current solve
+  std::vector<mjtNum> H_;           // |unknown|^2 Hessian block (Cholesky in place)
+  std::vector<mjtNum> g_;           // gradient on the unknowns
+  std::vector<mjtNum> step_;        // Newton step on the unknowns
+  std::vector<mjtNum> row_;         // one Jacobian row restricted to the unknowns
+  std::vector<mjtNum> cone_rows_;   // one elliptic contact's rows (<= 6) on the unknowns
+  std::vector<mjtNum> desired_;     // projected desired accelerations, nv
+  std::vector<mjtNum> eq_lhs_;      // projection system, (6 neq)^2
+  std::vector<mjtNum> eq_rhs_;      // 6 neq
+  std::vector<int> eq_rows_;        // efc rows of equality constraints
+  std::vector<mjtNum> J_dense_;     // efc_J expanded to dense rows (sparse models only)
+  const mjtNum* J_ = nullptr;       // dense efc_J rows of the current solve
 
   // Projects qacc_desired onto the equality rows into desired_.
   void project_on_equalities(const mjData& d, const std::uint8_t* actuated,

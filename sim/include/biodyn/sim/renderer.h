@@ -20,9 +20,9 @@ namespace biodyn::sim {
 struct OverlayGeom {
   enum class Kind { kArrow, kLine, kSphere, kBox };
   Kind kind = Kind::kLine;
-  Eigen::Vector3d from_W = Eigen::Vector3d::Zero();  ///< m; the sphere's or box's centre
-  Eigen::Vector3d to_W = Eigen::Vector3d::Zero();    ///< m; unused for spheres and boxes
-  double width_m = 0.01;                             ///< arrow shaft / line width / radius
+  Eigen::Vector3d from_W = Eigen::Vector3d::Zero();       ///< m; the sphere's or box's centre
+  Eigen::Vector3d to_W = Eigen::Vector3d::Zero();         ///< m; unused for spheres and boxes
+  double width_m = 0.01;                                  ///< arrow shaft / line width / radius
   Eigen::Vector3d half_size_m = Eigen::Vector3d::Zero();  ///< box: half extents (its frame)
   double yaw_rad = 0;                                     ///< box: turned about z
   float rgba[4] = {1, 1, 1, 1};
@@ -30,7 +30,7 @@ struct OverlayGeom {
 
 /// How the camera frames the scene.
 struct CameraView {
-  double azimuth_deg = 135;   ///< MuJoCo's free camera angles
+  double azimuth_deg = 135;  ///< MuJoCo's free camera angles
   double elevation_deg = -15;
   double distance_m = 3.5;
   Eigen::Vector3d lookat_W = Eigen::Vector3d(0, 0, 1);

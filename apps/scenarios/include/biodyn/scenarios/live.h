@@ -58,8 +58,8 @@ class LiveScenario {
   // range, or an edit the scenario does not have, throws sim::InvalidArgument). ---
   void set_controller_params(const controllers::ControllerParams& params);
   void set_gait_params(const controllers::TorqueWalkerParams& params);  ///< walking only
-  void set_speed(double m_s);                                          ///< walking only
-  void set_heading_rate(double deg_s);                                 ///< walking only
+  void set_speed(double m_s);                                           ///< walking only
+  void set_heading_rate(double deg_s);                                  ///< walking only
   void set_weld_mode(controllers::WeldMode mode);
   /// A horizontal (or any) force through the CoM of `body` for `duration_s`, from the next step.
   void push(const std::string& body, const Eigen::Vector3d& force_W, double duration_s);
@@ -91,7 +91,9 @@ class LiveScenario {
   const models::Rig& rig() const { return scenario_->rig(); }
   /// The control pipeline (nullptr for a kinematic playback).
   const controllers::ControlPipeline* controller() const { return scenario_->pipeline(); }
-  const controllers::ControllerParams* controller_params() const { return scenario_->controller_params(); }
+  const controllers::ControllerParams* controller_params() const {
+    return scenario_->controller_params();
+  }
   /// The walker, or nullptr when the scenario does not walk.
   const controllers::TorqueWalker* gait() const { return walk_ ? &walk_->walker() : nullptr; }
   const controllers::StepReport& last_report() const;
@@ -133,8 +135,8 @@ class LiveScenario {
 
   std::unique_ptr<sim::Simulation> sim_;
   std::unique_ptr<Scenario> scenario_;
-  const WalkScenario* walk_ = nullptr;    // the scenario as a walk, or nullptr
-  const MocapScenario* mocap_ = nullptr;  // the scenario as a mocap, or nullptr
+  const WalkScenario* walk_ = nullptr;      // the scenario as a walk, or nullptr
+  const MocapScenario* mocap_ = nullptr;    // the scenario as a mocap, or nullptr
   std::unique_ptr<ScenarioState> initial_;  // the state at t = 0
 
   std::vector<Edit> log_;      // every edit applied since t = 0, by step

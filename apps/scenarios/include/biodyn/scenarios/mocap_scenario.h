@@ -23,7 +23,9 @@ namespace biodyn::scenarios {
 struct TrackingStats {
   long samples = 0;
   double joint_sum_sq_rad2 = 0, joint_max_rad = 0, root_max_m = 0;
-  double joint_rms_rad() const { return samples > 0 ? std::sqrt(joint_sum_sq_rad2 / static_cast<double>(samples)) : 0.0; }
+  double joint_rms_rad() const {
+    return samples > 0 ? std::sqrt(joint_sum_sq_rad2 / static_cast<double>(samples)) : 0.0;
+  }
 };
 
 /// Everything the summaries report about a tracked motion.
@@ -80,8 +82,8 @@ class MocapScenario : public Scenario {
   std::vector<double> times_;  // s, per frame, from 0
   controllers::TrackedMotion tracked_;
   controllers::ControllerParams params_;
-  std::unique_ptr<controllers::ControlPipeline> pipeline_;     // tracked only
-  std::unique_ptr<controllers::MotionTracker> tracker_;        // tracked only
+  std::unique_ptr<controllers::ControlPipeline> pipeline_;  // tracked only
+  std::unique_ptr<controllers::MotionTracker> tracker_;     // tracked only
   double playback_time_s_ = 0;
   TrackingStats stats_;
   std::unique_ptr<FallWatch> fall_;

@@ -5,8 +5,8 @@
 /// scan.
 
 #include <functional>
-#include <ostream>
 #include <optional>
+#include <ostream>
 #include <string>
 #include <vector>
 
@@ -42,25 +42,25 @@ struct TargetCheck {
 
 struct PoseRunResult {
   std::string scenario, controller, weld;
-  double reaction_time_s = 0;     ///< s, the t_r used (if uniform), else -1
+  double reaction_time_s = 0;  ///< s, the t_r used (if uniform), else -1
   int steps = 0;
   double simulated_s = 0, wall_s = 0, realtime_factor = 0;
   bool fallen = false;
-  double time_fallen_s = -1;      ///< s, first time a non-foot body touched the floor or the
-                                  ///< pelvis dropped below 0.6 x its start height; -1 if never
+  double time_fallen_s = -1;  ///< s, first time a non-foot body touched the floor or the
+                              ///< pelvis dropped below 0.6 x its start height; -1 if never
   std::vector<TargetCheck> targets;
   double max_orientation_error_deg = 0;  ///< max over targets of error_deg
   double max_pose_error_deg = 0;         ///< max over targets of pose_error_deg
   int weld_tension_steps = 0;
-  int weld_redone_steps = 0;             ///< honest mode: steps repeated with a weld released
-  double max_weld_force_N = 0;           ///< largest |weld force| in any step
-  double weld_active_fraction = 0;       ///< share of foot-steps with a weld on
-  double max_torque_ratio = 0;           ///< peak |tau| / tau_max
+  int weld_redone_steps = 0;        ///< honest mode: steps repeated with a weld released
+  double max_weld_force_N = 0;      ///< largest |weld force| in any step
+  double weld_active_fraction = 0;  ///< share of foot-steps with a weld on
+  double max_torque_ratio = 0;      ///< peak |tau| / tau_max
   /// Time the CoM ground projection spent outside the support polygon of the actual foot
   /// contacts (double stance only), s, and the largest distance outside, m.
   double com_outside_support_s = 0;
   double max_com_outside_support_m = 0;
-  double max_foot_displacement_m = 0;  ///< largest horizontal move of a foot (stepping)
+  double max_foot_displacement_m = 0;      ///< largest horizontal move of a foot (stepping)
   std::vector<double> joint_velocity_rms;  ///< rad/s, per window (actuated DOFs)
   int joints_outside_limits_steps = 0;
   bool solver_converged = true;
@@ -77,11 +77,11 @@ PoseRunResult run_pose(sim::Simulation* sim, const PoseRunParams& params,
 
 /// Standing push scan (issue 3): pushes of growing force on a quietly standing character.
 struct PushScanParams {
-  double duration_s = 0.2;     ///< s, push length
-  double resolution_N = 10;    ///< N, force step of the upward scan
-  double max_force_N = 1000;   ///< N, the scan stops here
-  double onset_s = 1.0;        ///< s, push onset after the start
-  double settle_s = 3.0;       ///< s, watched after the push ends
+  double duration_s = 0.2;    ///< s, push length
+  double resolution_N = 10;   ///< N, force step of the upward scan
+  double max_force_N = 1000;  ///< N, the scan stops here
+  double onset_s = 1.0;       ///< s, push onset after the start
+  double settle_s = 3.0;      ///< s, watched after the push ends
   std::string body = "pelvis";
 };
 

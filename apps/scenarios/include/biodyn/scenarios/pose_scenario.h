@@ -35,7 +35,9 @@ class PoseScenario : public Scenario {
   /// Steps of the whole sequence (its length, or the configured duration).
   long total_steps() const { return total_steps_; }
   /// Where the feet stood at t = 0 (world xy), for the no-step check of a push.
-  const Eigen::Vector2d& foot_start(int side) const { return foot_start_[static_cast<std::size_t>(side)]; }
+  const Eigen::Vector2d& foot_start(int side) const {
+    return foot_start_[static_cast<std::size_t>(side)];
+  }
 
   std::unique_ptr<ScenarioState> new_state() const override;
   void save(ScenarioState* state) const override;

@@ -16,9 +16,9 @@ namespace biodyn::scenarios {
 
 /// The force scan of one cell (references.md: scan upward, report the first failure).
 struct WalkingPushScanSettings {
-  double resolution_N = 10;    ///< N, step of the upward scan
-  double max_force_N = 1000;   ///< N, the scan stops here
-  bool bisect = true;          ///< also the bisection figure (shown beside, never instead)
+  double resolution_N = 10;   ///< N, step of the upward scan
+  double max_force_N = 1000;  ///< N, the scan stops here
+  bool bisect = true;         ///< also the bisection figure (shown beside, never instead)
 };
 
 /// What a sweep runs.
@@ -26,9 +26,9 @@ struct PushSweepSpec {
   /// The walk; its config.walk_push gives the pushed body and the settle strides (its force,
   /// duration, direction and phase are the cells').
   WalkRunParams walk;
-  int directions = 8;                              ///< evenly spaced from forward, [1, 360]
+  int directions = 8;                                 ///< evenly spaced from forward, [1, 360]
   std::vector<double> durations_s = {0.1, 0.2, 0.5};  ///< s, each in (0, 10]
-  int phases = 10;                                 ///< onsets spread over one stride, [1, 100]
+  int phases = 10;                                    ///< onsets spread over one stride, [1, 100]
   WalkingPushScanSettings scan;
   /// N; > 0: one push of this force per cell (the share survived) instead of scanning.
   double fixed_force_N = 0;
@@ -53,7 +53,7 @@ struct PushCellResult {
   double first_failure_N = -1;  ///< N, -1 if the scan reached max_force_N
   /// How the first failure (scan) or the one push (fixed force) ended.
   PushOutcome outcome = PushOutcome::kSurvived;
-  std::string failure;          ///< that outcome said for a person ("" if survived)
+  std::string failure;  ///< that outcome said for a person ("" if survived)
   /// N, what bisection between 0 and max_force_N would report (assumes monotonic survival:
   /// overstates); -1 if not computed.
   double bisection_N = -1;
@@ -63,7 +63,8 @@ struct PushCellResult {
 };
 
 /// Runs one cell on `sim` (a simulation of the spec's character; reset inside).
-PushCellResult run_push_cell(sim::Simulation* sim, const PushSweepSpec& spec, const PushSweepCell& cell);
+PushCellResult run_push_cell(sim::Simulation* sim, const PushSweepSpec& spec,
+                             const PushSweepCell& cell);
 
 /// One direction and duration over its phases.
 struct PushSweepGroup {
@@ -72,7 +73,7 @@ struct PushSweepGroup {
   /// Scan: N, the worst and mean over phases of max_survived_N (fixed force: survived x force).
   double max_survived_worst_N = 0, max_survived_mean_N = 0;
   double bisection_worst_N = 0, bisection_mean_N = 0;
-  int survived_phases = 0;         ///< fixed force
+  int survived_phases = 0;  ///< fixed force
   bool walk_failed_before_push = false;
 };
 
@@ -82,7 +83,9 @@ struct PushSweepSummary {
   std::size_t groups_with_failed_walks = 0;
 };
 
-/// The groups of `results` (as run_push_cell gave them for push_sweep_cells(spec)).
-PushSweepSummary summarize_push_sweep(const PushSweepSpec& spec, const std::vector<PushCellResult>& results);
+/// The groups of `results` (as run_push_cell gave them for push_sweep_cells(spec), in any order).
+/// Throws sim::InvalidArgument if a group has no result.
+PushSweepSummary summarize_push_sweep(const PushSweepSpec& spec,
+                                      const std::vector<PushCellResult>& results);
 
 }  // namespace biodyn::scenarios

@@ -4,7 +4,7 @@
 /// schedule (poses, walking commands, stepping stones, a timed push, a stop, a captured motion);
 /// observers measure it (metrics, traces, push judging) without changing it.
 ///
-///   auto s = make_scenario(config, &sim);   // registry.h: built at t = 0
+///   auto s = make_scenario(&sim, config);   // registry.h: built at t = 0
 ///   s->add_observer(&metrics);
 ///   while (!s->finished()) s->step();       // or a LiveScenario stepping it from outside
 ///
@@ -52,10 +52,10 @@ inline constexpr double kStandingFallPelvisFraction = 0.6;
 
 /// A horizontal push through a body's centre of mass at a given time (references.md).
 struct TimedPush {
-  double force_N = 0;          ///< N, >= 0
-  double duration_s = 0.2;     ///< s, > 0
-  double direction_deg = 0;    ///< deg, 0 = forward (+x), 90 = to the character's left
-  double onset_s = 1.0;        ///< s, simulation time of onset
+  double force_N = 0;        ///< N, >= 0
+  double duration_s = 0.2;   ///< s, > 0
+  double direction_deg = 0;  ///< deg, 0 = forward (+x), 90 = to the character's left
+  double onset_s = 1.0;      ///< s, simulation time of onset
   std::string body = "pelvis";
 };
 
@@ -64,13 +64,13 @@ struct TimedPush {
 /// a left-foot strike), at `onset_phase` of the next stride (its length taken from the stride
 /// before).
 struct WalkPush {
-  double force_N = 0;          ///< N, >= 0
-  double duration_s = 0.2;     ///< s, > 0
-  double direction_deg = 0;    ///< deg, relative to the heading: 0 forward, 90 left
+  double force_N = 0;           ///< N, >= 0
+  double duration_s = 0.2;      ///< s, > 0
+  double direction_deg = 0;     ///< deg, relative to the heading: 0 forward, 90 left
   std::string body = "pelvis";  ///< "pelvis" or "trunk" (the thorax), or any body name
-  double onset_phase = 0;      ///< [0, 1), fraction of the stride
-  int settle_strides = 5;      ///< steady strides walked before the push's stride (>= 1)
-  double watch_s = 5.0;        ///< s, watched after the push ends (references.md: 5 s)
+  double onset_phase = 0;       ///< [0, 1), fraction of the stride
+  int settle_strides = 5;       ///< steady strides walked before the push's stride (>= 1)
+  double watch_s = 5.0;         ///< s, watched after the push ends (references.md: 5 s)
 };
 
 /// Everything a scenario is built from. Fields a scenario does not use must keep their

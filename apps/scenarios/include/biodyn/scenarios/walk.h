@@ -45,69 +45,69 @@ const char* to_string(PushOutcome outcome);
 /// back within 10% of the speed before the push by the 4th stride after it).
 struct WalkPushOutcome {
   PushOutcome outcome = PushOutcome::kSurvived;
-  double onset_s = 0, end_s = 0;     ///< s, simulation time
+  double onset_s = 0, end_s = 0;  ///< s, simulation time
   double force_N = 0, duration_s = 0, direction_deg = 0;
   std::string body;
-  double impulse_N_s = 0;            ///< force x duration
-  double delta_v_m_s = 0;            ///< impulse / body mass
-  double speed_before_m_s = 0;       ///< mean stride speed of the strides before the push
+  double impulse_N_s = 0;       ///< force x duration
+  double delta_v_m_s = 0;       ///< impulse / body mass
+  double speed_before_m_s = 0;  ///< mean stride speed of the strides before the push
   std::vector<double> stride_speeds_after_m_s;  ///< strides starting after the push ended
-  int recovery_strides = -1;         ///< first stride after the push within 10%; -1 none in 4
+  int recovery_strides = -1;  ///< first stride after the push within 10%; -1 none in 4
   bool fell = false;
   bool survived = false;
-  std::string failure;               ///< why not survived ("" if survived), said for a person
+  std::string failure;  ///< why not survived ("" if survived), said for a person
 };
 
 /// How the stepping stones were walked.
 struct SteppingStonesResult {
-  double start_s = -1;                 ///< s, the strike the plan started from (-1: never)
-  std::vector<double> targets_m;       ///< the planned lengths
-  std::vector<double> lengths_m;       ///< the lengths walked (as many as were walked)
-  std::vector<double> errors_m;        ///< walked - planned
+  double start_s = -1;                      ///< s, the strike the plan started from (-1: never)
+  std::vector<double> targets_m;            ///< the planned lengths
+  std::vector<double> lengths_m;            ///< the lengths walked (as many as were walked)
+  std::vector<double> errors_m;             ///< walked - planned
   double rms_error_m = 0, max_error_m = 0;  ///< over the steps walked
-  bool complete = false;               ///< every planned step was walked
+  bool complete = false;                    ///< every planned step was walked
 };
 
 struct WalkRunResult {
   std::string weld;
-  double reaction_time_s = 0;        ///< s, the t_r used (if uniform), else -1
+  double reaction_time_s = 0;  ///< s, the t_r used (if uniform), else -1
   double speed_command_m_s = 0, heading_rate_deg_s = 0;
   int sim_steps = 0;
   double simulated_s = 0, wall_s = 0, realtime_factor = 0;
   bool fallen = false;
-  double time_fallen_s = -1;         ///< s, -1 if never
+  double time_fallen_s = -1;  ///< s, -1 if never
   /// m, progress of the CoM's ground projection along the heading, summed from strike to
   /// strike (drops the sway, follows a turn; walking backwards counts against it).
   double distance_m = 0;
-  double mean_speed_m_s = 0;         ///< distance / time walked
+  double mean_speed_m_s = 0;  ///< distance / time walked
   /// m/s, the same after the start-up (the first kStartup_s, 5 s).
   double steady_speed_m_s = 0;
-  double lateral_drift_m = 0;        ///< m, CoM sideways of the start heading at the end
-  int steps = 0;                     ///< foot strikes
+  double lateral_drift_m = 0;  ///< m, CoM sideways of the start heading at the end
+  int steps = 0;               ///< foot strikes
   std::vector<double> step_lengths_m, step_widths_m, step_times_s;
   double cadence_steps_per_min = 0;  ///< after the start-up
   double mean_step_length_m = 0;     ///< after the start-up
   /// deg, [min, max] of each leg and lumbar angle after the start-up; ball joints as
   /// <group>_flexion/_abduction/_rotation (joint_groups.h), hinges by their DOF name.
   std::map<std::string, std::array<double, 2>> joint_ranges_deg;
-  double swing_knee_peak_deg = 0;    ///< deg, mean over swings of the peak knee flexion
-  double heel_strike_fraction = 0;   ///< strikes whose first floor contact is behind the sole centre
-  int base_polygon_steps = 0;        ///< steps the base-polygon rule moved (paper §4.3; torque_gait.h)
-  double max_foot_slip_m = 0;        ///< m, largest move of a flat foot within one stance
-  double mean_foot_slip_m = 0;       ///< m, mean over stances
+  double swing_knee_peak_deg = 0;   ///< deg, mean over swings of the peak knee flexion
+  double heel_strike_fraction = 0;  ///< strikes whose first floor contact is behind the sole centre
+  int base_polygon_steps = 0;   ///< steps the base-polygon rule moved (paper §4.3; torque_gait.h)
+  double max_foot_slip_m = 0;   ///< m, largest move of a flat foot within one stance
+  double mean_foot_slip_m = 0;  ///< m, mean over stances
   int weld_tension_steps = 0;
   int weld_redone_steps = 0;
   double max_weld_force_N = 0;
-  double max_torque_ratio = 0;       ///< peak |tau| / tau_max
-  double max_root_force_N = 0;       ///< largest applied force on the root's DOFs (must be 0)
+  double max_torque_ratio = 0;  ///< peak |tau| / tau_max
+  double max_root_force_N = 0;  ///< largest applied force on the root's DOFs (must be 0)
   sim::WarningCounts warnings;
   std::optional<WalkPushOutcome> push;
   std::optional<SteppingStonesResult> stones;
   /// Stopping (stop_at_s >= 0): when the feet came side by side and the standing controller
   /// took over (-1: never), and the state at the end.
   double stopped_at_s = -1;
-  bool standing_at_end = false;      ///< not fallen, CoM < 5 cm/s, both feet on the floor
-  double final_com_speed_m_s = 0;    ///< m/s, horizontal, at the end
+  bool standing_at_end = false;    ///< not fallen, CoM < 5 cm/s, both feet on the floor
+  double final_com_speed_m_s = 0;  ///< m/s, horizontal, at the end
 };
 
 /// Start-up excluded from the steady figures, s.

@@ -26,10 +26,11 @@ namespace biodyn::scenarios {
 struct Stone {
   Eigen::Vector2d ankle_W = Eigen::Vector2d::Zero();  ///< m, world xy
   double heading_rad = 0;
-  int side = 0;          ///< the swing foot (0 left, 1 right)
-  double target_m = 0;   ///< planned length
-  double across_m = 0;   ///< m, left of the stance ankle (heading frame)
-  double walked_m = std::numeric_limits<double>::quiet_NaN();  ///< length at the strike; NaN: in swing
+  int side = 0;         ///< the swing foot (0 left, 1 right)
+  double target_m = 0;  ///< planned length
+  double across_m = 0;  ///< m, left of the stance ankle (heading frame)
+  double walked_m =
+      std::numeric_limits<double>::quiet_NaN();  ///< length at the strike; NaN: in swing
 };
 
 class WalkScenario : public Scenario {

@@ -9,7 +9,8 @@
 namespace biodyn::viewer {
 
 /// Writes width x height RGB (rows top to bottom) as a PNG. Throws sim::Error naming the path.
-void write_png(const std::string& path, int width, int height, const std::vector<std::uint8_t>& rgb);
+void write_png(const std::string& path, int width, int height,
+               const std::vector<std::uint8_t>& rgb);
 
 /// An MP4 (H.264, yuv420p) fed frame by frame to `ffmpeg`.
 class VideoWriter {

@@ -32,7 +32,8 @@ struct OverlayBuffers {
 
 /// The current floor contacts (`contacts`) and the feet's support polygon (`hull`): what the
 /// overlays draw and the viewer's plots sample.
-void foot_support(const mjModel& m, const mjData& d, const models::Rig& rig, OverlayBuffers* buffers);
+void foot_support(const mjModel& m, const mjData& d, const models::Rig& rig,
+                  OverlayBuffers* buffers);
 
 /// Appends the overlays of `s`'s current state to `out` (cleared first). Reads the simulation:
 /// call under the physics lock, with the scene update.

@@ -24,7 +24,7 @@ struct RenderOptions {
 };
 
 struct RenderStats {
-  int frames = 0;        ///< frames drawn (the video's, or the PNG's one)
+  int frames = 0;  ///< frames drawn (the video's, or the PNG's one)
   double simulated_s = 0;
   double wall_s = 0;
   double physics_s = 0;  ///< wall time stepping

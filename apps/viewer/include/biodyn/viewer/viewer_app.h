@@ -46,9 +46,9 @@ struct ViewerStats {
   double com_x_m = 0, com_y_m = 0;
   bool fallen = false;
   int pushes = 0;
-  std::vector<double> stones_plan_m;         ///< scenario stones: the plan
+  std::vector<double> stones_plan_m;     ///< scenario stones: the plan
   std::vector<scenarios::Stone> stones;  ///< and the stones stepped so far
-  scenarios::TrackingReport tracking;  ///< scenario mocap --track
+  scenarios::TrackingReport tracking;    ///< scenario mocap --track
 };
 
 /// Opens the window and runs until it is closed (or a script says quit). Throws

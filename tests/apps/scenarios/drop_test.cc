@@ -16,7 +16,9 @@ namespace {
 constexpr double kEnergyRiseTolerance = 0.01;  // of the starting mechanical energy
 }  // namespace
 
-TEST_CASE("Zero-torque drop: no warnings, no NaN, no energy gain, a collapse", "[apps][drop]") {
+TEST_CASE_METHOD(biodyn::testing::SimulationTest,
+                 "Zero-torque drop: no warnings, no NaN, no energy gain, a collapse",
+                 "[apps][drop]") {
   struct Case {
     double height, mass;
     models::Sex sex;
@@ -31,7 +33,7 @@ TEST_CASE("Zero-torque drop: no warnings, no NaN, no energy gain, a collapse", "
       {2.10, 150, models::Sex::kMale, models::Detail::kFull},
   };
   for (const Case& k : cases) {
-    testing::MujocoWarningGuard guard;
+    testing::MujocoWarningGuard per_case;  // a warning fails the test with this case named
     models::CharacterSpec spec{k.height, k.mass, k.sex, k.detail, {}, {}};
     INFO(k.height << " m, " << k.mass << " kg, " << models::to_string(k.sex) << ", "
                   << models::to_string(k.detail));

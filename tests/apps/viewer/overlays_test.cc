@@ -1,18 +1,23 @@
 // What the viewer and `biodyn render` draw over the character (viewer/overlays.h): the weld
 // markers (green when on, red for a weld in tension), the stones, the support polygon.
-#include "biodyn/scenarios/live.h"
 #include "biodyn/viewer/overlays.h"
+#include "biodyn/scenarios/live.h"
 #include "test_support.h"
 
 using namespace biodyn;
 
 namespace {
 
-bool is_red(const sim::OverlayGeom& g) { return g.rgba[0] > 0.9f && g.rgba[1] < 0.1f && g.rgba[2] < 0.1f; }
-bool is_green(const sim::OverlayGeom& g) { return g.rgba[1] > 0.8f && g.rgba[0] < 0.2f && g.rgba[2] < 0.2f; }
+bool is_red(const sim::OverlayGeom& g) {
+  return g.rgba[0] > 0.9f && g.rgba[1] < 0.1f && g.rgba[2] < 0.1f;
+}
+bool is_green(const sim::OverlayGeom& g) {
+  return g.rgba[1] > 0.8f && g.rgba[0] < 0.2f && g.rgba[2] < 0.2f;
+}
 
 // The weld markers: spheres 6 cm above a foot's origin.
-int weld_markers(const scenarios::LiveScenario& s, const std::vector<sim::OverlayGeom>& out, bool (*colour)(const sim::OverlayGeom&)) {
+int weld_markers(const scenarios::LiveScenario& s, const std::vector<sim::OverlayGeom>& out,
+                 bool (*colour)(const sim::OverlayGeom&)) {
   const mjModel& m = s.simulation().model();
   const mjData& d = s.simulation().data();
   int n = 0;
@@ -20,7 +25,9 @@ int weld_markers(const scenarios::LiveScenario& s, const std::vector<sim::Overla
     const int b = mj_name2id(&m, mjOBJ_BODY, foot);
     const Eigen::Vector3d above(d.xpos[3 * b], d.xpos[3 * b + 1], d.xpos[3 * b + 2] + 0.06);
     for (const sim::OverlayGeom& g : out) {
-      if (g.kind == sim::OverlayGeom::Kind::kSphere && (g.from_W - above).norm() < 1e-9 && colour(g)) ++n;
+      if (g.kind == sim::OverlayGeom::Kind::kSphere && (g.from_W - above).norm() < 1e-9 &&
+          colour(g))
+        ++n;
     }
   }
   return n;
@@ -28,9 +35,12 @@ int weld_markers(const scenarios::LiveScenario& s, const std::vector<sim::Overla
 
 }  // namespace
 
-TEST_CASE("Overlays: a glued foot pulled up shows the red tension flag; honest welds never do",
-          "[apps][overlays]") {
-  for (const controllers::WeldMode mode : {controllers::WeldMode::kGlue, controllers::WeldMode::kHonest}) {
+TEST_CASE_METHOD(
+    biodyn::testing::SimulationTest,
+    "Overlays: a glued foot pulled up shows the red tension flag, honest welds never do",
+    "[apps][overlays]") {
+  for (const controllers::WeldMode mode :
+       {controllers::WeldMode::kGlue, controllers::WeldMode::kHonest}) {
     scenarios::ScenarioConfig config;
     config.scenario = "stand";
     config.weld = mode;
@@ -50,8 +60,9 @@ TEST_CASE("Overlays: a glued foot pulled up shows the red tension flag; honest w
       viewer::build_overlays(s, viewer::OverlayOptions{}, &buffers, &out);
       red = std::max(red, weld_markers(s, out, is_red));
     }
-    INFO("weld mode " << controllers::to_string(mode) << ": " << green_standing << " green markers standing, "
-                      << tension_steps << " tension steps, " << red << " red markers");
+    INFO("weld mode " << controllers::to_string(mode) << ": " << green_standing
+                      << " green markers standing, " << tension_steps << " tension steps, " << red
+                      << " red markers");
     CHECK(green_standing == 2);  // both feet welded while standing
     if (mode == controllers::WeldMode::kGlue) {
       CHECK(tension_steps > 0);
@@ -63,7 +74,9 @@ TEST_CASE("Overlays: a glued foot pulled up shows the red tension flag; honest w
   }
 }
 
-TEST_CASE("Overlays: one box per stepping stone, the support polygon under the feet", "[apps][overlays][stones]") {
+TEST_CASE_METHOD(biodyn::testing::SimulationTest,
+                 "Overlays: one box per stepping stone, the support polygon under the feet",
+                 "[apps][overlays][stones]") {
   scenarios::ScenarioConfig config;
   config.scenario = "stones";
   config.speed_m_s = 0.7;

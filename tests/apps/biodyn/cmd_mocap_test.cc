@@ -22,7 +22,9 @@ using Run = biodyn::testing::CliRun;
 using biodyn::testing::run_biodyn;
 using biodyn::testing::slurp;
 
-fs::path fresh_dir(const std::string& name) { return biodyn::testing::fresh_dir("mocap_cli_test", name); }
+fs::path fresh_dir(const std::string& name) {
+  return biodyn::testing::fresh_dir("mocap_cli_test", name);
+}
 
 std::string data(const std::string& file) {
   return biodyn::testing::source_dir() + "/../shared/data/mocap/" + file;
@@ -47,7 +49,8 @@ TEST_CASE("mocap info reports each real file's contents as JSON", "[apps][mocap]
     CHECK(j.contains("first_frame"));
   }
   {
-    const Run r = run_biodyn("mocap info --json '" + data("c3d/opensim_walking5_markers.trc") + "'", dir);
+    const Run r =
+        run_biodyn("mocap info --json '" + data("c3d/opensim_walking5_markers.trc") + "'", dir);
     REQUIRE(r.exit_code == 0);
     const json j = json::parse(r.out);
     CHECK(j["format"] == "trc");
@@ -56,7 +59,8 @@ TEST_CASE("mocap info reports each real file's contents as JSON", "[apps][mocap]
     CHECK(j["inconsistencies"].size() == 1);
   }
   {
-    const Run r = run_biodyn("mocap info --json '" + data("bvh/cmu_131_01_start_walk_stop.bvh") + "'", dir);
+    const Run r =
+        run_biodyn("mocap info --json '" + data("bvh/cmu_131_01_start_walk_stop.bvh") + "'", dir);
     REQUIRE(r.exit_code == 0);
     const json j = json::parse(r.out);
     CHECK(j["format"] == "bvh");
@@ -66,7 +70,7 @@ TEST_CASE("mocap info reports each real file's contents as JSON", "[apps][mocap]
   }
 }
 
-TEST_CASE("mocap convert: C3D to TRC agrees with OpenSim's TRC; BVH rescaled", "[apps][mocap]") {
+TEST_CASE("mocap convert: C3D to TRC agrees with OpenSim's TRC, BVH rescaled", "[apps][mocap]") {
   const fs::path dir = fresh_dir("convert");
   Run r = run_biodyn("mocap convert '" + data("c3d/opensim_walking5.c3d") + "' walk.trc", dir);
   INFO(r.err);
@@ -97,9 +101,8 @@ TEST_CASE("mocap ik on walking5 after scaling from its own frames meets OpenSim'
           "[apps][mocap][regression]") {
   const fs::path dir = fresh_dir("ik");
   const std::string c3d = data("c3d/opensim_walking5.c3d");
-  const Run r = run_biodyn("mocap ik --c3d '" + c3d + "' --static '" + c3d +
-                               "' -o motion.csv --json stats.json",
-                           dir);
+  const Run r = run_biodyn(
+      "mocap ik --c3d '" + c3d + "' --static '" + c3d + "' -o motion.csv --json stats.json", dir);
   INFO(r.out << r.err);
   REQUIRE(r.exit_code == 0);
   const json s = json::parse(slurp(dir / "stats.json"));
@@ -137,14 +140,13 @@ TEST_CASE("mocap ik on walking5 after scaling from its own frames meets OpenSim'
   CHECK(fs::exists(dir / "id" / "residuals.csv"));
   CHECK(fs::exists(dir / "id" / "torques.png"));
   const json summary = json::parse(slurp(dir / "id" / "summary.json"));
-  WARN("walking5 ID (force plates): residual force peak " << summary["residual_force_peak_N"]
-                                                         << " N, rms " << summary["residual_force_rms_N"]
-                                                         << " N; moment peak "
-                                                         << summary["residual_moment_peak_Nm"] << " N m");
+  WARN("walking5 ID (force plates): residual force peak "
+       << summary["residual_force_peak_N"] << " N, rms " << summary["residual_force_rms_N"]
+       << " N; moment peak " << summary["residual_moment_peak_Nm"] << " N m");
   CHECK(summary["frames_used"].get<int>() > 100);
 }
 
-TEST_CASE("mocap retarget puts the CMU walk on a 2 m body; its motion feeds mocap id",
+TEST_CASE("mocap retarget puts the CMU walk on a 2 m body, its motion feeds mocap id",
           "[apps][mocap]") {
   const fs::path dir = fresh_dir("retarget");
   const std::string bvh = data("bvh/cmu_131_01_start_walk_stop.bvh");
@@ -179,8 +181,8 @@ TEST_CASE("mocap retarget puts the CMU walk on a 2 m body; its motion feeds moca
   CHECK(ij["joints"].size() >= 19);
 
   // Inverse dynamics of the retargeted motion on the same body with floor contact.
-  const Run id = run_biodyn("mocap id --motion out/motion.csv --height 2.0 --mass 90 --grf contact -o id",
-                            dir);
+  const Run id = run_biodyn(
+      "mocap id --motion out/motion.csv --height 2.0 --mass 90 --grf contact -o id", dir);
   INFO(id.out << id.err);
   REQUIRE(id.exit_code == 0);
   CHECK(fs::exists(dir / "id" / "torques.csv"));
@@ -203,9 +205,10 @@ TEST_CASE("mocap refuses bad input in one line naming the file", "[apps][mocap]"
   }
   {
     // A BVH whose joints fit no built-in map; then a map file that does not exist.
-    std::ofstream(dir / "tiny.bvh") << "HIERARCHY\nROOT Hips\n{\n OFFSET 0 0 0\n CHANNELS 3 "
-                                       "Xposition Yposition Zposition\n End Site\n {\n  OFFSET 0 1 0\n"
-                                       " }\n}\nMOTION\nFrames: 1\nFrame Time: 0.01\n0 0 0\n";
+    std::ofstream(dir / "tiny.bvh")
+        << "HIERARCHY\nROOT Hips\n{\n OFFSET 0 0 0\n CHANNELS 3 "
+           "Xposition Yposition Zposition\n End Site\n {\n  OFFSET 0 1 0\n"
+           " }\n}\nMOTION\nFrames: 1\nFrame Time: 0.01\n0 0 0\n";
     Run r = run_biodyn("mocap retarget --bvh tiny.bvh -o rt", dir);
     CHECK(r.exit_code == 2);
     CHECK(r.err.find("tiny.bvh") != std::string::npos);

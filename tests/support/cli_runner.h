@@ -1,6 +1,7 @@
 #pragma once
 // Runs the `biodyn` executable as a user does, for the CLI tests.
 #include <sys/wait.h>
+#include <unistd.h>
 
 #include <cstdlib>
 #include <filesystem>
@@ -28,14 +29,22 @@ inline std::string slurp(const std::filesystem::path& p) {
 
 /// Runs the shell command `command` in `dir`, capturing stdout and stderr.
 inline CliRun run_shell(const std::string& command, const std::filesystem::path& dir) {
-  const std::string cmd =
-      "cd '" + dir.string() + "' && " + command + " > stdout.txt 2> stderr.txt";
+  const std::string cmd = "cd '" + dir.string() + "' && " + command + " > stdout.txt 2> stderr.txt";
   const int status = std::system(cmd.c_str());
   CliRun r;
   r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
   r.out = slurp(dir / "stdout.txt");
   r.err = slurp(dir / "stderr.txt");
   return r;
+}
+
+/// The shell prefix that runs a command under a virtual display (xvfb-run, 1280x720, killed
+/// after 300 s). Display numbers start from one derived from this process's id: ctest runs test
+/// cases in parallel, and two xvfb-run -a starting together at the same number collide.
+inline std::string under_xvfb() {
+  const int first_display = 100 + static_cast<int>(getpid() % 800) * 4;
+  return "timeout 300 xvfb-run -a -n " + std::to_string(first_display) +
+         " -s '-screen 0 1280x720x24' ";
 }
 
 /// Runs `biodyn <args>` in `dir`, capturing stdout and stderr.

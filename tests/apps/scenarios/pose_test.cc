@@ -21,9 +21,11 @@ constexpr double kReachToleranceDeg = 3.0;
 
 }  // namespace
 
-TEST_CASE("Quiet standing 60 s: upright, CoM inside the support polygon", "[apps][pose]") {
-  testing::MujocoWarningGuard guard;
-  for (const controllers::WeldMode weld : {controllers::WeldMode::kOff, controllers::WeldMode::kHonest}) {
+TEST_CASE_METHOD(biodyn::testing::SimulationTest,
+                 "Quiet standing 60 s: upright, CoM inside the support polygon",
+                 "[apps][pose][slow]") {
+  for (const controllers::WeldMode weld :
+       {controllers::WeldMode::kOff, controllers::WeldMode::kHonest}) {
     sim::Simulation sim = make_sim(models::Detail::kFull);
     scenarios::PoseRunParams p;
     p.config.scenario = "stand";
@@ -40,9 +42,9 @@ TEST_CASE("Quiet standing 60 s: upright, CoM inside the support polygon", "[apps
   }
 }
 
-TEST_CASE("Stable from t_r = 10 ms to 150 ms: 30 s without a fall or a growing oscillation",
-          "[apps][pose]") {
-  testing::MujocoWarningGuard guard;
+TEST_CASE_METHOD(biodyn::testing::SimulationTest,
+                 "Stable from t_r = 10 ms to 150 ms: 30 s without a fall or a growing oscillation",
+                 "[apps][pose][slow]") {
   for (const double t_r : {0.01, 0.02, 0.05, 0.1, 0.15}) {
     sim::Simulation sim = make_sim(models::Detail::kFull);
     scenarios::PoseRunParams p;
@@ -62,8 +64,9 @@ TEST_CASE("Stable from t_r = 10 ms to 150 ms: 30 s without a fall or a growing o
   }
 }
 
-TEST_CASE("Squat-and-stand and arm reach: within 3 degrees at every reach time", "[apps][pose]") {
-  testing::MujocoWarningGuard guard;
+TEST_CASE_METHOD(biodyn::testing::SimulationTest,
+                 "Squat-and-stand and arm reach: within 3 degrees at every reach time",
+                 "[apps][pose]") {
   for (const std::string scenario : {"squat", "reach"}) {
     for (const double t_r : {0.02, 0.1}) {
       sim::Simulation sim = make_sim(models::Detail::kFull);
@@ -83,7 +86,8 @@ TEST_CASE("Squat-and-stand and arm reach: within 3 degrees at every reach time",
   }
 }
 
-TEST_CASE("Weight shift onto one leg and back", "[apps][pose]") {
+TEST_CASE_METHOD(biodyn::testing::SimulationTest, "Weight shift onto one leg and back",
+                 "[apps][pose]") {
   for (const double t_r : {0.02, 0.1}) {
     sim::Simulation sim = make_sim(models::Detail::kFull);
     scenarios::PoseRunParams p;
@@ -97,8 +101,8 @@ TEST_CASE("Weight shift onto one leg and back", "[apps][pose]") {
   }
 }
 
-TEST_CASE("The PD controller stands on the same interface", "[apps][pose]") {
-  testing::MujocoWarningGuard guard;
+TEST_CASE_METHOD(biodyn::testing::SimulationTest, "The PD controller stands on the same interface",
+                 "[apps][pose]") {
   sim::Simulation sim = make_sim(models::Detail::kFull);
   scenarios::PoseRunParams p;
   p.config.scenario = "stand";
@@ -120,10 +124,11 @@ TEST_CASE("The PD controller stands on the same interface", "[apps][pose]") {
 // over half of the others. Measured: see controllers/README.md (biodyn stand-push).
 constexpr double kStandingPushFloorN = 100;
 
-TEST_CASE("Standing push of 100 N for 0.2 s is survived without stepping in every direction",
-          "[apps][pose][push]") {
-  testing::MujocoWarningGuard guard;
-  for (const controllers::WeldMode weld : {controllers::WeldMode::kOff, controllers::WeldMode::kHonest}) {
+TEST_CASE_METHOD(biodyn::testing::SimulationTest,
+                 "Standing push of 100 N for 0.2 s is survived without stepping in every direction",
+                 "[apps][pose][push]") {
+  for (const controllers::WeldMode weld :
+       {controllers::WeldMode::kOff, controllers::WeldMode::kHonest}) {
     for (const double deg : {0.0, 180.0, 90.0}) {
       sim::Simulation sim = make_sim(models::Detail::kFull);
       scenarios::PoseRunParams p;
@@ -143,8 +148,9 @@ TEST_CASE("Standing push of 100 N for 0.2 s is survived without stepping in ever
   }
 }
 
-TEST_CASE("The push scan stops at the first failure and reports the force below it",
-          "[apps][pose][push]") {
+TEST_CASE_METHOD(biodyn::testing::SimulationTest,
+                 "The push scan stops at the first failure and reports the force below it",
+                 "[apps][pose][push]") {
   sim::Simulation sim = make_sim(models::Detail::kFull);
   scenarios::PoseRunParams base;
   scenarios::PushScanParams scan;
@@ -157,10 +163,12 @@ TEST_CASE("The push scan stops at the first failure and reports the force below 
   CHECK(s.runs == 2);
   CHECK(s.weld == "honest");
   scan.resolution_N = 0;
-  CHECK_THROWS_WITH(scenarios::scan_standing_push(&sim, base, 0.0, scan), Catch::Contains("resolution"));
+  CHECK_THROWS_WITH(scenarios::scan_standing_push(&sim, base, 0.0, scan),
+                    Catch::Contains("resolution"));
 }
 
-TEST_CASE("Bad pose parameters are refused with the field named", "[apps][pose]") {
+TEST_CASE_METHOD(biodyn::testing::SimulationTest,
+                 "Bad pose parameters are refused with the field named", "[apps][pose]") {
   sim::Simulation sim = make_sim(models::Detail::kGait);
   scenarios::PoseRunParams p;
   p.config.scenario = "cartwheel";

@@ -13,7 +13,7 @@ using biodyn::testing::run_biodyn;
 using biodyn::testing::slurp;
 
 TEST_CASE("biodyn render films the walk headless: MP4 frames and a PNG showing the character",
-          "[apps][render]") {
+          "[apps][render][slow]") {
   const fs::path dir = biodyn::testing::fresh_dir("render_test", "walk");
   const auto r = run_biodyn(
       "render --scenario walk --duration 2 --fps 10 --size 320x240 -o walk.mp4 --png walk.png "
@@ -52,7 +52,9 @@ TEST_CASE("biodyn render --scenario stones walks the paper's stones and draws th
           "[apps][render][stones]") {
   const fs::path dir = biodyn::testing::fresh_dir("render_test", "stones");
   const auto r = run_biodyn(
-      "render --scenario stones --duration 9 --size 640x360 --png stones.png --summary summary.json", dir);
+      "render --scenario stones --duration 9 --size 640x360 --png stones.png --summary "
+      "summary.json",
+      dir);
   INFO(r.out << r.err);
   REQUIRE(r.exit_code == 0);
   CHECK(r.out.find("stepping stones: 6 of 6 planned steps walked") != std::string::npos);
@@ -65,7 +67,8 @@ TEST_CASE("biodyn render --scenario stones walks the paper's stones and draws th
   CHECK(s["stones"]["rms_error_m"].get<double>() < 0.03);
   // Green in the frame: the stepped-on stones (and the small weld markers, all there is before
   // the stones begin at 5 s).
-  const auto before = run_biodyn("render --scenario stones --duration 4.9 --size 640x360 --png before.png", dir);
+  const auto before =
+      run_biodyn("render --scenario stones --duration 4.9 --size 640x360 --png before.png", dir);
   REQUIRE(before.exit_code == 0);
   const int green = biodyn::testing::count_green_stone_pixels((dir / "stones.png").string());
   const int green_before = biodyn::testing::count_green_stone_pixels((dir / "before.png").string());
@@ -87,13 +90,16 @@ TEST_CASE("biodyn render --scenario stones walks the paper's stones and draws th
   }
 }
 
-TEST_CASE("biodyn render --track films a captured motion tracked by the controllers and reports the fall",
-          "[apps][render][track]") {
+TEST_CASE(
+    "biodyn render --track films a captured motion tracked by the controllers and reports the fall",
+    "[apps][render][track][slow]") {
   const fs::path dir = biodyn::testing::fresh_dir("render_test", "track");
-  const std::string bvh = biodyn::testing::source_dir() + "/../shared/data/mocap/bvh/cmu_131_01_start_walk_stop.bvh";
-  const auto r = run_biodyn("render --scenario mocap --motion " + bvh +
-                                " --track --duration 3 --size 320x240 --png tracked.png --summary summary.json",
-                            dir);
+  const std::string bvh =
+      biodyn::testing::source_dir() + "/../shared/data/mocap/bvh/cmu_131_01_start_walk_stop.bvh";
+  const auto r = run_biodyn(
+      "render --scenario mocap --motion " + bvh +
+          " --track --duration 3 --size 320x240 --png tracked.png --summary summary.json",
+      dir);
   INFO(r.out << r.err);
   REQUIRE(r.exit_code == 0);
   CHECK(r.out.find("tracked by the joint controllers") != std::string::npos);
@@ -111,10 +117,11 @@ TEST_CASE("biodyn render --track films a captured motion tracked by the controll
 
   // The clip's walk (4.0 to 6.2 s of it, about four steps): kept up to its end (measured: joints
   // 8.9 deg RMS; the body falls 0.4 s after, holding the last frame mid-stride).
-  const auto walk = run_biodyn("render --scenario mocap --motion " + bvh +
-                                   " --motion-from 4.0 --motion-to 6.2 --track --duration 2.2 --size 320x240 "
-                                   "--png walk.png --summary walk.json",
-                               dir);
+  const auto walk =
+      run_biodyn("render --scenario mocap --motion " + bvh +
+                     " --motion-from 4.0 --motion-to 6.2 --track --duration 2.2 --size 320x240 "
+                     "--png walk.png --summary walk.json",
+                 dir);
   INFO(walk.out << walk.err);
   REQUIRE(walk.exit_code == 0);
   CHECK(walk.out.find("(its part from 4 s to 6.2 s)") != std::string::npos);
@@ -127,7 +134,8 @@ TEST_CASE("biodyn render --track films a captured motion tracked by the controll
   const auto bad = run_biodyn("render --scenario walk --track --png x.png", dir);
   CHECK(bad.exit_code == 2);
   CHECK(bad.err.find("only the mocap scenario") != std::string::npos);
-  const auto loose = run_biodyn("render --scenario mocap --motion " + bvh + " --track-open-loop --png x.png", dir);
+  const auto loose =
+      run_biodyn("render --scenario mocap --motion " + bvh + " --track-open-loop --png x.png", dir);
   CHECK(loose.exit_code == 2);
   CHECK(loose.err.find("only with --track") != std::string::npos);
   const auto part = run_biodyn("render --scenario walk --motion-from 2 --png x.png", dir);
@@ -138,9 +146,9 @@ TEST_CASE("biodyn render --track films a captured motion tracked by the controll
 
 TEST_CASE("biodyn render refuses bad options and writes nothing", "[apps][render]") {
   const fs::path dir = biodyn::testing::fresh_dir("render_test", "bad");
-  for (const char* args : {"render --scenario dance -o v.mp4", "render --size 321x240 -o v.mp4",
-                           "render --size big -o v.mp4", "render --duration 0 -o v.mp4",
-                           "render --scenario walk"}) {
+  for (const char* args :
+       {"render --scenario dance -o v.mp4", "render --size 321x240 -o v.mp4",
+        "render --size big -o v.mp4", "render --duration 0 -o v.mp4", "render --scenario walk"}) {
     const auto r = run_biodyn(args, dir);
     INFO(args << ": " << r.err);
     CHECK(r.exit_code == 2);

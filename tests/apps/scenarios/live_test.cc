@@ -3,19 +3,19 @@
 #include <cstring>
 #include <vector>
 
-#include "biodyn/sim/file_io.h"
 #include "biodyn/mocap_io/motion_csv.h"
 #include "biodyn/mocap_io/retarget.h"
 #include "biodyn/models/mjcf.h"
 #include "biodyn/scenarios/live.h"
 #include "biodyn/scenarios/walk.h"
 #include "biodyn/sim/errors.h"
+#include "biodyn/sim/file_io.h"
 #include "cli_runner.h"
 #include "test_support.h"
 
 using namespace biodyn;
-using scenarios::ScenarioConfig;
 using scenarios::LiveScenario;
+using scenarios::ScenarioConfig;
 
 namespace {
 
@@ -34,9 +34,9 @@ bool bit_identical(const std::vector<double>& a, const std::vector<double>& b) {
 
 }  // namespace
 
-TEST_CASE("Live walk: rewinding and resuming gives the same future, edits included",
-          "[apps][live]") {
-  testing::MujocoWarningGuard guard;
+TEST_CASE_METHOD(biodyn::testing::SimulationTest,
+                 "Live walk: rewinding and resuming gives the same future, edits included",
+                 "[apps][live]") {
   LiveScenario walk(ScenarioConfig{});
   walk.run_until(1.0);
   walk.set_speed(1.3);
@@ -79,9 +79,10 @@ TEST_CASE("Live walk: rewinding and resuming gives the same future, edits includ
   CHECK(walk.gait()->speed_command() == 1.5);
 }
 
-TEST_CASE("Live walk: rewinding restores a checkpoint (at most 0.5 s replayed), exact after 30 s of edits",
-          "[apps][live]") {
-  testing::MujocoWarningGuard guard;
+TEST_CASE_METHOD(biodyn::testing::SimulationTest,
+                 "Live walk: rewinding restores a checkpoint (at most 0.5 s replayed), exact after "
+                 "30 s of edits",
+                 "[apps][live]") {
   const auto full_state = [](const LiveScenario& s) {
     const mjModel& m = s.simulation().model();
     const mjData& d = s.simulation().data();
@@ -145,8 +146,9 @@ TEST_CASE("Live walk: rewinding restores a checkpoint (at most 0.5 s replayed), 
   CHECK(bit_identical(full_state(walk), changed));
 }
 
-TEST_CASE("Live squat: rewinding across pose changes from a checkpoint is exact", "[apps][live]") {
-  testing::MujocoWarningGuard guard;
+TEST_CASE_METHOD(biodyn::testing::SimulationTest,
+                 "Live squat: rewinding across pose changes from a checkpoint is exact",
+                 "[apps][live]") {
   ScenarioConfig squat;
   squat.scenario = "squat";
   squat.weld = controllers::WeldMode::kGlue;
@@ -159,9 +161,10 @@ TEST_CASE("Live squat: rewinding across pose changes from a checkpoint is exact"
   CHECK(bit_identical(state_of(s), original));
 }
 
-TEST_CASE("Live stones: the paper's stepping stones, walked as biodyn walk --steps walks them",
-          "[apps][live][stones]") {
-  testing::MujocoWarningGuard guard;
+TEST_CASE_METHOD(
+    biodyn::testing::SimulationTest,
+    "Live stones: the paper's stepping stones, walked as biodyn walk --steps walks them",
+    "[apps][live][stones]") {
   ScenarioConfig config;
   config.scenario = "stones";
   config.speed_m_s = 0.7;  // the plan's mean step at the gait's cadence (walk_test.cc)
@@ -171,18 +174,23 @@ TEST_CASE("Live stones: the paper's stepping stones, walked as biodyn walk --ste
   // To the strike on the last stone: each stone is drawn where its foot then lands, off by the
   // length error along the heading (the walker plans lengths, not widths: across, by how far
   // the swing foot strayed).
-  while (live.time_s() < 14.0 && !(stones.size() == 6 && !std::isnan(stones.back().walked_m))) live.step();
+  while (live.time_s() < 14.0 && !(stones.size() == 6 && !std::isnan(stones.back().walked_m)))
+    live.step();
   REQUIRE(stones.size() == 6);
   {
     const mjModel& m = live.simulation().model();
     const mjData& d = live.simulation().data();
     const scenarios::Stone& last = stones.back();
     const int foot = mj_name2id(&m, mjOBJ_BODY, last.side == 0 ? "foot_l" : "foot_r");
-    const Eigen::Vector2d off = Eigen::Vector2d(d.xpos[3 * foot], d.xpos[3 * foot + 1]) - last.ankle_W;
+    const Eigen::Vector2d off =
+        Eigen::Vector2d(d.xpos[3 * foot], d.xpos[3 * foot + 1]) - last.ankle_W;
     const Eigen::Vector2d along(std::cos(last.heading_rad), std::sin(last.heading_rad));
-    const double off_along = off.dot(along), off_across = std::abs(off.x() * along.y() - off.y() * along.x());
-    WARN("last stone at " << d.time << " s: the foot lands " << 100 * off_along << " cm ahead of it (walked - target "
-         << 100 * (last.walked_m - last.target_m) << " cm), " << 100 * off_across << " cm across");
+    const double off_along = off.dot(along),
+                 off_across = std::abs(off.x() * along.y() - off.y() * along.x());
+    WARN("last stone at " << d.time << " s: the foot lands " << 100 * off_along
+                          << " cm ahead of it (walked - target "
+                          << 100 * (last.walked_m - last.target_m) << " cm), " << 100 * off_across
+                          << " cm across");
     CHECK(off_along == Approx(last.walked_m - last.target_m).margin(0.01));
     CHECK(off_across < 0.05);
   }
@@ -190,8 +198,8 @@ TEST_CASE("Live stones: the paper's stepping stones, walked as biodyn walk --ste
   CHECK_FALSE(live.fallen());
   REQUIRE(stones.size() == 6);
 
-  sim::Simulation sim(sim::Model::from_string(models::to_mjcf(models::generate_character(config.character)),
-                                              "generated character"));
+  sim::Simulation sim(sim::Model::from_string(
+      models::to_mjcf(models::generate_character(config.character)), "generated character"));
   scenarios::WalkRunParams p;
   p.duration_s = 14;
   p.config.scenario = "stones";
@@ -202,8 +210,8 @@ TEST_CASE("Live stones: the paper's stepping stones, walked as biodyn walk --ste
   REQUIRE(r.stones);
   REQUIRE(r.stones->lengths_m.size() == 6);
   for (std::size_t i = 0; i < stones.size(); ++i) {
-    INFO("stone " << i + 1 << ": target " << stones[i].target_m << " m, walked " << stones[i].walked_m
-                  << " m (biodyn walk: " << r.stones->lengths_m[i] << " m)");
+    INFO("stone " << i + 1 << ": target " << stones[i].target_m << " m, walked "
+                  << stones[i].walked_m << " m (biodyn walk: " << r.stones->lengths_m[i] << " m)");
     CHECK(stones[i].target_m == p.config.steps_m[i]);
     CHECK(stones[i].walked_m == Approx(r.stones->lengths_m[i]).margin(1e-9));
     CHECK(std::abs(stones[i].walked_m - stones[i].target_m) < 0.05);
@@ -228,9 +236,10 @@ TEST_CASE("Live stones: the paper's stepping stones, walked as biodyn walk --ste
   CHECK_THROWS_WITH(LiveScenario(config), Catch::Matchers::Contains("planned step 2"));
 }
 
-TEST_CASE("Live walk: a walker parameter edited mid-run changes the walk; saved params read back",
-          "[apps][live]") {
-  testing::MujocoWarningGuard guard;
+TEST_CASE_METHOD(
+    biodyn::testing::SimulationTest,
+    "Live walk: a walker parameter edited mid-run changes the walk, saved params read back",
+    "[apps][live]") {
   LiveScenario a(ScenarioConfig{}), b(ScenarioConfig{});
   a.run_until(1.0);
   b.run_until(1.0);
@@ -264,8 +273,9 @@ TEST_CASE("Live walk: a walker parameter edited mid-run changes the walk; saved 
   CHECK(c.controller_params_json() == b.controller_params_json());
 }
 
-TEST_CASE("Live scenarios: standing holds; bad configs and edits are refused", "[apps][live]") {
-  testing::MujocoWarningGuard guard;
+TEST_CASE_METHOD(biodyn::testing::SimulationTest,
+                 "Live scenarios: standing holds, bad configs and edits are refused",
+                 "[apps][live]") {
   ScenarioConfig stand;
   stand.scenario = "stand";
   LiveScenario s(stand);
@@ -283,8 +293,9 @@ TEST_CASE("Live scenarios: standing holds; bad configs and edits are refused", "
   CHECK_THROWS_WITH(LiveScenario(bad), Catch::Matchers::Contains("walk"));
 }
 
-TEST_CASE("Live mocap: a retargeted BVH plays kinematically on the character, looping",
-          "[apps][live]") {
+TEST_CASE_METHOD(biodyn::testing::SimulationTest,
+                 "Live mocap: a retargeted BVH plays kinematically on the character, looping",
+                 "[apps][live][slow]") {
   ScenarioConfig config;
   config.scenario = "mocap";
   config.motion_path =
@@ -303,13 +314,13 @@ TEST_CASE("Live mocap: a retargeted BVH plays kinematically on the character, lo
   play.rewind_to(0);
   CHECK(bit_identical(state_of(play), start));
   // The same motion from its CSV (what biodyn mocap retarget writes) plays the same frames.
-  const mocap_io::RetargetResult r = mocap_io::retarget_bvh(
-      mocap_io::read_bvh(config.motion_path), mocap_io::builtin_joint_map("cmu"), config.character,
-      [] {
-        mocap_io::RetargetOptions o;
-        o.source = "cmu";
-        return o;
-      }());
+  const mocap_io::RetargetResult r =
+      mocap_io::retarget_bvh(mocap_io::read_bvh(config.motion_path),
+                             mocap_io::builtin_joint_map("cmu"), config.character, [] {
+                               mocap_io::RetargetOptions o;
+                               o.source = "cmu";
+                               return o;
+                             }());
   const std::string csv = biodyn::testing::binary_dir() + "/live_scenario_motion.csv";
   sim::write_file_atomically(csv, mocap_io::format_motion_csv(r.motion));
   ScenarioConfig from_csv = config;
@@ -319,7 +330,9 @@ TEST_CASE("Live mocap: a retargeted BVH plays kinematically on the character, lo
   const std::vector<double> csv_at1 = state_of(play_csv);
   // qpos as written to 9+ significant digits: equal to the in-memory motion within 1e-8.
   REQUIRE(csv_at1.size() == at1.size());
-  for (int k = 0; k < m.nq; ++k) CHECK(csv_at1[static_cast<std::size_t>(k)] == Approx(at1[static_cast<std::size_t>(k)]).margin(1e-8));
+  for (int k = 0; k < m.nq; ++k)
+    CHECK(csv_at1[static_cast<std::size_t>(k)] ==
+          Approx(at1[static_cast<std::size_t>(k)]).margin(1e-8));
   ScenarioConfig no_motion;
   no_motion.scenario = "mocap";
   CHECK_THROWS_WITH(LiveScenario(no_motion), Catch::Matchers::Contains("--motion"));
@@ -335,25 +348,31 @@ TEST_CASE("Live mocap: a retargeted BVH plays kinematically on the character, lo
   play_part.run_until(0.504);
   play_csv.run_until(t480 + 0.504);
   const std::vector<double> part_at = state_of(play_part), whole_at = state_of(play_csv);
-  for (int k = 0; k < m.nq; ++k) CHECK(part_at[static_cast<std::size_t>(k)] == Approx(whole_at[static_cast<std::size_t>(k)]).margin(1e-12));
+  for (int k = 0; k < m.nq; ++k)
+    CHECK(part_at[static_cast<std::size_t>(k)] ==
+          Approx(whole_at[static_cast<std::size_t>(k)]).margin(1e-12));
   part.motion_from_s = 20.0;
   part.motion_to_s = -1;
-  CHECK_THROWS_WITH(LiveScenario(part), Catch::Matchers::Contains("fewer than 2 solved frames to play from 20") &&
-                                            Catch::Matchers::Contains("long"));
+  CHECK_THROWS_WITH(LiveScenario(part),
+                    Catch::Matchers::Contains("fewer than 2 solved frames to play from 20") &&
+                        Catch::Matchers::Contains("long"));
   part.motion_from_s = 3.0;
   part.motion_to_s = 2.0;
-  CHECK_THROWS_WITH(LiveScenario(part), Catch::Matchers::Contains("motion to: must be after motion from"));
+  CHECK_THROWS_WITH(LiveScenario(part),
+                    Catch::Matchers::Contains("motion to: must be after motion from"));
   part.motion_from_s = -1.0;
   part.motion_to_s = -1;
-  CHECK_THROWS_WITH(LiveScenario(part), Catch::Matchers::Contains("motion from: must be a time >= 0"));
+  CHECK_THROWS_WITH(LiveScenario(part),
+                    Catch::Matchers::Contains("motion from: must be a time >= 0"));
   ScenarioConfig walk_from;
   walk_from.motion_from_s = 1.0;
   CHECK_THROWS_WITH(LiveScenario(walk_from), Catch::Matchers::Contains("only the mocap scenario"));
 }
 
-TEST_CASE("Live mocap --track: the controllers follow a motion this body can do; the root is never pushed",
-          "[apps][live][track]") {
-  testing::MujocoWarningGuard guard;
+TEST_CASE_METHOD(biodyn::testing::SimulationTest,
+                 "Live mocap --track: the controllers follow a motion this body can do, the root "
+                 "is never pushed",
+                 "[apps][live][track]") {
   // A motion this body can do: 6 s of its own walk (qpos every 4 ms), as a motion CSV.
   LiveScenario walk(ScenarioConfig{});
   const mjModel& wm = walk.simulation().model();
@@ -369,7 +388,8 @@ TEST_CASE("Live mocap --track: the controllers follow a motion this body can do;
   }
   motion.qpos.resize(static_cast<Eigen::Index>(rows.size()), wm.nq);
   for (std::size_t r = 0; r < rows.size(); ++r)
-    for (int k = 0; k < wm.nq; ++k) motion.qpos(static_cast<Eigen::Index>(r), k) = rows[r][static_cast<std::size_t>(k)];
+    for (int k = 0; k < wm.nq; ++k)
+      motion.qpos(static_cast<Eigen::Index>(r), k) = rows[r][static_cast<std::size_t>(k)];
   const std::string dir = testing::fresh_dir("live_test", "track").string();
   const std::string path = dir + "/own_walk.csv";
   sim::write_file_atomically(path, mocap_io::format_motion_csv(motion));
@@ -386,12 +406,13 @@ TEST_CASE("Live mocap --track: the controllers follow a motion this body can do;
   double root_force = 0;
   while (open.time_s() < 6.0 - 1e-9) {
     open.step();
-    for (int k = 0; k < 6; ++k) root_force = std::max(root_force, std::abs(open.simulation().data().qfrc_applied[k]));
+    for (int k = 0; k < 6; ++k)
+      root_force = std::max(root_force, std::abs(open.simulation().data().qfrc_applied[k]));
   }
   const auto& st = open.tracking_stats();
-  WARN("open loop on its own walk: joint error RMS " << st.joint_rms_rad() * 57.29578 << " deg (max "
-       << st.joint_max_rad * 57.29578 << "), root off by up to " << st.root_max_m << " m, fell at "
-       << open.fell_at_s() << " s");
+  WARN("open loop on its own walk: joint error RMS "
+       << st.joint_rms_rad() * 57.29578 << " deg (max " << st.joint_max_rad * 57.29578
+       << "), root off by up to " << st.root_max_m << " m, fell at " << open.fell_at_s() << " s");
   CHECK(root_force == 0.0);
   // The joints follow the motion while the body is up (measured 2.9 deg RMS); open loop
   // nothing keeps the trunk or the balance and even this walk falls (measured at 3.5 s);
@@ -409,10 +430,12 @@ TEST_CASE("Live mocap --track: the controllers follow a motion this body can do;
   root_force = 0;
   while (track.time_s() < 6.0 - 1e-9) {
     track.step();
-    for (int k = 0; k < 6; ++k) root_force = std::max(root_force, std::abs(track.simulation().data().qfrc_applied[k]));
+    for (int k = 0; k < 6; ++k)
+      root_force = std::max(root_force, std::abs(track.simulation().data().qfrc_applied[k]));
   }
-  WARN("with balance feedback: joint error RMS " << track.tracking_stats().joint_rms_rad() * 57.29578
-       << " deg, root off by up to " << track.tracking_stats().root_max_m << " m, fell at " << track.fell_at_s() << " s");
+  WARN("with balance feedback: joint error RMS "
+       << track.tracking_stats().joint_rms_rad() * 57.29578 << " deg, root off by up to "
+       << track.tracking_stats().root_max_m << " m, fell at " << track.fell_at_s() << " s");
   CHECK(root_force == 0.0);
   CHECK_FALSE(bit_identical(state_of(track), state_of(open)));
   CHECK(track.fell_at_s() < 0);

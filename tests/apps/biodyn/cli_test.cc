@@ -110,7 +110,8 @@ TEST_CASE("Outputs to devices and through symlinks leave them in place", "[apps]
   CHECK(fs::symlink_status("/dev/stdout").type() == stdout_type);
 }
 
-TEST_CASE("biodyn pose, stand-push and bench write the fields the issue names", "[apps][cli][pose]") {
+TEST_CASE("biodyn pose, stand-push and bench write the fields the issue names",
+          "[apps][cli][pose]") {
   const fs::path dir = fresh_dir("pose");
   {
     const Run r = run_biodyn(
@@ -134,7 +135,8 @@ TEST_CASE("biodyn pose, stand-push and bench write the fields the issue names", 
     int lines = 0;
     while (std::getline(csv, line)) {
       ++lines;
-      if (std::count(line.begin(), line.end(), ',') != std::count(header.begin(), header.end(), ',')) {
+      if (std::count(line.begin(), line.end(), ',') !=
+          std::count(header.begin(), header.end(), ',')) {
         FAIL("line " << lines << " has a different number of columns: " << line);
       }
     }
@@ -152,7 +154,8 @@ TEST_CASE("biodyn pose, stand-push and bench write the fields the issue names", 
   }
   {
     const Run r = run_biodyn(
-        "stand-push --directions 0 --welds honest --resolution 150 --max-force 300 --json push.json",
+        "stand-push --directions 0 --welds honest --resolution 150 --max-force 300 --json "
+        "push.json",
         dir);
     INFO(r.err);
     REQUIRE(r.exit_code == 0);
@@ -169,8 +172,8 @@ TEST_CASE("biodyn pose, stand-push and bench write the fields the issue names", 
     const auto j = nlohmann::json::parse(slurp(dir / "bench.json"));
     CHECK(j["bare_steps_per_second"].get<double>() > 0);
     CHECK(j["controlled_steps_per_second"].get<double>() > 0);
-    CHECK(j["ratio"].get<double>() ==
-          Approx(j["controlled_steps_per_second"].get<double>() / j["bare_steps_per_second"].get<double>()));
+    CHECK(j["ratio"].get<double>() == Approx(j["controlled_steps_per_second"].get<double>() /
+                                             j["bare_steps_per_second"].get<double>()));
   }
 }
 
@@ -209,9 +212,9 @@ TEST_CASE("biodyn walk writes the walk JSON and says what the weld assumes", "[a
   INFO(r.out << r.err);
   REQUIRE(r.exit_code == 0);
   const auto j = nlohmann::json::parse(slurp(dir / "walk.json"));
-  for (const char* key : {"fallen", "time_fallen", "distance", "mean_speed", "steps", "step_lengths", "cadence",
-                          "joint_ranges_deg", "max_foot_slip", "weld", "weld_tension_steps", "realtime_factor",
-                          "base_polygon_steps"})
+  for (const char* key : {"fallen", "time_fallen", "distance", "mean_speed", "steps",
+                          "step_lengths", "cadence", "joint_ranges_deg", "max_foot_slip", "weld",
+                          "weld_tension_steps", "realtime_factor", "base_polygon_steps"})
     CHECK(j.contains(key));
   CHECK(j["weld"] == "glue");
   CHECK(j["step_lengths"].size() == j["steps"].get<std::size_t>());
@@ -224,7 +227,8 @@ TEST_CASE("biodyn walk writes the walk JSON and says what the weld assumes", "[a
 
 TEST_CASE("biodyn walk --timestep steps the model at that timestep", "[apps][cli][walk]") {
   const fs::path dir = fresh_dir("walk_timestep");
-  const Run r = run_biodyn("walk --duration 1.5 --timestep 0.003 --json w.json --csv trace.csv", dir);
+  const Run r =
+      run_biodyn("walk --duration 1.5 --timestep 0.003 --json w.json --csv trace.csv", dir);
   INFO(r.out << r.err);
   REQUIRE(r.exit_code == 0);
   CHECK(r.out.find("timestep 3 ms") != std::string::npos);
@@ -235,9 +239,11 @@ TEST_CASE("biodyn walk --timestep steps the model at that timestep", "[apps][cli
   CHECK(lines - 1 == Approx(500).margin(1));
 }
 
-TEST_CASE("biodyn walk --steps reports the stepping stones; a bad length is refused", "[apps][cli][walk][stones]") {
+TEST_CASE("biodyn walk --steps reports the stepping stones, a bad length is refused",
+          "[apps][cli][walk][stones]") {
   const fs::path dir = fresh_dir("walk_stones");
-  const Run r = run_biodyn("walk --duration 9 --speed 0.8 --steps 0.5,0.3 --steps-start 4 --json s.json", dir);
+  const Run r = run_biodyn(
+      "walk --duration 9 --speed 0.8 --steps 0.5,0.3 --steps-start 4 --json s.json", dir);
   INFO(r.out << r.err);
   REQUIRE(r.exit_code == 0);
   const auto j = nlohmann::json::parse(slurp(dir / "s.json"));
@@ -253,10 +259,12 @@ TEST_CASE("biodyn walk --steps reports the stepping stones; a bad length is refu
   CHECK_FALSE(fs::exists(dir / "b.json"));
 }
 
-TEST_CASE("biodyn push-sweep gives the same results on 1 and 2 threads, with a plot", "[apps][cli][push]") {
+TEST_CASE("biodyn push-sweep gives the same results on 1 and 2 threads, with a plot",
+          "[apps][cli][push][slow]") {
   const fs::path dir = fresh_dir("push_sweep");
-  const std::string args = "push-sweep --directions 2 --durations 0.2 --phases 2 --resolution 150 --max-force 450 "
-                           "--settle-strides 2 --weld off ";
+  const std::string args =
+      "push-sweep --directions 2 --durations 0.2 --phases 2 --resolution 150 --max-force 450 "
+      "--settle-strides 2 --weld off ";
   const Run one = run_biodyn(args + "--threads 1 --out one", dir);
   INFO(one.out << one.err);
   REQUIRE(one.exit_code == 0);

@@ -9,19 +9,21 @@
 #include "biodyn/scenarios/walk.h"
 #include "biodyn/sim/errors.h"
 #include "biodyn/sim/model.h"
+#include "test_support.h"
 
 namespace {
 
 using namespace biodyn;
 
 sim::Simulation make_default_sim() {
-  return sim::Simulation(sim::Model::from_string(models::to_mjcf(models::generate_character(models::CharacterSpec{})),
-                                                 "<default character>"));
+  return sim::Simulation(sim::Model::from_string(
+      models::to_mjcf(models::generate_character(models::CharacterSpec{})), "<default character>"));
 }
 
 }  // namespace
 
-TEST_CASE("a walk reports what it measured, consistently", "[apps][walk]") {
+TEST_CASE_METHOD(biodyn::testing::SimulationTest, "a walk reports what it measured, consistently",
+                 "[apps][walk]") {
   sim::Simulation sim = make_default_sim();
   scenarios::WalkRunParams p;
   p.duration_s = 12;
@@ -39,14 +41,17 @@ TEST_CASE("a walk reports what it measured, consistently", "[apps][walk]") {
   REQUIRE(r.steps >= 15);
   CHECK(r.step_lengths_m.size() == static_cast<std::size_t>(r.steps));
   CHECK(r.step_widths_m.size() == static_cast<std::size_t>(r.steps));
-  for (std::size_t i = 1; i < r.step_times_s.size(); ++i) CHECK(r.step_times_s[i] > r.step_times_s[i - 1]);
+  for (std::size_t i = 1; i < r.step_times_s.size(); ++i)
+    CHECK(r.step_times_s[i] > r.step_times_s[i - 1]);
   // Cadence from the strike times after the start-up.
   int after = 0;
   double first = -1, last = 0;
   for (double t : r.step_times_s) {
     if (t < scenarios::kWalkStartup_s) continue;
-    if (first < 0) first = t;
-    else ++after;
+    if (first < 0)
+      first = t;
+    else
+      ++after;
     last = t;
   }
   CHECK(r.cadence_steps_per_min == Approx(after / (last - first) * 60).epsilon(1e-9));
@@ -66,7 +71,8 @@ TEST_CASE("a walk reports what it measured, consistently", "[apps][walk]") {
   CHECK(static_cast<int>(std::count(t.begin(), t.end(), '\n')) == r.sim_steps + 1);
 }
 
-TEST_CASE("the walker follows a commanded speed from 0.5 to 1.5 m/s", "[apps][walk]") {
+TEST_CASE_METHOD(biodyn::testing::SimulationTest,
+                 "the walker follows a commanded speed from 0.5 to 1.5 m/s", "[apps][walk]") {
   sim::Simulation sim = make_default_sim();
   for (double v : {0.5, 1.5}) {
     scenarios::WalkRunParams p;
@@ -74,13 +80,16 @@ TEST_CASE("the walker follows a commanded speed from 0.5 to 1.5 m/s", "[apps][wa
     p.config.speed_m_s = v;
     p.config.weld = controllers::WeldMode::kOff;
     const scenarios::WalkRunResult r = scenarios::run_walk(&sim, p);
-    INFO("commanded " << v << " m/s: steady " << r.steady_speed_m_s << ", fell at " << r.time_fallen_s);
+    INFO("commanded " << v << " m/s: steady " << r.steady_speed_m_s << ", fell at "
+                      << r.time_fallen_s);
     CHECK_FALSE(r.fallen);
     CHECK(std::abs(r.steady_speed_m_s - v) < 0.15 * v);  // the issue's tolerance
   }
 }
 
-TEST_CASE("a push during walking is timed by the gait and judged by the protocol", "[apps][walk][push]") {
+TEST_CASE_METHOD(biodyn::testing::SimulationTest,
+                 "a push during walking is timed by the gait and judged by the protocol",
+                 "[apps][walk][push]") {
   sim::Simulation sim = make_default_sim();
   scenarios::WalkRunParams p;
   p.config.weld = controllers::WeldMode::kHonest;
@@ -117,7 +126,8 @@ TEST_CASE("a push during walking is timed by the gait and judged by the protocol
   CHECK(hard.time_fallen_s > hard.push->onset_s);
 }
 
-TEST_CASE("the walker steps on the paper's stepping stones", "[apps][walk][stones]") {
+TEST_CASE_METHOD(biodyn::testing::SimulationTest, "the walker steps on the paper's stepping stones",
+                 "[apps][walk][stones]") {
   sim::Simulation sim = make_default_sim();
   scenarios::WalkRunParams p;
   p.duration_s = 14;
@@ -128,7 +138,8 @@ TEST_CASE("the walker steps on the paper's stepping stones", "[apps][walk][stone
   const scenarios::WalkRunResult r = scenarios::run_walk(&sim, p);
   REQUIRE(r.stones);
   const scenarios::SteppingStonesResult& s = *r.stones;
-  INFO("fell at " << r.time_fallen_s << ", walked " << s.lengths_m.size() << " stones, RMS " << s.rms_error_m);
+  INFO("fell at " << r.time_fallen_s << ", walked " << s.lengths_m.size() << " stones, RMS "
+                  << s.rms_error_m);
   CHECK_FALSE(r.fallen);
   REQUIRE(s.complete);
   CHECK(s.start_s >= p.config.steps_start_s);
@@ -141,22 +152,25 @@ TEST_CASE("the walker steps on the paper's stepping stones", "[apps][walk][stone
     CHECK(k != r.step_lengths_m.end());
   }
   CHECK(s.rms_error_m == Approx(std::sqrt(sq / 6)).margin(1e-12));
-  // The issue's bound (measured: 1.8 cm over 20 s; 2.5 cm before the long first step waited in the air
-  // for the hip, placed_wait_s).
+  // The issue's bound (measured: 1.8 cm over 20 s; 2.5 cm before the long first step waited in the
+  // air for the hip, placed_wait_s).
   CHECK(s.rms_error_m < 0.02);
   CHECK(r.max_root_force_N == 0.0);
 }
 
-TEST_CASE("the walker stops back to standing", "[apps][walk][stop]") {
+TEST_CASE_METHOD(biodyn::testing::SimulationTest, "the walker stops back to standing",
+                 "[apps][walk][stop]") {
   sim::Simulation sim = make_default_sim();
-  for (const controllers::WeldMode weld : {controllers::WeldMode::kOff, controllers::WeldMode::kHonest}) {
+  for (const controllers::WeldMode weld :
+       {controllers::WeldMode::kOff, controllers::WeldMode::kHonest}) {
     scenarios::WalkRunParams p;
     p.duration_s = 16;
     p.config.stop_at_s = 8;
     p.config.weld = weld;
     const scenarios::WalkRunResult r = scenarios::run_walk(&sim, p);
-    INFO("weld " << controllers::to_string(weld) << ": stopped at " << r.stopped_at_s << ", fell at " << r.time_fallen_s
-                 << ", CoM " << r.final_com_speed_m_s << " m/s at the end");
+    INFO("weld " << controllers::to_string(weld) << ": stopped at " << r.stopped_at_s
+                 << ", fell at " << r.time_fallen_s << ", CoM " << r.final_com_speed_m_s
+                 << " m/s at the end");
     CHECK_FALSE(r.fallen);
     CHECK(r.stopped_at_s > 8.0);
     CHECK(r.stopped_at_s < 13.0);  // measured 10.3 s: braking takes a few steps
@@ -168,7 +182,8 @@ TEST_CASE("the walker stops back to standing", "[apps][walk][stop]") {
   }
 }
 
-TEST_CASE("walk inputs out of range are rejected by name", "[apps][walk]") {
+TEST_CASE_METHOD(biodyn::testing::SimulationTest, "walk inputs out of range are rejected by name",
+                 "[apps][walk]") {
   sim::Simulation sim = make_default_sim();
   scenarios::WalkRunParams p;
   p.config.speed_m_s = 3;
@@ -180,23 +195,32 @@ TEST_CASE("walk inputs out of range are rejected by name", "[apps][walk]") {
   p = scenarios::WalkRunParams{};
   p.config.gait_json = R"({"hip_kp": 400, "hip_kpp": 900})";
   p.config.gait_source = "my_gait.json";
-  CHECK_THROWS_WITH(scenarios::run_walk(&sim, p), Catch::Contains("my_gait.json.hip_kpp") && Catch::Contains("unknown key"));
+  CHECK_THROWS_WITH(scenarios::run_walk(&sim, p),
+                    Catch::Contains("my_gait.json.hip_kpp") && Catch::Contains("unknown key"));
   p.config.gait_json = R"({"hip_kp": -1})";
-  CHECK_THROWS_WITH(scenarios::run_walk(&sim, p), Catch::Contains("hip_kp") && Catch::Contains("-1"));
-  p.config.gait_json = R"({"states": [{"name": "swing", "end": "strike", "swing_knee_rad": 0.5, "knee": 1}]})";
-  CHECK_THROWS_WITH(scenarios::run_walk(&sim, p), Catch::Contains("my_gait.json.states[0].knee") && Catch::Contains("unknown key"));
+  CHECK_THROWS_WITH(scenarios::run_walk(&sim, p),
+                    Catch::Contains("hip_kp") && Catch::Contains("-1"));
+  p.config.gait_json =
+      R"({"states": [{"name": "swing", "end": "strike", "swing_knee_rad": 0.5, "knee": 1}]})";
+  CHECK_THROWS_WITH(scenarios::run_walk(&sim, p), Catch::Contains("my_gait.json.states[0].knee") &&
+                                                      Catch::Contains("unknown key"));
   p.config.gait_json = R"({"states": [{"name": "swing", "end": "later"}]})";
-  CHECK_THROWS_WITH(scenarios::run_walk(&sim, p), Catch::Contains("states[0].end") && Catch::Contains("later"));
+  CHECK_THROWS_WITH(scenarios::run_walk(&sim, p),
+                    Catch::Contains("states[0].end") && Catch::Contains("later"));
   p.config.gait_json = "{";
-  CHECK_THROWS_WITH(scenarios::run_walk(&sim, p), Catch::Contains("my_gait.json") && Catch::Contains("not valid JSON"));
+  CHECK_THROWS_WITH(scenarios::run_walk(&sim, p),
+                    Catch::Contains("my_gait.json") && Catch::Contains("not valid JSON"));
   p = scenarios::WalkRunParams{};
   p.config.scenario = "stones";
   p.config.steps_m = {0.5, 2.0};
-  CHECK_THROWS_WITH(scenarios::run_walk(&sim, p), Catch::Contains("planned step 2") && Catch::Contains("2"));
+  CHECK_THROWS_WITH(scenarios::run_walk(&sim, p),
+                    Catch::Contains("planned step 2") && Catch::Contains("2"));
   p.config.steps_m = {0.5};
   p.config.steps_start_s = 30;
-  CHECK_THROWS_WITH(scenarios::run_walk(&sim, p), Catch::Contains("steps start") && Catch::Contains("30"));
+  CHECK_THROWS_WITH(scenarios::run_walk(&sim, p),
+                    Catch::Contains("steps start") && Catch::Contains("30"));
   p = scenarios::WalkRunParams{};
   p.config.stop_at_s = 25;
-  CHECK_THROWS_WITH(scenarios::run_walk(&sim, p), Catch::Contains("stop-at") && Catch::Contains("25"));
+  CHECK_THROWS_WITH(scenarios::run_walk(&sim, p),
+                    Catch::Contains("stop-at") && Catch::Contains("25"));
 }

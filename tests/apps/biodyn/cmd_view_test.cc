@@ -23,7 +23,7 @@ namespace {
 biodyn::testing::CliRun run_view(const std::string& script, const fs::path& dir) {
   std::ofstream(dir / "script.txt") << script;
   const std::string exe = biodyn::testing::binary_dir() + "/apps/biodyn";
-  return run_shell("timeout 300 xvfb-run -a -s '-screen 0 1280x720x24' '" + exe +
+  return run_shell(biodyn::testing::under_xvfb() + "'" + exe +
                        "' view --size 1280x720 --script script.txt --summary summary.json",
                    dir);
 }
@@ -31,7 +31,7 @@ biodyn::testing::CliRun run_view(const std::string& script, const fs::path& dir)
 }  // namespace
 
 TEST_CASE("biodyn view: a scripted session under Xvfb edits, pushes, shoots and saves",
-          "[apps][view]") {
+          "[apps][view][slow]") {
   REQUIRE(run_shell("command -v xvfb-run", fs::temp_directory_path()).exit_code == 0);
   const fs::path plain = biodyn::testing::fresh_dir("view_test", "plain");
   const fs::path edited = biodyn::testing::fresh_dir("view_test", "edited");
@@ -52,14 +52,15 @@ TEST_CASE("biodyn view: a scripted session under Xvfb edits, pushes, shoots and 
   const json b = json::parse(slurp(edited / "summary.json"));
   CHECK(a["simulated_s"].get<double>() == Approx(3.0).margin(1e-9));
   CHECK(b["simulated_s"].get<double>() == Approx(3.0).margin(1e-9));
-  WARN("viewer under Xvfb: " << b["frames_per_s"] << " frames/s, physics "
-                             << b["realtime_factor"] << "x real time");
+  WARN("viewer under Xvfb: " << b["frames_per_s"] << " frames/s, physics " << b["realtime_factor"]
+                             << "x real time");
 
   // The viewer runs the headless scenario's physics: the plain session ends where a headless
   // run of the same scenario ends, bit for bit (nlohmann writes doubles round-trip exact).
   biodyn::scenarios::LiveScenario headless{biodyn::scenarios::ScenarioConfig{}};
   headless.run_until(3.0);
-  const auto com = biodyn::sim::center_of_mass(headless.simulation().model(), headless.simulation().data());
+  const auto com =
+      biodyn::sim::center_of_mass(headless.simulation().model(), headless.simulation().data());
   CHECK(a["com_x_m"].get<double>() == com.position_W.x());
 
   // Rewinding in the viewer (the slider's path: back 1 s at 2 s, then running on) ends at 3 s
@@ -99,20 +100,20 @@ TEST_CASE("biodyn view: a scripted session under Xvfb edits, pushes, shoots and 
   CHECK(walked.exit_code == 0);
 }
 
-TEST_CASE("biodyn view: ctrl + drag on the character pushes it", "[apps][view]") {
+TEST_CASE("biodyn view: ctrl + drag on the character pushes it", "[apps][view][slow]") {
   const fs::path dir = biodyn::testing::fresh_dir("view_test", "drag");
   std::ofstream(dir / "script.txt") << "at 6.0 quit\n";
   const std::string exe = biodyn::testing::binary_dir() + "/apps/biodyn";
   // The camera follows the pelvis, so the window's centre is on the character. The drag waits
   // for the window (xdotool --sync), presses ctrl, drags up-left and lets go.
-  const auto r = run_shell(
-      "timeout 300 xvfb-run -a -s '-screen 0 1280x720x24' sh -c \"'" + exe +
-          "' view --size 1280x720 --script script.txt --summary summary.json & "
-          "xdotool search --sync --name 'biodyn view' > /dev/null; sleep 1; "
-          "xdotool mousemove 640 360 keydown ctrl mousedown 1; sleep 0.3; "
-          "xdotool mousemove 640 300; sleep 0.3; xdotool mousemove 560 250; sleep 0.3; "
-          "xdotool mouseup 1 keyup ctrl; wait\"",
-      dir);
+  const auto r =
+      run_shell(biodyn::testing::under_xvfb() + "sh -c \"'" + exe +
+                    "' view --size 1280x720 --script script.txt --summary summary.json & "
+                    "xdotool search --sync --name 'biodyn view' > /dev/null; sleep 1; "
+                    "xdotool mousemove 640 360 keydown ctrl mousedown 1; sleep 0.3; "
+                    "xdotool mousemove 640 300; sleep 0.3; xdotool mousemove 560 250; sleep 0.3; "
+                    "xdotool mouseup 1 keyup ctrl; wait\"",
+                dir);
   INFO(r.out << r.err);
   REQUIRE(r.exit_code == 0);
   const json s = json::parse(slurp(dir / "summary.json"));

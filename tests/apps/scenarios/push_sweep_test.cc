@@ -1,0 +1,168 @@
+// The push sweep as a library (scenarios/push_sweep.h): its cells, one cell's run, the summary.
+// Any driver (threads today, MPI ranks later) gives the same figures, because a cell is its own
+// deterministic run.
+#include "biodyn/scenarios/push_sweep.h"
+
+#include <algorithm>
+#include <cmath>
+#include <string>
+#include <vector>
+
+#include "biodyn/models/mjcf.h"
+#include "biodyn/sim/errors.h"
+#include "test_support.h"
+
+using namespace biodyn;
+using scenarios::PushCellResult;
+using scenarios::PushOutcome;
+using scenarios::PushSweepCell;
+using scenarios::PushSweepSpec;
+
+namespace {
+
+sim::Simulation default_character() {
+  return sim::Simulation(
+      testing::load_inline(models::to_mjcf(models::generate_character(models::CharacterSpec{}))));
+}
+
+PushSweepSpec small_spec() {
+  PushSweepSpec spec;
+  spec.walk.config.weld = controllers::WeldMode::kOff;
+  scenarios::WalkPush push;
+  push.settle_strides = 1;
+  push.watch_s = 1.0;
+  spec.walk.config.walk_push = push;
+  spec.walk.duration_s = 30;
+  spec.directions = 4;
+  spec.durations_s = {0.1, 0.3};
+  spec.phases = 3;
+  return spec;
+}
+
+}  // namespace
+
+TEST_CASE("The sweep's cells: durations, then directions evenly from forward, then onset phases",
+          "[scenarios][push]") {
+  const PushSweepSpec spec = small_spec();
+  REQUIRE_NOTHROW(spec.validate());
+  const std::vector<PushSweepCell> cells = scenarios::push_sweep_cells(spec);
+  REQUIRE(cells.size() == 2 * 4 * 3);
+  CHECK(cells[0].duration_s == 0.1);
+  CHECK(cells[0].direction_deg == 0);
+  CHECK(cells[0].onset_phase == 0);
+  CHECK(cells[1].onset_phase == Approx(1.0 / 3));
+  CHECK(cells[3].direction_deg == 90);
+  CHECK(cells[11].direction_deg == 270);
+  CHECK(cells[12].duration_s == 0.3);
+  CHECK(cells.back().onset_phase == Approx(2.0 / 3));
+}
+
+TEST_CASE_METHOD(biodyn::testing::SimulationTest, "A bad sweep is refused naming the option",
+                 "[scenarios][push]") {
+  const auto refused = [](PushSweepSpec spec, const std::string& option) {
+    INFO(option);
+    CHECK_THROWS_WITH(spec.validate(), Catch::Contains(option));
+  };
+  PushSweepSpec s = small_spec();
+  s.directions = 0;
+  refused(s, "--directions");
+  s = small_spec();
+  s.phases = 101;
+  refused(s, "--phases");
+  s = small_spec();
+  s.durations_s = {0.2, 0};
+  refused(s, "--durations");
+  s = small_spec();
+  s.durations_s.clear();
+  refused(s, "--durations");
+  s = small_spec();
+  s.scan.resolution_N = 0;
+  refused(s, "--resolution");
+  s = small_spec();
+  s.fixed_force_N = -5;
+  refused(s, "--fixed-force");
+  s = small_spec();
+  s.walk.config.walk_push.reset();
+  refused(s, "push");
+}
+
+TEST_CASE_METHOD(
+    biodyn::testing::SimulationTest,
+    "The summary: worst and mean over phases per direction and duration, failed walks flagged",
+    "[scenarios][push]") {
+  PushSweepSpec spec = small_spec();
+  spec.durations_s = {0.2};
+  spec.directions = 2;
+  spec.phases = 2;
+  std::vector<PushCellResult> results;
+  const double survived[] = {300, 200, 150, 0};
+  const std::vector<PushSweepCell> cells = scenarios::push_sweep_cells(spec);
+  for (std::size_t i = 0; i < cells.size(); ++i) {
+    PushCellResult r;
+    r.cell = cells[i];
+    r.max_survived_N = survived[i];
+    r.bisection_N = survived[i] + 100;
+    r.fell_before_push = i == 3;
+    results.push_back(r);
+  }
+  std::swap(results[0], results[3]);  // any order: a driver collects them as they finish
+  const scenarios::PushSweepSummary sum = scenarios::summarize_push_sweep(spec, results);
+  REQUIRE(sum.groups.size() == 2);
+  CHECK(sum.groups[0].direction_deg == 0);
+  CHECK(sum.groups[0].max_survived_worst_N == 200);
+  CHECK(sum.groups[0].max_survived_mean_N == 250);
+  CHECK(sum.groups[0].bisection_worst_N == 300);
+  CHECK_FALSE(sum.groups[0].walk_failed_before_push);
+  CHECK(sum.groups[1].direction_deg == 180);
+  CHECK(sum.groups[1].max_survived_worst_N == 0);
+  CHECK(sum.groups[1].walk_failed_before_push);
+  CHECK(sum.groups_with_failed_walks == 1);
+
+  // Fixed force: the share of pushes survived.
+  spec.fixed_force_N = 120;
+  for (PushCellResult& r : results)
+    r.outcome = r.cell.onset_phase == 0 ? PushOutcome::kSurvived : PushOutcome::kFell;
+  const scenarios::PushSweepSummary fixed = scenarios::summarize_push_sweep(spec, results);
+  CHECK(fixed.pushes_survived == 2);
+  CHECK(fixed.groups[0].survived_phases == 1);
+  CHECK(fixed.groups[0].max_survived_worst_N == 0);
+  CHECK(fixed.groups[0].max_survived_mean_N == 60);
+
+  // A missing cell is an error, not a NaN.
+  results.erase(std::remove_if(results.begin(), results.end(),
+                               [](const PushCellResult& r) { return r.cell.direction_deg == 180; }),
+                results.end());
+  CHECK_THROWS_AS(scenarios::summarize_push_sweep(spec, results), sim::InvalidArgument);
+}
+
+TEST_CASE_METHOD(
+    testing::SimulationTest,
+    "A cell's run is the same on any simulation of the body, whatever ran on it before",
+    "[scenarios][push][slow]") {
+  PushSweepSpec spec = small_spec();
+  spec.scan.resolution_N = 200;
+  spec.scan.max_force_N = 400;
+  spec.scan.bisect = false;
+  const PushSweepCell cell{90, 0.2, 0.5};
+  sim::Simulation a = default_character(), b = default_character();
+  const PushCellResult first = scenarios::run_push_cell(&a, spec, cell);
+  // b first runs another cell (a hard push that fells the walker), then the same one.
+  PushSweepSpec hard = spec;
+  hard.fixed_force_N = 1500;
+  const PushCellResult felled = scenarios::run_push_cell(&b, hard, PushSweepCell{0, 0.5, 0});
+  CHECK(felled.outcome == PushOutcome::kFell);
+  CHECK(felled.runs == 1);
+  CHECK_FALSE(felled.failure.empty());
+  const PushCellResult second = scenarios::run_push_cell(&b, spec, cell);
+  INFO(first.failure);
+  CHECK_FALSE(first.fell_before_push);
+  CHECK(first.runs >= 1);
+  CHECK(second.max_survived_N == first.max_survived_N);
+  CHECK(second.first_failure_N == first.first_failure_N);
+  CHECK(second.outcome == first.outcome);
+  CHECK(second.runs == first.runs);
+  CHECK(first.bisection_N == -1);
+  // The scan's figure is on its grid and below its first failure.
+  CHECK(std::fmod(first.max_survived_N, 200.0) == 0.0);
+  if (first.first_failure_N > 0) CHECK(first.first_failure_N == first.max_survived_N + 200);
+}

@@ -1,0 +1,15 @@
+#pragma once
+// A generated character's compiled model, for the tests of the layers above models/.
+#include "biodyn/models/mjcf.h"
+#include "test_support.h"
+
+namespace biodyn::testing {
+
+/// The default character (1.80 m, 80 kg, male) in `detail`, compiled.
+inline sim::Model generated_character(models::Detail detail = models::Detail::kFull) {
+  models::CharacterSpec spec;
+  spec.detail = detail;
+  return load_inline(models::to_mjcf(models::generate_character(spec)));
+}
+
+}  // namespace biodyn::testing
