@@ -35,6 +35,7 @@ function(biodyn_add_test name)
   add_executable(${name} ${ARG_SOURCES})
   target_link_libraries(${name} PRIVATE biodyn_test_support ${ARG_DEPS})
   biodyn_target_warnings(${name})
+  target_precompile_headers(${name} REUSE_FROM biodyn_test_pch)
   catch_discover_tests(${name} TEST_SPEC "~[slow]" TEST_PREFIX "${name}: " EXTRA_ARGS --reporter compact --warn NoTests)
   catch_discover_tests(${name} TEST_SPEC "[slow]" TEST_PREFIX "${name}: " EXTRA_ARGS --reporter compact --warn NoTests
                        PROPERTIES LABELS slow COST 100)

@@ -14,46 +14,36 @@ check_format=1
 [ "${1:-}" = "--no-format" ] && check_format=0
 status=0
 
-# The module of a path, and its layer (higher may include lower).
-module_of() {
-  case "$1" in
-    sim/*) echo sim ;;
-    models/*) echo models ;;
-    controllers/*) echo controllers ;;
-    mocap_io/*) echo mocap_io ;;
-    apps/scenarios/*) echo scenarios ;;
-    apps/viewer/*) echo viewer ;;
-    apps/biodyn/*) echo biodyn ;;
-    *) echo "" ;;
-  esac
-}
-layer_of() {
-  case "$1" in
-    sim) echo 0 ;; models) echo 1 ;; controllers | mocap_io) echo 2 ;;
-    scenarios) echo 3 ;; viewer) echo 4 ;; biodyn) echo 5 ;; *) echo -1 ;;
-  esac
-}
-
 sources=$(git ls-files 'sim/*.h' 'sim/*.cc' 'models/*.h' 'models/*.cc' 'controllers/*.h' 'controllers/*.cc' \
   'mocap_io/*.h' 'mocap_io/*.cc' 'apps/*.h' 'apps/*.cc')
 
-# 1. Layers.
-declare -A edges
-for f in $sources; do
-  from=$(module_of "$f")
-  while IFS=: read -r line inc; do
-    to=$(echo "$inc" | sed -E 's|.*"biodyn/([a-z_]+)/.*|\1|')
-    [ "$to" = "$from" ] && continue
-    edges["$from -> $to"]=$(( ${edges["$from -> $to"]:-0} + 1 ))
-    lf=$(layer_of "$from") lt=$(layer_of "$to")
-    if [ "$lt" -lt 0 ] || [ "$lt" -ge "$lf" ]; then
-      echo "$f:$line: layers: $from includes $to (upward or sideways): ${inc#*#include }"
-      status=1
-    fi
-  done < <(grep -n '#include "biodyn/' "$f" | sed -E 's/^([0-9]+):/\1:/')
-done
-echo "house (module -> module it includes: number of includes):"
-for e in "${!edges[@]}"; do echo "  $e: ${edges[$e]}"; done | sort
+# 1. Layers: every '#include "biodyn/<module>/...' of a source, its module and layer (one awk pass).
+layers=$(grep -n '#include "biodyn/' $sources | awk -F: '
+  function module_of(path) {
+    if (path ~ /^apps\/scenarios\//) return "scenarios"
+    if (path ~ /^apps\/viewer\//) return "viewer"
+    if (path ~ /^apps\/biodyn\//) return "biodyn"
+    split(path, part, "/"); return part[1]
+  }
+  BEGIN { layer["sim"] = 0; layer["models"] = 1; layer["controllers"] = 2; layer["mocap_io"] = 2
+          layer["scenarios"] = 3; layer["viewer"] = 4; layer["biodyn"] = 5 }
+  {
+    from = module_of($1); inc = $0; sub(/^[^#]*#include /, "", inc)
+    to = inc; sub(/^"biodyn\//, "", to); sub(/\/.*/, "", to)
+    if (to == from) next
+    edges[from " -> " to]++
+    if (!(to in layer) || layer[to] >= layer[from]) {
+      print $1 ":" $2 ": layers: " from " includes " to " (upward or sideways): " inc; bad = 1
+    }
+  }
+  END {
+    print "house (module -> module it includes: number of includes):"
+    for (e in edges) print "  " e ": " edges[e] | "sort"
+    close("sort")
+    exit bad
+  }')
+[ $? -ne 0 ] && status=1
+echo "$layers"
 
 # 2. Function length (pmccabe reads C++98 namespaces: `namespace a::b` is spelled a__b for it).
 if command -v pmccabe > /dev/null; then

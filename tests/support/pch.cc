@@ -1,0 +1,1 @@
+// An empty file: the target exists to build the tests' precompiled header (tests/CMakeLists.txt).
