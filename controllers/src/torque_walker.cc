@@ -81,7 +81,7 @@ constexpr StateField kStateFields[] = {
 
 constexpr std::size_t kMaxStates = 16;
 
-TorqueWalkerPhase read_state(const nlohmann::json& j, const std::string& where) {
+TorqueWalkerPhase read_torque_phase(const nlohmann::json& j, const std::string& where) {
   TorqueWalkerPhase st;
   st.name.clear();
   std::map<std::string, std::function<void(const nlohmann::json&, const std::string&)>> keys;
@@ -151,7 +151,7 @@ void apply_torque_walker_json(const std::string& json_text, const std::string& s
     if (!v.is_array()) json_fields::fail(w, "must be an array of states", v.dump());
     p.phases.clear();
     for (std::size_t i = 0; i < v.size(); ++i)
-      p.phases.push_back(read_state(v[i], w + "[" + std::to_string(i) + "]"));
+      p.phases.push_back(read_torque_phase(v[i], w + "[" + std::to_string(i) + "]"));
   };
   json_fields::read_object(root, source, keys);
   try {

@@ -16,7 +16,6 @@ using Eigen::Quaterniond;
 using Eigen::Vector2d;
 using Eigen::Vector3d;
 
-constexpr double kGravity = 9.81;
 // s, how soon the swing foot's level sole and the clearance knee are due: short, as they
 // follow the leg from step to step (the sole within a few degrees, the knee before the foot
 // reaches the floor).
@@ -46,7 +45,8 @@ VelocityWalker::VelocityWalker(const mjModel& m, const models::Rig& rig,
   params_.validate();
   rig.require_legs("velocity walker");
   ankle_height_ = -rig.leg(models::kLeft).sole.z;
-  weight_ = rig.mass_kg() * -m.opt.gravity[2];
+  gravity_m_s2_ = -m.opt.gravity[2];
+  weight_ = rig.mass_kg() * gravity_m_s2_;
   compile_roles();
   contacts_.reserve(64);
 }
@@ -185,7 +185,7 @@ void VelocityWalker::plan_foot(const mjData& d, const sim::CenterOfMass& com) {
   const int swing = 1 - st.stance;
   const double sigma = swing == 0 ? 1.0 : -1.0;  // +1: the swing foot is the left one (+y)
   const double height = std::max(com.position_W.z(), 0.3);
-  const double omega0 = std::sqrt(kGravity / height);
+  const double omega0 = std::sqrt(gravity_m_s2_ / height);
   const double step_time = 60.0 / params_.cadence(st.speed_now_m_s);
   const double lip = 1.0 - std::tanh(omega0 * step_time / 2);
   const Vector2d c = st.heading.to_heading(Vector2d(com.position_W.head<2>()));

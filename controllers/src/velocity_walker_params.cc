@@ -34,7 +34,7 @@ Eigen::Vector2d pair(const Json& j, const std::string& where) {
   return {v[0], v[1]};
 }
 
-VelocityWalkerPhase read_state(const Json& j, const std::string& where) {
+VelocityWalkerPhase read_phase(const Json& j, const std::string& where) {
   VelocityWalkerPhase s;
   bool have_name = false;
   read_object(
@@ -263,7 +263,7 @@ void apply_velocity_walker_json(const std::string& json_text, const std::string&
                   if (!v.is_array()) fail(w, "must be an array of states", v.dump());
                   p.phases.clear();
                   for (std::size_t i = 0; i < v.size(); ++i)
-                    p.phases.push_back(read_state(v[i], w + "[" + std::to_string(i) + "]"));
+                    p.phases.push_back(read_phase(v[i], w + "[" + std::to_string(i) + "]"));
                 }},
                {"placement",
                 [&](const Json& v, const std::string& w) {

@@ -456,7 +456,7 @@ Eigen::Vector3d translation_unchecked(const BvhMotion& m, int j, int f) {
 // Writer.
 
 /// `v` to `precision` significant digits, locale-independent ("%g" style).
-std::string format_number(double v, int precision) {
+std::string format_significant(double v, int precision) {
   char buffer[64];
   const auto [ptr, ec] =
       std::to_chars(buffer, buffer + sizeof buffer, v, std::chars_format::general, precision);
@@ -484,7 +484,7 @@ void check_writable(const BvhMotion& m, int precision) {
   if (m.joints.empty()) invalid("no joints");
   if (m.frame_count() < 1) invalid("no frames (a BVH file has at least one)");
   if (!(m.frame_time_s > 0) || !std::isfinite(m.frame_time_s)) {
-    invalid("frame_time_s must be > 0, got " + format_number(m.frame_time_s, 17));
+    invalid("frame_time_s must be > 0, got " + format_significant(m.frame_time_s, 17));
   }
   for (std::size_t i = 0; i < m.joints.size(); ++i) {
     check_name(m.joints[i], i);
@@ -528,7 +528,7 @@ BvhMotion read_bvh(const std::string& path) { return parse_bvh(sim::read_file(pa
 
 std::string format_bvh(const BvhMotion& motion, int precision) {
   check_writable(motion, precision);
-  const auto num = [precision](double v) { return format_number(v, precision); };
+  const auto num = [precision](double v) { return format_significant(v, precision); };
   std::string out = "HIERARCHY\n";
   std::vector<int> open;  // joints written but not yet closed, outermost first
   const auto indent = [&out](std::size_t depth) { out.append(depth, '\t'); };
@@ -598,7 +598,7 @@ BvhPose forward_kinematics(const BvhMotion& motion, int f, const BvhUnits& units
   check_structure(motion);
   check_frame(motion, f);
   if (!(units.metres_per_unit > 0) || !std::isfinite(units.metres_per_unit)) {
-    invalid("metres_per_unit must be > 0, got " + format_number(units.metres_per_unit, 17));
+    invalid("metres_per_unit must be > 0, got " + format_significant(units.metres_per_unit, 17));
   }
   const std::size_t n = motion.joints.size();
   // Poses in the file's own frame and units first (F), mapped to the world (W) at the end.

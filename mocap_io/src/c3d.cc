@@ -28,6 +28,7 @@ using c3d_internal::count_value;
 using c3d_internal::fail_parameter;
 using c3d_internal::format_number;
 using c3d_internal::kBlockBytes;
+using c3d_internal::kMaxWord;
 using c3d_internal::NumberFormat;
 using c3d_internal::Parameter;
 using c3d_internal::ParameterSection;
@@ -64,7 +65,6 @@ constexpr int kWordRate = 11;                   // POINT:RATE, a float in words 
 // "POINT:FRAMES": an integer POINT:FRAMES of 65535 means "65535 or more"; the count is then in
 // POINT:LONG_FRAMES or the TRIAL group ("Reading the frame count").
 constexpr long kSaturatedFrames = 65535;
-constexpr long kMaxWord = 65535;
 // Two rates, or scales, this close count as the same.
 constexpr double kSameRelative = 1e-6;
 // ANALOG:RATE / POINT:RATE must be this close to a whole number of samples per frame.

@@ -11,6 +11,9 @@
 
 namespace biodyn::mocap_io::c3d_internal {
 
+/// The largest 16-bit unsigned word: the header's and the parameters' counts are at most this.
+inline constexpr long kMaxWord = 65535;
+
 /// Storage type of a parameter's values (the byte after the name and next-record offset).
 enum class ParameterType : std::int8_t { kChar = -1, kByte = 1, kInt16 = 2, kFloat = 4 };
 

@@ -19,6 +19,7 @@ namespace biodyn::mocap_io {
 
 using c3d_internal::ByteWriter;
 using c3d_internal::kBlockBytes;
+using c3d_internal::kMaxWord;
 using c3d_internal::NumberFormat;
 using c3d_internal::ParameterWriter;
 
@@ -32,7 +33,6 @@ constexpr std::size_t kMaxPerParameter = 255;
 // "Notes for programmers - Integer 3D Data": integer scale = largest value / 32000.
 constexpr double kIntegerFullScale = 32000.0;
 constexpr double kMaxInt16 = 32767.0;
-constexpr long kMaxWord = 65535;
 constexpr double kMmPerM = 1000.0;
 // Vicon's convention (and ezc3d's writer): an invalid point's residual word is -1.
 constexpr double kInvalidResidual = -1.0;

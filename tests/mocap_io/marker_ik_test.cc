@@ -17,7 +17,7 @@ namespace {
 
 constexpr double kNoise_m = 0.002;        // the 2 mm, per coordinate
 constexpr double kRate_hz = 100.0;        // synthetic capture rate
-constexpr int kFrames = 300;              // 3 s
+constexpr int kIkFrames = 300;            // 3 s
 constexpr double kMaxJointRms_deg = 2.0;  // the joint-angle bound
 
 /// Cluster geometry: a rigid plate of 3 markers on every segment (as real clusters and wands
@@ -66,7 +66,7 @@ sim::Model character_with(const std::string& marker_set) {
 Eigen::MatrixXd random_motion(const mjModel& m, unsigned seed) {
   std::mt19937 rng(seed);
   std::uniform_real_distribution<double> u(0.0, 1.0);
-  Eigen::MatrixXd q(kFrames, m.nq);
+  Eigen::MatrixXd q(kIkFrames, m.nq);
   struct Wave {
     double centre, amp, freq, phase;
   };
@@ -89,7 +89,7 @@ Eigen::MatrixXd random_motion(const mjModel& m, unsigned seed) {
       waves[static_cast<size_t>(j)].push_back(w);
     }
   }
-  for (int f = 0; f < kFrames; ++f) {
+  for (int f = 0; f < kIkFrames; ++f) {
     const double t = f / kRate_hz;
     for (int j = 0; j < m.njnt; ++j) {
       const int a = m.jnt_qposadr[j];
@@ -186,7 +186,7 @@ Recovery recover(const std::string& marker_set, double noise_m, unsigned seed) {
   const std::vector<double> weights(capture.labels.size(), 1.0);
   const mocap_io::MarkerIkResult ik = mocap_io::solve_marker_ik(m, capture, weights);
   Recovery r;
-  r.frames_per_second = kFrames / ik.seconds;
+  r.frames_per_second = kIkFrames / ik.seconds;
   double sum_sq = 0;
   int n = 0;
   for (const mocap_io::MarkerIkFrame& f : ik.frames) {
@@ -197,12 +197,12 @@ Recovery recover(const std::string& marker_set, double noise_m, unsigned seed) {
   r.marker_rms_m = std::sqrt(sum_sq / n);
   for (int j = 0; j < m.njnt; ++j) {
     double sq = 0, worst = 0;
-    for (int f = 0; f < kFrames; ++f) {
+    for (int f = 0; f < kIkFrames; ++f) {
       const double e = joint_error(m, j, truth.row(f), ik.qpos.row(f));
       sq += e * e;
       worst = std::max(worst, e);
     }
-    const double rms_deg = std::sqrt(sq / kFrames) / kRadPerDeg;
+    const double rms_deg = std::sqrt(sq / kIkFrames) / kRadPerDeg;
     if (rms_deg > r.worst_joint_rms_deg) {
       r.worst_joint_rms_deg = rms_deg;
       r.worst_joint = mj_id2name(&m, mjOBJ_JOINT, j);
@@ -220,7 +220,7 @@ TEST_CASE_METHOD(biodyn::testing::SimulationTest,
   const Recovery r = recover("full40", 0.0, 7);
   INFO("worst joint " << r.worst_joint << " rms " << r.worst_joint_rms_deg << " deg, max "
                       << r.worst_joint_max_deg << " deg; marker rms " << r.marker_rms_m);
-  CHECK(r.solved == kFrames);
+  CHECK(r.solved == kIkFrames);
   CHECK(r.marker_rms_m < 1e-4);
   CHECK(r.worst_joint_max_deg < 0.5);
 }
@@ -241,7 +241,7 @@ TEST_CASE_METHOD(
     INFO("seed " << seed << ": worst joint " << r.worst_joint << " rms " << r.worst_joint_rms_deg
                  << " deg (max " << r.worst_joint_max_deg << " deg); marker rms "
                  << r.marker_rms_m * 1000 << " mm vs noise " << noise_rms_3d * 1000 << " mm");
-    CHECK(r.solved == kFrames);
+    CHECK(r.solved == kIkFrames);
     CHECK(r.worst_joint_rms_deg < kMaxJointRms_deg);
     CHECK(r.marker_rms_m < noise_rms_3d);
     CHECK(r.marker_rms_m > 0.6 * noise_rms_3d);
@@ -259,7 +259,7 @@ TEST_CASE_METHOD(
              << " deg (max " << r.worst_joint_max_deg << " deg); marker rms "
              << r.marker_rms_m * 1000 << " mm vs noise " << noise_rms_3d * 1000 << " mm; "
              << r.frames_per_second << " frames/s");
-    CHECK(r.solved == kFrames);
+    CHECK(r.solved == kIkFrames);
     CHECK(r.marker_rms_m < noise_rms_3d);  // fits the markers no worse than the noise
   }
 }

@@ -3,6 +3,7 @@
 /// MJCF loading, named tolerances.
 
 #include <catch2/catch.hpp>
+#include <cstring>
 #include <string>
 #include <vector>
 
@@ -46,5 +47,10 @@ sim::Model load_inline(const std::string& xml);
 std::string binary_dir();
 /// The biodyn source directory: $BIODYN_SOURCE_DIR, else the one this test was compiled from.
 std::string source_dir();
+
+/// Whether two state vectors are the same bits (a restored or replayed run must be).
+inline bool bit_identical(const std::vector<double>& a, const std::vector<double>& b) {
+  return a.size() == b.size() && std::memcmp(a.data(), b.data(), a.size() * sizeof(double)) == 0;
+}
 
 }  // namespace biodyn::testing

@@ -22,7 +22,7 @@ using Run = biodyn::testing::CliRun;
 using biodyn::testing::run_biodyn;
 using biodyn::testing::slurp;
 
-fs::path fresh_dir(const std::string& name) {
+fs::path mocap_dir(const std::string& name) {
   return biodyn::testing::fresh_dir("mocap_cli_test", name);
 }
 
@@ -33,7 +33,7 @@ std::string data(const std::string& file) {
 }  // namespace
 
 TEST_CASE("mocap info reports each real file's contents as JSON", "[apps][mocap]") {
-  const fs::path dir = fresh_dir("info");
+  const fs::path dir = mocap_dir("info");
   {
     const Run r = run_biodyn("mocap info --json '" + data("c3d/opensim_walking5.c3d") + "'", dir);
     INFO(r.err);
@@ -71,7 +71,7 @@ TEST_CASE("mocap info reports each real file's contents as JSON", "[apps][mocap]
 }
 
 TEST_CASE("mocap convert: C3D to TRC agrees with OpenSim's TRC, BVH rescaled", "[apps][mocap]") {
-  const fs::path dir = fresh_dir("convert");
+  const fs::path dir = mocap_dir("convert");
   Run r = run_biodyn("mocap convert '" + data("c3d/opensim_walking5.c3d") + "' walk.trc", dir);
   INFO(r.err);
   REQUIRE(r.exit_code == 0);
@@ -99,7 +99,7 @@ TEST_CASE("mocap convert: C3D to TRC agrees with OpenSim's TRC, BVH rescaled", "
 
 TEST_CASE("mocap ik on walking5 after scaling from its own frames meets OpenSim's thresholds",
           "[apps][mocap][regression]") {
-  const fs::path dir = fresh_dir("ik");
+  const fs::path dir = mocap_dir("ik");
   const std::string c3d = data("c3d/opensim_walking5.c3d");
   const Run r = run_biodyn(
       "mocap ik --c3d '" + c3d + "' --static '" + c3d + "' -o motion.csv --json stats.json", dir);
@@ -148,7 +148,7 @@ TEST_CASE("mocap ik on walking5 after scaling from its own frames meets OpenSim'
 
 TEST_CASE("mocap retarget puts the CMU walk on a 2 m body, its motion feeds mocap id",
           "[apps][mocap]") {
-  const fs::path dir = fresh_dir("retarget");
+  const fs::path dir = mocap_dir("retarget");
   const std::string bvh = data("bvh/cmu_131_01_start_walk_stop.bvh");
   const Run r = run_biodyn("mocap retarget --bvh '" + bvh + "' --height 2.0 --mass 90 -o out", dir);
   INFO(r.out << r.err);
@@ -189,7 +189,7 @@ TEST_CASE("mocap retarget puts the CMU walk on a 2 m body, its motion feeds moca
 }
 
 TEST_CASE("mocap refuses bad input in one line naming the file", "[apps][mocap]") {
-  const fs::path dir = fresh_dir("bad");
+  const fs::path dir = mocap_dir("bad");
   {
     std::ofstream(dir / "broken.c3d") << "not a c3d file";
     const Run r = run_biodyn("mocap info broken.c3d", dir);

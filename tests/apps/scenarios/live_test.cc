@@ -28,10 +28,6 @@ std::vector<double> state_of(const LiveScenario& s) {
   return x;
 }
 
-bool bit_identical(const std::vector<double>& a, const std::vector<double>& b) {
-  return a.size() == b.size() && std::memcmp(a.data(), b.data(), a.size() * sizeof(double)) == 0;
-}
-
 }  // namespace
 
 TEST_CASE_METHOD(biodyn::testing::SimulationTest,
@@ -53,20 +49,20 @@ TEST_CASE_METHOD(biodyn::testing::SimulationTest,
   CHECK(walk.time_s() == Approx(1.2));
   walk.run_until(3.0);
   CHECK(walk.step_index() == end);
-  CHECK(bit_identical(state_of(walk), original));
+  CHECK(biodyn::testing::bit_identical(state_of(walk), original));
   CHECK(walk.pushes().size() == 1);
 
   // Back to 0.5 s: both edits replay.
   walk.rewind_to(250);
   walk.run_until(3.0);
-  CHECK(bit_identical(state_of(walk), original));
+  CHECK(biodyn::testing::bit_identical(state_of(walk), original));
 
   // A new edit after a rewind starts a new future: the push is not replayed.
   walk.rewind_to(700);
   walk.set_speed(1.3);  // the same value again, but a new edit
   walk.run_until(3.0);
   CHECK(walk.pushes().empty());
-  CHECK_FALSE(bit_identical(state_of(walk), original));
+  CHECK_FALSE(biodyn::testing::bit_identical(state_of(walk), original));
 
   CHECK_THROWS_AS(walk.rewind_to(walk.step_index() + 1), sim::InvalidArgument);
 
@@ -118,7 +114,7 @@ TEST_CASE_METHOD(biodyn::testing::SimulationTest,
   CHECK(walk.last_rewind_replayed_steps() == 150);
   walk.run_until(30.0);
   REQUIRE(walk.step_index() == end);
-  CHECK(bit_identical(full_state(walk), original));
+  CHECK(biodyn::testing::bit_identical(full_state(walk), original));
 
   // 19.9 s, before the weld edit: the weld mode comes back with the replayed edit.
   walk.rewind_to(9950);
@@ -126,24 +122,24 @@ TEST_CASE_METHOD(biodyn::testing::SimulationTest,
   CHECK(walk.config().weld == controllers::WeldMode::kHonest);
   walk.run_until(30.0);
   CHECK(walk.config().weld == controllers::WeldMode::kOff);
-  CHECK(bit_identical(full_state(walk), original));
+  CHECK(biodyn::testing::bit_identical(full_state(walk), original));
 
   // 2 s is older than the ring (16 s): replayed from t = 0, as exact.
   walk.rewind_to(1000);
   CHECK(walk.last_rewind_replayed_steps() == 1000);
   walk.run_until(30.0);
-  CHECK(bit_identical(full_state(walk), original));
+  CHECK(biodyn::testing::bit_identical(full_state(walk), original));
 
   // A new edit drops the checkpoints after it: rewinding into the new future uses its own.
   walk.rewind_to(12000);
   walk.set_speed(0.8);
   walk.run_until(30.0);
   const std::vector<double> changed = full_state(walk);
-  CHECK_FALSE(bit_identical(changed, original));
+  CHECK_FALSE(biodyn::testing::bit_identical(changed, original));
   walk.rewind_to(14000);
   CHECK(walk.last_rewind_replayed_steps() == 0);  // the new checkpoint at 28.0 s
   walk.run_until(30.0);
-  CHECK(bit_identical(full_state(walk), changed));
+  CHECK(biodyn::testing::bit_identical(full_state(walk), changed));
 }
 
 TEST_CASE_METHOD(biodyn::testing::SimulationTest,
@@ -158,7 +154,7 @@ TEST_CASE_METHOD(biodyn::testing::SimulationTest,
   s.rewind_to(1100);  // 2.2 s, from the checkpoint at 2.0 s
   CHECK(s.last_rewind_replayed_steps() == 100);
   s.run_until(6.0);
-  CHECK(bit_identical(state_of(s), original));
+  CHECK(biodyn::testing::bit_identical(state_of(s), original));
 }
 
 TEST_CASE_METHOD(
@@ -224,7 +220,7 @@ TEST_CASE_METHOD(
   live.rewind_to(3650);
   CHECK(stones.size() < walked.size());
   live.run_until(14.0);
-  CHECK(bit_identical(state_of(live), end_state));
+  CHECK(biodyn::testing::bit_identical(state_of(live), end_state));
   REQUIRE(stones.size() == walked.size());
   CHECK(stones.back().walked_m == walked.back().walked_m);
   CHECK(stones.back().ankle_W == walked.back().ankle_W);
@@ -243,7 +239,7 @@ TEST_CASE_METHOD(
   LiveScenario a(ScenarioConfig{}), b(ScenarioConfig{});
   a.run_until(1.0);
   b.run_until(1.0);
-  REQUIRE(bit_identical(state_of(a), state_of(b)));
+  REQUIRE(biodyn::testing::bit_identical(state_of(a), state_of(b)));
   controllers::TorqueWalkerParams p = b.gait()->params();
   p.pelvis_pitch_rad += 0.1;  // lean forward: the walk speeds up
   b.set_gait_params(p);
@@ -308,11 +304,11 @@ TEST_CASE_METHOD(biodyn::testing::SimulationTest,
   play.run_until(1.0);
   CHECK(play.time_s() == Approx(1.0));
   const std::vector<double> at1 = state_of(play);
-  CHECK_FALSE(bit_identical(start, at1));
+  CHECK_FALSE(biodyn::testing::bit_identical(start, at1));
   CHECK_FALSE(play.fallen());
   CHECK_THROWS_AS(play.push("pelvis", Eigen::Vector3d(100, 0, 0), 0.2), sim::InvalidArgument);
   play.rewind_to(0);
-  CHECK(bit_identical(state_of(play), start));
+  CHECK(biodyn::testing::bit_identical(state_of(play), start));
   // The same motion from its CSV (what biodyn mocap retarget writes) plays the same frames.
   const mocap_io::RetargetResult r =
       mocap_io::retarget_bvh(mocap_io::read_bvh(config.motion_path),
@@ -437,7 +433,7 @@ TEST_CASE_METHOD(biodyn::testing::SimulationTest,
        << track.tracking_stats().joint_rms_rad() * 57.29578 << " deg, root off by up to "
        << track.tracking_stats().root_max_m << " m, fell at " << track.fell_at_s() << " s");
   CHECK(root_force == 0.0);
-  CHECK_FALSE(bit_identical(state_of(track), state_of(open)));
+  CHECK_FALSE(biodyn::testing::bit_identical(state_of(track), state_of(open)));
   CHECK(track.fell_at_s() < 0);
   CHECK(track.tracking_report().kept_up());
   CHECK(track.tracking_stats().joint_rms_rad() < 5.0 / 57.29578);
@@ -461,7 +457,7 @@ TEST_CASE_METHOD(biodyn::testing::SimulationTest,
   const std::vector<double> end = state_of(track);
   track.rewind_to(1100);
   track.run_until(6.0);
-  CHECK(bit_identical(state_of(track), end));
+  CHECK(biodyn::testing::bit_identical(state_of(track), end));
 
   // After the motion's end the targets hold its last frame, mid-stride: the error is counted
   // only while the motion lasts, and a fall after its end still counts as kept up.

@@ -10,6 +10,7 @@
 
 #include "biodyn/models/mjcf.h"
 #include "biodyn/sim/errors.h"
+#include "character.h"
 #include "test_support.h"
 
 using namespace biodyn;
@@ -19,11 +20,6 @@ using scenarios::PushSweepCell;
 using scenarios::PushSweepSpec;
 
 namespace {
-
-sim::Simulation default_character() {
-  return sim::Simulation(
-      testing::load_inline(models::to_mjcf(models::generate_character(models::CharacterSpec{}))));
-}
 
 PushSweepSpec small_spec() {
   PushSweepSpec spec;
@@ -144,7 +140,8 @@ TEST_CASE_METHOD(
   spec.scan.max_force_N = 400;
   spec.scan.bisect = false;
   const PushSweepCell cell{90, 0.2, 0.5};
-  sim::Simulation a = default_character(), b = default_character();
+  sim::Simulation a = sim::Simulation(biodyn::testing::generated_character()),
+                  b = sim::Simulation(biodyn::testing::generated_character());
   const PushCellResult first = scenarios::run_push_cell(&a, spec, cell);
   // b first runs another cell (a hard push that fells the walker), then the same one.
   PushSweepSpec hard = spec;

@@ -11,17 +11,13 @@
 #include "biodyn/models/mjcf.h"
 #include "biodyn/scenarios/scenario.h"
 #include "biodyn/sim/errors.h"
+#include "character.h"
 #include "test_support.h"
 
 using namespace biodyn;
 using scenarios::ScenarioConfig;
 
 namespace {
-
-sim::Simulation default_character() {
-  return sim::Simulation(
-      testing::load_inline(models::to_mjcf(models::generate_character(models::CharacterSpec{}))));
-}
 
 std::vector<double> state_of(const sim::Simulation& sim) {
   const mjModel& m = sim.model();
@@ -31,10 +27,6 @@ std::vector<double> state_of(const sim::Simulation& sim) {
   x.insert(x.end(), d.qfrc_applied, d.qfrc_applied + m.nv);
   x.push_back(d.time);
   return x;
-}
-
-bool bit_identical(const std::vector<double>& a, const std::vector<double>& b) {
-  return a.size() == b.size() && std::memcmp(a.data(), b.data(), a.size() * sizeof(double)) == 0;
 }
 
 // Counts the steps it sees; done after `limit`.
@@ -72,7 +64,7 @@ TEST_CASE_METHOD(
     testing::SimulationTest,
     "A config refuses, by name, what its scenario does not use or a value out of range",
     "[scenarios][registry]") {
-  sim::Simulation sim = default_character();
+  sim::Simulation sim(biodyn::testing::generated_character());
   const auto refused = [&](const ScenarioConfig& c, const std::string& field) {
     INFO("expects a message naming " << field);
     CHECK_THROWS_WITH(scenarios::make_scenario(&sim, c), Catch::Contains(field));
@@ -115,7 +107,7 @@ TEST_CASE_METHOD(testing::SimulationTest,
                  "Every simulated scenario builds at t = 0, steps upright, and repeats its future "
                  "after a restore",
                  "[scenarios][registry]") {
-  sim::Simulation sim = default_character();
+  sim::Simulation sim(biodyn::testing::generated_character());
   for (const std::string name : {"stand", "squat", "reach", "one-leg", "walk", "stones"}) {
     INFO(name);
     ScenarioConfig config;
@@ -146,7 +138,7 @@ TEST_CASE_METHOD(testing::SimulationTest,
     s->restore(*saved);
     CHECK(s->step_index() == at);
     s->run_until(1.2);
-    CHECK(bit_identical(state_of(sim), future));
+    CHECK(biodyn::testing::bit_identical(state_of(sim), future));
     testing::MujocoWarningGuard::check(sim);
   }
 }
@@ -154,7 +146,7 @@ TEST_CASE_METHOD(testing::SimulationTest,
 TEST_CASE_METHOD(testing::SimulationTest,
                  "An observer that is done ends the run, the scenario does not",
                  "[scenarios][registry]") {
-  sim::Simulation sim = default_character();
+  sim::Simulation sim(biodyn::testing::generated_character());
   ScenarioConfig config;
   config.scenario = "stand";
   const std::unique_ptr<scenarios::Scenario> s = scenarios::make_scenario(&sim, config);

@@ -161,6 +161,7 @@ class VelocityWalker : public ControlDriver {
   std::vector<Eigen::Vector3d> swing_hip_;
   std::vector<bool> has_swing_hip_;
   double ankle_height_ = 0.07, weight_ = 785;  // m (sole below the ankle), N
+  double gravity_m_s2_ = 9.81;                 // the model's, downward
   SupportPolygons polygons_;
   std::vector<sim::FloorContact> contacts_;
 };
