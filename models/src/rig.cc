@@ -248,7 +248,9 @@ void Rig::require_foot_welds(const std::string& user) const {
 
 int Rig::require_group(const std::string& name, const std::string& user) const {
   const int g = group(name);
-  if (g < 0) throw RigError(user + ": the model has no joint group '" + name + "'" + kHowToGetOne);
+  if (g < 0)  // callers ask for upper-body groups by name; require_legs checks the legs
+    throw RigError(user + ": the model has no joint group '" + name +
+                   "' (a generated character in full detail has it: --detail full)");
   return g;
 }
 

@@ -84,6 +84,13 @@ TEST_CASE_METHOD(biodyn::testing::SimulationTest,
     CHECK_NOTHROW(rig.require_legs("test"));
     CHECK_NOTHROW(rig.require_foot_welds("test"));
     CHECK(rig.require_group("knee_l", "test") == rig.leg(models::kLeft).knee);
+    if (detail == models::Detail::kGait) {  // no spine: a walker that needs one says which body
+      CHECK_THROWS_WITH(rig.require_group("lumbar", "torque walker"),
+                        Catch::Contains("torque walker") && Catch::Contains("'lumbar'") &&
+                            Catch::Contains("--detail full"));
+    } else {
+      CHECK(rig.require_group("lumbar", "test") >= 0);
+    }
   }
 }
 
