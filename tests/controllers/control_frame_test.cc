@@ -23,9 +23,9 @@ using models::JointGroup;
 
 namespace {
 
-// The default character at rest with joint controllers reset on it (velocity kind); a
-// positive `reaction_time_s` replaces every joint's.
-struct JointsAtRest {
+// The fixture: the default character at rest with joint controllers reset on it (velocity
+// kind); a positive `reaction_time_s` replaces every joint's.
+struct JointsAtRest : biodyn::testing::SimulationTest {
   explicit JointsAtRest(double reaction_time_s = 0)
       : model(testing::generated_character()),
         m(*model.get()),
@@ -55,16 +55,14 @@ struct JointsAtRest {
   controllers::ControlFrame frame;
 };
 
+// The same with a slow reaction-time ramp a test can see (1 s).
+struct SlowJointsAtRest : JointsAtRest {
+  SlowJointsAtRest() : JointsAtRest(1.0) {}
+};
+
 }  // namespace
 
-TEST_CASE_METHOD(biodyn::testing::SimulationTest,
-                 "A torque window narrows one DOF's torque for one step", "[gait]") {
-  JointsAtRest at_rest;
-  const mjModel& m = at_rest.m;
-  mjData& d = at_rest.d;
-  const std::vector<controllers::JointGroup>& groups = at_rest.groups;
-  controllers::JointController& joints = at_rest.joints;
-  controllers::ControlFrame& frame = at_rest.frame;
+TEST_CASE_METHOD(JointsAtRest, "A torque window narrows one DOF's torque for one step", "[gait]") {
   const int dof = groups[static_cast<std::size_t>(models::find_group(groups, "knee_l"))].dof_begin;
   std::vector<mjtNum> zero(static_cast<std::size_t>(m.nv), 0.0),
       torque(static_cast<std::size_t>(m.nv));
@@ -89,14 +87,8 @@ TEST_CASE_METHOD(biodyn::testing::SimulationTest,
   CHECK(torque[static_cast<std::size_t>(dof)] != Approx(prev + rate));
 }
 
-TEST_CASE_METHOD(biodyn::testing::SimulationTest,
-                 "A compliant group gets its spring-damper torque for one step", "[gait]") {
-  JointsAtRest at_rest(1.0);  // a slow reaction-time ramp the test can see
-  const mjModel& m = at_rest.m;
-  mjData& d = at_rest.d;
-  const std::vector<controllers::JointGroup>& groups = at_rest.groups;
-  controllers::JointController& joints = at_rest.joints;
-  controllers::ControlFrame& frame = at_rest.frame;
+TEST_CASE_METHOD(SlowJointsAtRest, "A compliant group gets its spring-damper torque for one step",
+                 "[gait]") {
   const int knee = models::find_group(groups, "knee_l");
   const int dof = groups[static_cast<std::size_t>(knee)].dof_begin;
   const auto k = static_cast<std::size_t>(dof);
@@ -131,14 +123,7 @@ TEST_CASE_METHOD(biodyn::testing::SimulationTest,
   CHECK(torque[k] != Approx(spring).margin(1e-6));
 }
 
-TEST_CASE_METHOD(biodyn::testing::SimulationTest,
-                 "A velocity wish replaces w = theta v / t for one step", "[gait]") {
-  JointsAtRest at_rest;
-  const mjModel& m = at_rest.m;
-  mjData& d = at_rest.d;
-  const std::vector<controllers::JointGroup>& groups = at_rest.groups;
-  controllers::JointController& joints = at_rest.joints;
-  controllers::ControlFrame& frame = at_rest.frame;
+TEST_CASE_METHOD(JointsAtRest, "A velocity wish replaces w = theta v / t for one step", "[gait]") {
   const int hip = models::find_group(groups, "hip_r");
   const int dof = groups[static_cast<std::size_t>(hip)].dof_begin;
   mj_step1(&m, &d);
