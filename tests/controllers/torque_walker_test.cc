@@ -12,6 +12,7 @@
 #include "biodyn/sim/errors.h"
 #include "biodyn/sim/queries.h"
 #include "biodyn/sim/simulation.h"
+#include "character.h"
 #include "test_support.h"
 
 using namespace biodyn;
@@ -45,8 +46,7 @@ double polygon_area(const std::vector<Eigen::Vector2d>& p) {
 // Walks the default character from standing for `duration_s` with the default parameters.
 WalkResult walk(double duration_s, const char* weld,
                 const controllers::TorqueWalkerParams& params = controllers::TorqueWalkerParams{}) {
-  sim::Simulation sim(
-      testing::load_inline(models::to_mjcf(models::generate_character(models::CharacterSpec{}))));
+  sim::Simulation sim(testing::generated_character());
   const mjModel& m = sim.model();
   mjData& d = sim.data();
   const models::Rig rig(m);
@@ -193,8 +193,7 @@ TEST_CASE_METHOD(biodyn::testing::SimulationTest,
 TEST_CASE_METHOD(biodyn::testing::SimulationTest,
                  "The torque walker rejects invalid parameters and models without legs by name",
                  "[gait]") {
-  const sim::Model model =
-      testing::load_inline(models::to_mjcf(models::generate_character(models::CharacterSpec{})));
+  const sim::Model model = testing::generated_character();
   const mjModel& m = *model.get();
   const models::Rig rig(m);
   controllers::TorqueWalkerParams p;
@@ -249,8 +248,7 @@ TEST_CASE("The torque walker's parameter file round-trips and overrides only wha
 TEST_CASE_METHOD(biodyn::testing::SimulationTest,
                  "The torque walker rejects a step plan out of range, naming the step",
                  "[gait][stones]") {
-  const sim::Model model =
-      testing::load_inline(models::to_mjcf(models::generate_character(models::CharacterSpec{})));
+  const sim::Model model = testing::generated_character();
   const models::Rig rig(*model.get());
   controllers::TorqueWalker gait(rig, controllers::TorqueWalkerParams{});
   CHECK_THROWS_WITH(gait.plan_steps({0.5, -0.2}), Catch::Matchers::Contains("planned step 2") &&

@@ -8,6 +8,7 @@
 #include "biodyn/models/mjcf.h"
 #include "biodyn/sim/errors.h"
 #include "biodyn/sim/units.h"
+#include "character.h"
 #include "test_support.h"
 
 using namespace biodyn;
@@ -23,7 +24,7 @@ sim::Model character(double height_m, double mass_kg,
   spec.height_m = height_m;
   spec.mass_kg = mass_kg;
   spec.detail = detail;
-  return testing::load_inline(models::to_mjcf(models::generate_character(spec)));
+  return testing::generated_character(spec);
 }
 
 /// Smooth seeded torques per actuator: sums of two sines, up to `amp` of each actuator's limit.

@@ -9,6 +9,7 @@
 #include "biodyn/models/marker_set.h"
 #include "biodyn/models/mjcf.h"
 #include "biodyn/sim/units.h"
+#include "character.h"
 #include "test_support.h"
 
 using namespace biodyn;
@@ -57,7 +58,7 @@ sim::Model character_with(const std::string& marker_set) {
   models::CharacterSpec spec;
   spec.markers =
       marker_set == "clusters" ? cluster_markers() : models::builtin_marker_set(marker_set).markers;
-  return testing::load_inline(models::to_mjcf(models::generate_character(spec)));
+  return testing::generated_character(spec);
 }
 
 /// A smooth random motion within the joint ranges: each hinge oscillates about a random centre

@@ -5,11 +5,16 @@
 
 namespace biodyn::testing {
 
+/// The character `spec` describes, generated and compiled.
+inline sim::Model generated_character(const models::CharacterSpec& spec) {
+  return load_inline(models::to_mjcf(models::generate_character(spec)));
+}
+
 /// The default character (1.80 m, 80 kg, male) in `detail`, compiled.
 inline sim::Model generated_character(models::Detail detail = models::Detail::kFull) {
   models::CharacterSpec spec;
   spec.detail = detail;
-  return load_inline(models::to_mjcf(models::generate_character(spec)));
+  return generated_character(spec);
 }
 
 }  // namespace biodyn::testing

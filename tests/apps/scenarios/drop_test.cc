@@ -1,6 +1,7 @@
 #include "biodyn/scenarios/drop.h"
 #include "biodyn/models/character.h"
 #include "biodyn/models/mjcf.h"
+#include "character.h"
 #include "test_support.h"
 
 using namespace biodyn;
@@ -37,7 +38,7 @@ TEST_CASE_METHOD(biodyn::testing::SimulationTest,
     models::CharacterSpec spec{k.height, k.mass, k.sex, k.detail, {}, {}};
     INFO(k.height << " m, " << k.mass << " kg, " << models::to_string(k.sex) << ", "
                   << models::to_string(k.detail));
-    sim::Simulation sim(testing::load_inline(models::to_mjcf(models::generate_character(spec))));
+    sim::Simulation sim(testing::generated_character(spec));
     scenarios::DropParams params;
     params.duration_s = 5.0;
     const scenarios::DropResult r = scenarios::run_drop(&sim, params);

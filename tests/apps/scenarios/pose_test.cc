@@ -4,6 +4,7 @@
 
 #include "biodyn/models/character.h"
 #include "biodyn/models/mjcf.h"
+#include "character.h"
 #include "test_support.h"
 
 using namespace biodyn;
@@ -11,9 +12,7 @@ using namespace biodyn;
 namespace {
 
 sim::Simulation make_sim(models::Detail detail) {
-  models::CharacterSpec spec;
-  spec.detail = detail;
-  return sim::Simulation(testing::load_inline(models::to_mjcf(models::generate_character(spec))));
+  return sim::Simulation(testing::generated_character(detail));
 }
 
 // Issue 3: the orientation error at each target's reach time must stay below 3 degrees.

@@ -9,16 +9,14 @@
 #include "biodyn/scenarios/walk.h"
 #include "biodyn/sim/errors.h"
 #include "biodyn/sim/model.h"
+#include "character.h"
 #include "test_support.h"
 
 namespace {
 
 using namespace biodyn;
 
-sim::Simulation make_default_sim() {
-  return sim::Simulation(sim::Model::from_string(
-      models::to_mjcf(models::generate_character(models::CharacterSpec{})), "<default character>"));
-}
+sim::Simulation make_default_sim() { return sim::Simulation(testing::generated_character()); }
 
 }  // namespace
 
