@@ -95,6 +95,13 @@ void install_console_log(bool verbose) {
   });
 }
 
+nlohmann::json character_json(const models::CharacterSpec& spec) {
+  return {{"height_m", spec.height_m},
+          {"mass_kg", spec.mass_kg},
+          {"sex", models::to_string(spec.sex)},
+          {"detail", models::to_string(spec.detail)}};
+}
+
 }  // namespace biodyn::apps
 
 #include <unistd.h>

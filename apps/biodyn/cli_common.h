@@ -3,6 +3,7 @@
 /// the console log sink.
 
 #include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
 #include <string>
 #include <utility>
 #include <vector>
@@ -27,6 +28,10 @@ struct CharacterOptions {
   /// validates the values. Throws sim::InvalidArgument naming the field and value.
   models::CharacterSpec to_spec() const;
 };
+
+/// The body an output was computed for, as every JSON summary reports it: height_m, mass_kg,
+/// sex, detail (add a command's own inputs to it).
+nlohmann::json character_json(const models::CharacterSpec& spec);
 
 /// Numbers separated by commas, e.g. "150,0.2,0"; throws sim::InvalidArgument
 /// "<option>: expected <expected>, got '<text>'" on anything else (an empty item too, as a

@@ -79,11 +79,7 @@ Command add_drop_command(CLI::App* app) {
         std::cout << out.str();
 
         if (!o->json.empty()) {
-          nlohmann::json j = {{"inputs",
-                               {{"height_m", spec.height_m},
-                                {"mass_kg", spec.mass_kg},
-                                {"sex", to_string(spec.sex)},
-                                {"detail", to_string(spec.detail)}}},
+          nlohmann::json j = {{"inputs", character_json(spec)},
                               {"model_path", o->output},
                               {"total_mass_kg", character.total_mass_kg()},
                               {"dof", m.nv},

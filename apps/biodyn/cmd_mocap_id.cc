@@ -221,11 +221,7 @@ json id_summary(const IdOptions& o, const mocap_io::InverseDynamicsResult& id, i
           {"frames_used", id.times_s.size()},
           {"first_frame_used", first_used},
           {"time_span_s", {id.times_s.front(), id.times_s.back()}},
-          {"character",
-           {{"height_m", spec.height_m},
-            {"mass_kg", spec.mass_kg},
-            {"sex", models::to_string(spec.sex)},
-            {"detail", models::to_string(spec.detail)}}},
+          {"character", character_json(spec)},
           {"ground", o.grf},
           {"ground_caveat",
            o.grf == "contact"

@@ -247,10 +247,7 @@ int run_ik(const IkOptions& o, bool height_given) {
     }
   }
   stats["inconsistencies"] = capture.inconsistencies;
-  stats["character"] = {{"height_m", spec.height_m},
-                        {"mass_kg", spec.mass_kg},
-                        {"sex", models::to_string(spec.sex)},
-                        {"detail", models::to_string(spec.detail)}};
+  stats["character"] = character_json(spec);
   stats["per_frame"] = e.per_frame;
   write_file_atomically(o.output, mocap_io::format_motion_csv(motion));
   if (!o.json_path.empty()) write_file_atomically(o.json_path, stats.dump(1) + "\n");

@@ -161,9 +161,9 @@ Command add_pose_command(CLI::App* app) {
         }
         if (!o->json.empty()) {
           nlohmann::json j = pose_result_json(r);
-          j["inputs"] = {{"height_m", spec.height_m},  {"mass_kg", spec.mass_kg},
-                         {"sex", to_string(spec.sex)}, {"detail", to_string(spec.detail)},
-                         {"params", o->params_path},   {"push", o->push}};
+          j["inputs"] = character_json(spec);
+          j["inputs"]["params"] = o->params_path;
+          j["inputs"]["push"] = o->push;
           write_file_atomically(o->json, j.dump(2) + "\n");
           std::cout << "  summary:  " << o->json << "\n";
         }

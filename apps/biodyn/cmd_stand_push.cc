@@ -134,13 +134,9 @@ Command add_stand_push_command(CLI::App* app) {
               {"resolution_N", o->scan.resolution_N},
               {"body", o->scan.body},
               {"survived_means", "not fallen and no foot moved 3 cm or more, 3 s after the push"},
-              {"inputs",
-               {{"height_m", spec.height_m},
-                {"mass_kg", spec.mass_kg},
-                {"sex", to_string(spec.sex)},
-                {"detail", to_string(spec.detail)},
-                {"reaction_time_s", o->reaction_time_s},
-                {"params", o->params_path}}}};
+              {"inputs", character_json(spec)}};
+          j["inputs"]["reaction_time_s"] = o->reaction_time_s;
+          j["inputs"]["params"] = o->params_path;
           write_file_atomically(o->json, j.dump(2) + "\n");
           std::cout << "  summary:  " << o->json << "\n";
         }

@@ -311,16 +311,14 @@ Command add_walk_command(CLI::App* app) {
 }
 
 nlohmann::json WalkOptions::inputs_json(const models::CharacterSpec& spec) const {
-  return {{"height_m", spec.height_m},
-          {"mass_kg", spec.mass_kg},
-          {"sex", to_string(spec.sex)},
-          {"detail", to_string(spec.detail)},
-          {"speed_m_s", speed_m_s},
-          {"heading_rate_deg_s", heading_rate_deg_s},
-          {"weld", weld},
-          {"reaction_time_s", reaction_time_s},
-          {"params", params_path},
-          {"timestep_s", timestep_s}};
+  nlohmann::json j = character_json(spec);
+  j["speed_m_s"] = speed_m_s;
+  j["heading_rate_deg_s"] = heading_rate_deg_s;
+  j["weld"] = weld;
+  j["reaction_time_s"] = reaction_time_s;
+  j["params"] = params_path;
+  j["timestep_s"] = timestep_s;
+  return j;
 }
 
 Command add_push_command(CLI::App* app) {
