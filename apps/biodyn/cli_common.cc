@@ -7,6 +7,8 @@
 #include <iostream>
 #include <system_error>
 
+#include "biodyn/mocap_io/motion_csv.h"
+#include "biodyn/models/body_file.h"
 #include "biodyn/sim/errors.h"
 #include "biodyn/sim/file_io.h"
 #include "biodyn/sim/log.h"
@@ -46,19 +48,83 @@ std::vector<double> parse_number_list(const std::string& text, const std::string
 }
 
 void CharacterOptions::add_to(CLI::App* cmd, bool with_overrides) {
-  cmd->add_option("--height", height_m, "Standing height, m")->capture_default_str();
-  cmd->add_option("--mass", mass_kg, "Body mass, kg")->capture_default_str();
-  cmd->add_option("--sex", sex, "male or female (de Leva 1996 tables)")->capture_default_str();
-  cmd->add_option("--detail", detail,
-                  "gait (paper's lower-body model) or full (spine, neck, head, arms)")
-      ->capture_default_str();
+  geometry_options_.push_back(
+      cmd->add_option("--height", height_m, "Standing height, m")->capture_default_str());
+  mass_option_ = cmd->add_option("--mass", mass_kg, "Body mass, kg")->capture_default_str();
+  geometry_options_.push_back(
+      cmd->add_option("--sex", sex, "male or female (de Leva 1996 tables)")->capture_default_str());
+  geometry_options_.push_back(
+      cmd->add_option("--detail", detail,
+                      "gait (paper's lower-body model) or full (spine, neck, head, arms)")
+          ->capture_default_str());
   if (with_overrides) {
-    cmd->add_option("--overrides", overrides_path,
-                    "JSON {\"segments\": {\"thigh\": {\"mass_kg\": 9, \"length_m\": 0.45}}}");
+    geometry_options_.push_back(
+        cmd->add_option("--overrides", overrides_path,
+                        "JSON {\"segments\": {\"thigh\": {\"mass_kg\": 9, \"length_m\": 0.45}}}"));
+    geometry_options_.push_back(
+        cmd->add_option("--body-file", body_path,
+                        "body file (JSON: height, mass, sex, detail, segments, markers), e.g. "
+                        "the <motion>.body.json mocap ik writes; --mass may still change the "
+                        "mass"));
   }
 }
 
+bool CharacterOptions::geometry_given() const {
+  return std::any_of(geometry_options_.begin(), geometry_options_.end(),
+                     [](const CLI::Option* o) { return o->count() > 0; });
+}
+
+models::CharacterSpec CharacterOptions::spec_for_motion(const std::string& motion_path,
+                                                        std::vector<std::string>* notes) const {
+  const std::optional<models::CharacterSpec> header =
+      mocap_io::motion_body(mocap_io::read_motion_csv(motion_path), motion_path);
+  if (!header) {
+    notes->push_back(motion_path +
+                     " does not say which body it was made on (no body header: an older or "
+                     "hand-made file); using the body of the command line");
+    return to_spec();
+  }
+  const auto describe = [](const models::CharacterSpec& s) {
+    return std::string(models::to_string(s.sex)) + " " + std::to_string(s.height_m) + " m (" +
+           models::to_string(s.detail) + ", " + std::to_string(s.overrides.size()) +
+           " segment overrides)";
+  };
+  if (geometry_given()) {
+    const models::CharacterSpec given = to_spec();
+    const std::string diff = models::geometry_difference(*header, given);
+    if (!diff.empty()) {
+      throw sim::InvalidArgument(
+          motion_path + " was made on a " + describe(*header) + " body; the body given differs (" +
+          diff +
+          "): leave out the body options to use the motion's own body, or put the motion on "
+          "the other body with biodyn mocap retarget");
+    }
+    return given;
+  }
+  models::CharacterSpec spec = *header;
+  if (mass_option_ != nullptr && mass_option_->count() > 0 && mass_kg != spec.mass_kg) {
+    notes->push_back("the motion's body (" + describe(spec) + ") with --mass " +
+                     std::to_string(mass_kg) + " kg instead of its " +
+                     std::to_string(spec.mass_kg) + " kg: joint angles hold, forces change");
+    spec.mass_kg = mass_kg;
+  }
+  return spec;
+}
+
 models::CharacterSpec CharacterOptions::to_spec() const {
+  if (!body_path.empty()) {
+    for (const CLI::Option* o : geometry_options_) {
+      if (o->count() > 0 && o->get_name() != "--body-file") {
+        throw sim::InvalidArgument(
+            o->get_name() +
+            ": the body file given with --body-file fixes it; give one or the "
+            "other");
+      }
+    }
+    models::CharacterSpec spec = models::parse_body_json(read_file(body_path), body_path);
+    if (mass_option_ != nullptr && mass_option_->count() > 0) spec.mass_kg = mass_kg;
+    return spec;
+  }
   models::CharacterSpec spec;
   spec.height_m = height_m;
   spec.mass_kg = mass_kg;

@@ -21,12 +21,26 @@ struct CharacterOptions {
   std::string sex = "male";
   std::string detail = "full";
   std::string overrides_path;  ///< JSON file, optional
+  std::string body_path;       ///< body file (models/body_file.h), optional
 
-  /// Adds --height --mass --sex --detail --overrides to `cmd`.
+  /// Adds --height --mass --sex --detail (and --overrides --body-file) to `cmd`.
   void add_to(CLI::App* cmd, bool with_overrides = true);
-  /// Builds the spec (reading and name-checking the overrides file); generate_character
-  /// validates the values. Throws sim::InvalidArgument naming the field and value.
+  /// Builds the spec (reading and name-checking the overrides or body file); generate_character
+  /// validates the values. Throws sim::InvalidArgument naming the field and value, or when
+  /// --body-file is given with --height, --sex, --detail or --overrides (it fixes those).
   models::CharacterSpec to_spec() const;
+  /// The body to use for the motion CSV `motion_path`: the one its header names (the body
+  /// `mocap ik` scaled or `mocap retarget` generated) unless the command line gives one; a
+  /// given body whose geometry differs from the header's is refused (sim::InvalidArgument
+  /// naming both). --mass may differ (joint angles hold on any mass): `notes` says so, and
+  /// says when the motion has no header.
+  models::CharacterSpec spec_for_motion(const std::string& motion_path,
+                                        std::vector<std::string>* notes) const;
+
+ private:
+  bool geometry_given() const;  ///< --height, --sex, --detail, --overrides or --body-file given
+  std::vector<CLI::Option*> geometry_options_;
+  CLI::Option* mass_option_ = nullptr;
 };
 
 /// The body an output was computed for, as every JSON summary reports it: height_m, mass_kg,

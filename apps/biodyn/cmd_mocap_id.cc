@@ -203,6 +203,63 @@ std::string residuals_csv(const mocap_io::InverseDynamicsResult& id) {
   return residuals.str();
 }
 
+/// The name of an InverseDynamicsResult::plate_foot entry.
+const char* plate_foot_name(int foot) {
+  switch (foot) {
+    case models::kLeft:
+      return "left";
+    case models::kRight:
+      return "right";
+    case mocap_io::kPlateUnassigned:
+      return "unassigned";
+    default:
+      return "unloaded";
+  }
+}
+
+/// plates.csv: time and, per plate, the foot that carried its load.
+std::string plates_csv(const mocap_io::InverseDynamicsResult& id) {
+  std::ostringstream out;
+  out.precision(9);
+  out << "time";
+  for (Eigen::Index p = 0; p < id.plate_foot.cols(); ++p) out << ",plate" << p + 1 << "_foot";
+  out << "\n";
+  for (size_t i = 0; i < id.times_s.size(); ++i) {
+    out << id.times_s[i];
+    for (Eigen::Index p = 0; p < id.plate_foot.cols(); ++p) {
+      out << "," << plate_foot_name(id.plate_foot(static_cast<Eigen::Index>(i), p));
+    }
+    out << "\n";
+  }
+  return out.str();
+}
+
+/// Per plate: frames loaded by each foot and unassigned (with the times), for summary.json.
+json plate_summary(const mocap_io::InverseDynamicsResult& id, int* unassigned_total) {
+  json plates = json::array();
+  *unassigned_total = 0;
+  for (Eigen::Index p = 0; p < id.plate_foot.cols(); ++p) {
+    int left = 0, right = 0, unassigned = 0;
+    std::vector<double> unassigned_times;
+    for (Eigen::Index i = 0; i < id.plate_foot.rows(); ++i) {
+      const int foot = id.plate_foot(i, p);
+      left += foot == models::kLeft;
+      right += foot == models::kRight;
+      if (foot == mocap_io::kPlateUnassigned) {
+        ++unassigned;
+        unassigned_times.push_back(id.times_s[static_cast<size_t>(i)]);
+      }
+    }
+    *unassigned_total += unassigned;
+    plates.push_back({{"plate", p + 1},
+                      {"frames_left_foot", left},
+                      {"frames_right_foot", right},
+                      {"frames_unassigned", unassigned},
+                      {"unassigned_times_s", unassigned_times}});
+  }
+  return plates;
+}
+
 /// Per frame, the norm of each row of `x` (N or N m).
 Eigen::VectorXd row_norms(const Eigen::MatrixXd& x) { return x.rowwise().norm(); }
 
@@ -279,7 +336,8 @@ int run_id(const IdOptions& o) {
   double plate_rate = 0.0;
   options.ground = ground_forces(o, &plates, &plate_rate);
   const mocap_io::Motion all = mocap_io::read_motion_csv(o.motion);
-  models::CharacterSpec spec = o.character.to_spec();
+  std::vector<std::string> body_notes;
+  const models::CharacterSpec spec = o.character.spec_for_motion(o.motion, &body_notes);
   const models::Character character = models::generate_character(spec);
   const sim::Model model = sim::Model::from_string(models::to_mjcf(character), "character");
   mocap_io::check_motion_matches(all, *model, o.motion);
@@ -293,12 +351,35 @@ int run_id(const IdOptions& o) {
   const std::vector<double> strikes =
       foot_strikes(*model, motion, models::Rig(*model).leg(models::kLeft).foot);
   const double body_weight_N = character.total_mass_kg() * 9.81;
-  const json summary = id_summary(o, id, first + options.trim_frames, spec, body_weight_N, strikes);
-  write_file_atomically(o.output + "/torques.csv", torques_csv(id));
-  write_file_atomically(o.output + "/residuals.csv", residuals_csv(id));
-  write_file_atomically(o.output + "/summary.json", summary.dump(1) + "\n");
+  json summary = id_summary(o, id, first + options.trim_frames, spec, body_weight_N, strikes);
+  summary["body_notes"] = body_notes;
+  summary["body_source"] =
+      mocap_io::motion_body(all, o.motion) ? "the motion's header" : "the command line";
+  int unassigned = 0;
+  if (options.ground == mocap_io::GroundForces::kForcePlates) {
+    summary["plates"] = plate_summary(id, &unassigned);
+    summary["plate_assignment"] =
+        "a plate's load goes to the foot whose sole is on the plate (within 3 cm of its surface) "
+        "with the centre of pressure under it (within 4 cm); unassigned loads (both feet or "
+        "neither) are not applied and stay in the root residual";
+  }
+  const std::string torques = torques_csv(id), residuals = residuals_csv(id);
+  const std::string summary_text =
+      summary.dump(1, ' ', false, json::error_handler_t::replace) + "\n";
+  write_file_atomically(o.output + "/torques.csv", torques);
+  write_file_atomically(o.output + "/residuals.csv", residuals);
+  if (options.ground == mocap_io::GroundForces::kForcePlates) {
+    write_file_atomically(o.output + "/plates.csv", plates_csv(id));
+  }
+  write_file_atomically(o.output + "/summary.json", summary_text);
   plot_torques(o.output, id, strikes, spec.mass_kg);
   print_id(o, id, options.ground, spec, body_weight_N);
+  for (const std::string& n : body_notes) std::cout << "  note: " << n << "\n";
+  if (unassigned > 0) {
+    std::cerr << "WARNING: " << unassigned
+              << " loaded plate frames have no single foot on the plate (both feet or neither): "
+                 "their load is not applied and stays in the root residual (plates.csv)\n";
+  }
   return kExitOk;
 }
 

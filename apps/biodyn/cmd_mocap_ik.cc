@@ -9,9 +9,11 @@
 #include "biodyn/mocap_io/bvh.h"
 #include "biodyn/mocap_io/c3d.h"
 #include "biodyn/mocap_io/marker_ik.h"
+#include "biodyn/mocap_io/marker_labels.h"
 #include "biodyn/mocap_io/motion_csv.h"
 #include "biodyn/mocap_io/scaling.h"
 #include "biodyn/mocap_io/trc.h"
+#include "biodyn/models/body_file.h"
 #include "biodyn/models/marker_set.h"
 #include "biodyn/models/mjcf.h"
 #include "biodyn/models/rig.h"
@@ -29,7 +31,13 @@ struct IkOptions {
   std::string c3d, trc, markerset, static_trial, output, json_path, lab_up = "z";
   CharacterOptions character;
   int max_iterations = 15;
+  double max_frame_rms_m = 0.05;
+  bool no_scaling = false;
 };
+
+/// The fit a user can trust: mean marker RMS over the solved frames below this (m) is a scaled
+/// body on good data (walking5: 7 mm); above it the joint angles are questionable.
+constexpr double kTrustedRms_m = 0.02;
 
 /// Marker trajectories (and what else the file had) from a C3D or TRC file.
 struct MarkerFile {
@@ -84,9 +92,12 @@ models::MarkerSet choose_marker_set(const std::string& given, const mocap_io::Ma
       }
     }
     if (best == 0) {
-      throw sim::InvalidArgument(capture_path +
-                                 ": no built-in marker set shares a label "
-                                 "with this capture; give --markerset FILE.json");
+      std::string sets;
+      for (const std::string& n : models::builtin_marker_set_names()) sets += " " + n;
+      throw sim::InvalidArgument(capture_path + ": no built-in marker set (" + sets.substr(1) +
+                                 ") shares a label with this capture; give --markerset "
+                                 "FILE.json naming its labels: " +
+                                 mocap_io::label_list(markers.labels));
     }
   } else if (given.find(".json") != std::string::npos) {
     set = models::parse_marker_set(read_file(given), given);
@@ -96,14 +107,11 @@ models::MarkerSet choose_marker_set(const std::string& given, const mocap_io::Ma
   return set;
 }
 
-/// Scales `spec` from the static trial and places its markers (OpenSim's ScaleTool); returns
-/// the "scaling" statistics.
-json scale_to_static(const IkOptions& o, bool height_given, const models::MarkerSet& set,
-                     models::CharacterSpec* spec) {
-  MarkerFile stat = read_markers(o.static_trial, "--static");
-  to_z_up(&stat.markers, o.lab_up);
-  const mocap_io::ScaleResult scaled =
-      mocap_io::scale_from_static(*spec, height_given, set, stat.markers);
+/// Scales `spec` to the subject and places its markers (OpenSim's ScaleTool) from `trial`
+/// (`source` names it: the --static file, or the trial itself); returns the "scaling" statistics.
+json scale_to_trial(const mocap_io::MarkerData& trial, const std::string& source, bool height_given,
+                    const models::MarkerSet& set, models::CharacterSpec* spec) {
+  const mocap_io::ScaleResult scaled = mocap_io::scale_from_static(*spec, height_given, set, trial);
   *spec = scaled.spec;
   json factors = json::array();
   for (const mocap_io::ScaleFactor& f : scaled.factors) {
@@ -113,10 +121,40 @@ json scale_to_static(const IkOptions& o, bool height_given, const models::Marker
                        {"factor", f.factor},
                        {"frames", f.frames}});
   }
-  return {{"static_trial", o.static_trial},     {"height_m", spec->height_m},
-          {"height_estimated", !height_given},  {"factors", factors},
-          {"placed_markers", scaled.placed},    {"static_rms_m", scaled.static_rms_m},
+  return {{"static_trial", source},
+          {"height_m", spec->height_m},
+          {"height_estimated", !height_given},
+          {"factors", factors},
+          {"placed_markers", scaled.placed},
+          {"fixed_markers", set.fixed},
+          {"static_rms_m", scaled.static_rms_m},
           {"static_max_m", scaled.static_max_m}};
+}
+
+/// Scales the body: from --static, else from the trial itself (a walk shows every segment),
+/// else (--no-scaling, or the trial cannot scale it) by height only, with a warning.
+json scale_body(const IkOptions& o, const mocap_io::MarkerData& trial,
+                const std::string& capture_path, bool height_given, const models::MarkerSet& set,
+                models::CharacterSpec* spec, std::vector<std::string>* warnings) {
+  if (!o.static_trial.empty()) {
+    MarkerFile stat = read_markers(o.static_trial, "--static");
+    to_z_up(&stat.markers, o.lab_up);
+    mocap_io::strip_subject_prefixes(&stat.markers);
+    return scale_to_trial(stat.markers, o.static_trial, height_given, set, spec);
+  }
+  if (!o.no_scaling) {
+    try {
+      return scale_to_trial(trial, capture_path + " (the trial itself: no --static given)",
+                            height_given, set, spec);
+    } catch (const sim::InvalidArgument& e) {
+      warnings->push_back(std::string("could not scale the body from the trial itself (") +
+                          e.what() + "); give a static trial with --static");
+    }
+  }
+  warnings->push_back("the body is the generic " + std::to_string(spec->height_m) +
+                      " m character with generic marker placements (not scaled to the subject): "
+                      "expect centimetres of marker error and biased joint angles");
+  return {{"static_trial", nullptr}, {"height_m", spec->height_m}};
 }
 
 /// The marker errors over the solved frames.
@@ -192,7 +230,64 @@ mocap_io::Motion ik_motion(const sim::Model& model, const mocap_io::MarkerIkResu
                      " character: " + std::string(models::to_string(spec.sex)) + ", " +
                          std::to_string(spec.height_m) + " m, " + std::to_string(spec.mass_kg) +
                          " kg, detail " + models::to_string(spec.detail)};
+  mocap_io::set_motion_body(&motion, spec);
   return motion;
+}
+
+/// The fit's warnings: a poor mean RMS, rejected frames (status "warning" in the JSON).
+void judge_fit(const IkErrors& e, const mocap_io::MarkerIkResult& result, const IkOptions& o,
+               std::vector<std::string>* warnings) {
+  const double mean = e.rms_sum / e.solved;
+  if (mean > kTrustedRms_m) {
+    warnings->push_back("marker RMS " + std::to_string(1000 * mean) +
+                        " mm over the solved "
+                        "frames (trusted below " +
+                        std::to_string(1000 * kTrustedRms_m) +
+                        " mm): the body or the marker set does not fit this capture");
+  }
+  if (result.rejected_count() > 0) {
+    warnings->push_back(std::to_string(result.rejected_count()) +
+                        " frames refused: their best fit was worse than " +
+                        std::to_string(1000 * o.max_frame_rms_m) +
+                        " mm RMS (wrong data such as gaps stored as 0 0 0, or swapped labels); "
+                        "they are written as unsolved (nan)");
+  }
+}
+
+/// Every output's text, made before any is written: a failure leaves nothing half-written.
+struct IkOutputs {
+  std::string motion_csv, stats_json, body_json, mjcf;
+};
+
+/// <output without .csv>.body.json and .xml: the body the IK solved on.
+std::string beside(const std::string& output, const std::string& suffix) {
+  const std::string stem = output.size() > 4 && output.substr(output.size() - 4) == ".csv"
+                               ? output.substr(0, output.size() - 4)
+                               : output;
+  return stem + suffix;
+}
+
+/// The console summary; warnings loudly, on stderr too.
+void print_ik(const IkOptions& o, const IkErrors& e, const mocap_io::MarkerIkResult& result,
+              const mocap_io::MarkerData& markers, const models::MarkerSet& set,
+              const MarkerFile& capture, const std::vector<std::string>& prefixes,
+              const std::vector<std::string>& warnings) {
+  std::cout << "mocap ik: " << e.solved << "/" << markers.frame_count()
+            << " frames solved (marker set " << set.name << ")";
+  if (result.rejected_count() > 0) std::cout << ", " << result.rejected_count() << " refused";
+  std::cout << ", marker RMS mean " << 1000 * e.rms_sum / e.solved << " mm, worst frame "
+            << 1000 * e.rms_max << " mm, max " << 1000 * e.max_error << " mm (" << e.max_marker
+            << "), " << static_cast<long>(result.solved_per_second()) << " solved frames/s\n";
+  for (const std::string& p : prefixes) {
+    std::cout << "  note: labels' subject prefix '" << p << ":' ignored\n";
+  }
+  for (const std::string& s : capture.inconsistencies) {
+    std::cout << "  note: header and contents disagree: " << s << "\n";
+  }
+  for (const std::string& w : warnings) std::cerr << "WARNING: mocap ik: " << w << "\n";
+  std::cout << "wrote " << o.output << ", " << beside(o.output, ".body.json") << " and "
+            << beside(o.output, ".xml") << " (the body solved on)"
+            << (o.json_path.empty() ? "" : " and " + o.json_path) << "\n";
 }
 
 int run_ik(const IkOptions& o, bool height_given) {
@@ -202,21 +297,28 @@ int run_ik(const IkOptions& o, bool height_given) {
   if (o.lab_up != "z" && o.lab_up != "y") {
     throw sim::InvalidArgument("--lab-up: expected z or y, got '" + o.lab_up + "'");
   }
+  if (o.no_scaling && !o.static_trial.empty()) {
+    throw sim::InvalidArgument("--no-scaling: not with --static (which scales the body)");
+  }
   const std::string capture_path = o.c3d.empty() ? o.trc : o.c3d;
   MarkerFile capture = read_markers(capture_path, o.c3d.empty() ? "--trc" : "--c3d");
   to_z_up(&capture.markers, o.lab_up);
+  const std::vector<std::string> prefixes = mocap_io::strip_subject_prefixes(&capture.markers);
   const mocap_io::MarkerData& markers = capture.markers;
   const models::MarkerSet set = choose_marker_set(o.markerset, markers, capture_path);
   models::CharacterSpec spec = o.character.to_spec();
   spec.markers = set.markers;
   json stats;
-  if (!o.static_trial.empty()) stats["scaling"] = scale_to_static(o, height_given, set, &spec);
+  std::vector<std::string> warnings;
+  stats["scaling"] = scale_body(o, markers, capture_path, height_given, set, &spec, &warnings);
   const models::Character character = models::generate_character(spec);
-  const sim::Model model = sim::Model::from_string(models::to_mjcf(character), "character");
+  const std::string mjcf = models::to_mjcf(character);
+  const sim::Model model = sim::Model::from_string(mjcf, "character");
   std::vector<double> weights;
   for (const std::string& label : markers.labels) weights.push_back(set.weight(label));
   mocap_io::MarkerIkOptions options;
   options.max_iterations = o.max_iterations;
+  options.max_frame_rms_m = o.max_frame_rms_m;
   ProgressBar bar("mocap ik: " + std::to_string(markers.frame_count()) + " frames");
   const mocap_io::MarkerIkResult result = mocap_io::solve_marker_ik(
       *model, markers, weights, options, {},
@@ -224,42 +326,48 @@ int run_ik(const IkOptions& o, bool height_given) {
   bar.finish();
   const IkErrors e = frame_errors(result, markers);
   if (e.solved == 0) {
-    throw sim::InvalidArgument(capture_path +
-                               ": no frame has enough visible markers "
-                               "of the marker set '" +
-                               set.name + "' for IK");
+    throw sim::InvalidArgument(
+        capture_path + ": no frame solved with the marker set '" + set.name + "' (" +
+        std::to_string(result.rejected_count()) + " fitted worse than " +
+        std::to_string(1000 * o.max_frame_rms_m) +
+        " mm RMS and refused (--max-frame-rms), the others had too few visible markers); "
+        "nothing written");
   }
+  judge_fit(e, result, o, &warnings);
   stats["per_marker"] = marker_errors(model, markers, weights, options, result);
-  const mocap_io::Motion motion = ik_motion(model, result, markers, capture_path, set, spec);
   stats["frames"] = markers.frame_count();
   stats["frames_solved"] = e.solved;
+  stats["frames_rejected"] = result.rejected_count();
   stats["rms_mean"] = e.rms_sum / e.solved;
   stats["rms_max"] = e.rms_max;
   stats["max_error"] = e.max_error;
   stats["max_error_marker"] = e.max_marker;
-  stats["frames_per_second"] = markers.frame_count() / std::max(result.seconds, 1e-9);
+  stats["solved_frames_per_second"] = result.solved_per_second();
   stats["marker_set"] = set.name;
+  stats["label_prefixes_ignored"] = prefixes;
   stats["unmapped_labels"] = json::array();
   const models::Rig rig(*model);
   for (const std::string& l : markers.labels) {
-    if (rig.marker_site(l) < 0) {
-      stats["unmapped_labels"].push_back(l);
-    }
+    if (rig.marker_site(l) < 0) stats["unmapped_labels"].push_back(l);
   }
   stats["inconsistencies"] = capture.inconsistencies;
   stats["character"] = character_json(spec);
+  stats["body_file"] = beside(o.output, ".body.json");
+  stats["status"] = {{"level", warnings.empty() ? "ok" : "warning"},
+                     {"rms_mean_m", e.rms_sum / e.solved},
+                     {"warnings", warnings}};
   stats["per_frame"] = e.per_frame;
-  write_file_atomically(o.output, mocap_io::format_motion_csv(motion));
-  if (!o.json_path.empty()) write_file_atomically(o.json_path, stats.dump(1) + "\n");
-  std::cout << "mocap ik: " << e.solved << "/" << markers.frame_count()
-            << " frames solved (marker set " << set.name << "), marker RMS mean "
-            << 1000 * e.rms_sum / e.solved << " mm, worst frame " << 1000 * e.rms_max << " mm, max "
-            << 1000 * e.max_error << " mm (" << e.max_marker << "), "
-            << static_cast<long>(stats["frames_per_second"].get<double>()) << " frames/s\n";
-  for (const std::string& s : capture.inconsistencies) {
-    std::cout << "  note: header and contents disagree: " << s << "\n";
-  }
-  std::cout << "wrote " << o.output << (o.json_path.empty() ? "" : " and " + o.json_path) << "\n";
+  IkOutputs out;
+  out.motion_csv =
+      mocap_io::format_motion_csv(ik_motion(model, result, markers, capture_path, set, spec));
+  out.stats_json = stats.dump(1, ' ', false, json::error_handler_t::replace) + "\n";
+  out.body_json = models::format_body_json(spec);
+  out.mjcf = mjcf;
+  write_file_atomically(o.output, out.motion_csv);
+  write_file_atomically(beside(o.output, ".body.json"), out.body_json);
+  write_file_atomically(beside(o.output, ".xml"), out.mjcf);
+  if (!o.json_path.empty()) write_file_atomically(o.json_path, out.stats_json);
+  print_ik(o, e, result, markers, set, capture, prefixes, warnings);
   return kExitOk;
 }
 
@@ -277,7 +385,14 @@ Command add_mocap_ik_command(CLI::App* mocap) {
                      "the built-in set sharing the most labels with the capture");
   ik_cmd->add_option("--static", ik->static_trial,
                      "static trial (.c3d/.trc) to scale the character and place markers from "
-                     "(OpenSim's ScaleTool); without it the character is scaled by height");
+                     "(OpenSim's ScaleTool); without it the trial itself scales and places");
+  ik_cmd->add_flag("--no-scaling", ik->no_scaling,
+                   "keep the generic body scaled by height and its generic marker placements "
+                   "(a warning says the fit is not to be trusted)");
+  ik_cmd
+      ->add_option("--max-frame-rms", ik->max_frame_rms_m,
+                   "m: a frame fitted worse than this is refused (written as unsolved)")
+      ->capture_default_str();
   ik_cmd->add_option("--lab-up", ik->lab_up, "vertical axis of the capture lab: z or y")
       ->capture_default_str();
   ik->character.add_to(ik_cmd);

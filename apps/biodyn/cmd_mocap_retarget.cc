@@ -112,7 +112,10 @@ void plot_feet(const std::string& dir, const mocap_io::RetargetResult& r) {
   gp << "plot '" << dir
      << "/feet_plot.dat' index 0 using 1:2 with lines lw 1.5 lc rgb '#3060c0' "
         "title 'left', '' index 0 using 1:3 with lines lw 1.5 lc rgb '#c03030' title 'right', "
-        "-5 with lines dt 2 lc rgb 'black' title 'penetration bound (5 mm)'\n"
+        "-"
+     << 1000 * mocap_io::kRetargetPenetrationBound_m
+     << " with lines dt 2 lc rgb 'black' title 'penetration bound ("
+     << 1000 * mocap_io::kRetargetPenetrationBound_m << " mm)'\n"
      << "unset object\n"
      << "set title 'Stance-foot slide per step (largest horizontal travel of a planted sole "
         "point)'\n"

@@ -42,7 +42,9 @@ Command add_render_command(CLI::App* app) {
   return {cmd, [o]() {
             std::tie(o->render.width, o->render.height) = parse_size(o->size, "--size");
             o->render.validate();
-            scenarios::LiveScenario scenario(o->view.to_config());
+            std::vector<std::string> body_notes;
+            scenarios::LiveScenario scenario(o->view.to_config(&body_notes));
+            for (const std::string& n : body_notes) std::cout << "render: note: " << n << "\n";
             std::ostringstream label;
             label << "render " << o->view.scenario << ": " << o->render.duration_s << " s";
             ProgressBar bar(label.str());
@@ -68,6 +70,8 @@ Command add_render_command(CLI::App* app) {
                 {"physics_realtime_factor", st.simulated_s / std::max(st.physics_s, 1e-9)},
                 {"video", o->render.video_path},
                 {"png", o->render.png_path}};
+            // Only when the motion's header decided the body (a .csv motion): said so.
+            if (!body_notes.empty()) summary["body_notes"] = body_notes;
             if (o->view.scenario == "stones")
               summary["stones"] = stones_json(scenario.config().steps_m, scenario.stones());
             if (scenario.tracker() != nullptr)

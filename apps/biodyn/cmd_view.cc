@@ -44,7 +44,10 @@ Command add_view_command(CLI::App* app) {
                   "--size: expected WIDTHxHEIGHT of at least 320x240, got '" + o->size + "'");
             }
             std::cout << "view " << o->view.scenario << ": " << o->view.assumption() << "\n";
-            const viewer::ViewerStats st = viewer::run_viewer(o->view.to_config(), o->viewer);
+            std::vector<std::string> body_notes;
+            const scenarios::ScenarioConfig config = o->view.to_config(&body_notes);
+            for (const std::string& n : body_notes) std::cout << "view: note: " << n << "\n";
+            const viewer::ViewerStats st = viewer::run_viewer(config, o->viewer);
             std::cout << "view: " << st.frames << " frames in " << st.wall_s << " s ("
                       << st.frames_per_s << " frames/s); simulated " << st.simulated_s
                       << " s, physics " << st.physics_steps_per_s << " steps/s ("

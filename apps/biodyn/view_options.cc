@@ -65,10 +65,16 @@ void ViewOptions::add_to(CLI::App* cmd) {
           ->capture_default_str());
 }
 
-scenarios::ScenarioConfig ViewOptions::to_config() const {
+scenarios::ScenarioConfig ViewOptions::to_config(std::vector<std::string>* notes) const {
   scenarios::ScenarioConfig c;
   c.scenario = scenario;
-  c.character = character.to_spec();
+  const bool motion_csv = scenario == "mocap" && motion_path.size() > 4 &&
+                          motion_path.substr(motion_path.size() - 4) == ".csv";
+  // A motion CSV is played on the body it was made on (its header), not a default one.
+  std::vector<std::string> body_notes;
+  c.character =
+      motion_csv ? character.spec_for_motion(motion_path, &body_notes) : character.to_spec();
+  if (notes != nullptr) *notes = body_notes;
   const bool speed_given = speed_option != nullptr && speed_option->count() > 0;
   c.speed_m_s = speed_given ? speed_m_s : scenario == "stones" ? 0.7 : 1.0;
   // Options of one scenario or mode are refused elsewhere, not silently ignored.

@@ -36,7 +36,9 @@ struct ViewOptions {
   /// --steps-start.
   void add_to(CLI::App* cmd);
   /// Reads the files; throws sim::InvalidArgument naming the option or file.
-  scenarios::ScenarioConfig to_config() const;
+  /// `notes` (optional) receives what the user should know about the body chosen (a motion
+  /// CSV is played on the body of its header).
+  scenarios::ScenarioConfig to_config(std::vector<std::string>* notes = nullptr) const;
   /// What the results depend on, said in every output: the foot-contact mode, or for the mocap
   /// scenario that it is a kinematic playback.
   std::string assumption() const;

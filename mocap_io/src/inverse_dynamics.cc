@@ -9,6 +9,7 @@
 #include "biodyn/sim/errors.h"
 #include "biodyn/sim/model.h"
 #include "biodyn/sim/units.h"
+#include "plate_assignment.h"
 
 namespace biodyn::mocap_io {
 namespace {
@@ -118,15 +119,20 @@ Eigen::MatrixXd filtered_positions(const mjModel& m, const Eigen::MatrixXd& qpos
   return q;
 }
 
-/// The force plates' ground reaction at time `t_s` on the pose in `d`: each loaded plate's force
-/// and free moment, applied at its centre of pressure to the foot nearest it, is added to
-/// `qfrc_ground` (nv); returns the sum of the forces applied, N, world.
+/// The force plates' ground reaction at time `t_s` on the pose in `d` (kinematics done): each
+/// loaded plate's force and free moment, applied at its centre of pressure to the foot standing
+/// on it (plate_assignment.h), is added to `qfrc_ground` (nv); `plate_foot` (one per plate)
+/// gets the side, kPlateUnloaded or kPlateUnassigned. Returns the sum of the forces applied, N,
+/// world.
 Eigen::Vector3d apply_force_plates(const mjModel& m, mjData* d,
                                    const std::vector<ForcePlate>& plates, double plate_rate_hz,
-                                   double t_s, const std::array<int, 2>& foot_bodies,
-                                   std::vector<mjtNum>* qfrc_ground) {
+                                   double t_s, const plate_internal::PlateFeet& feet,
+                                   const std::array<int, 2>& foot_bodies,
+                                   std::vector<mjtNum>* qfrc_ground, int* plate_foot) {
   Eigen::Vector3d total = Eigen::Vector3d::Zero();
-  for (const ForcePlate& p : plates) {
+  for (size_t i = 0; i < plates.size(); ++i) {
+    const ForcePlate& p = plates[i];
+    plate_foot[i] = kPlateUnloaded;
     const double s = t_s * plate_rate_hz;
     const int s0 = std::clamp(static_cast<int>(std::floor(s)), 0, p.sample_count() - 1);
     const int s1 = std::min(s0 + 1, p.sample_count() - 1);
@@ -140,22 +146,14 @@ Eigen::Vector3d apply_force_plates(const mjModel& m, mjData* d,
     const Eigen::Vector3d free_moment =
         (1 - w) * p.free_moment_Nm.row(s0).transpose() + w * p.free_moment_Nm.row(s1).transpose();
     if (!cop.allFinite() || !free_moment.allFinite()) continue;
-    // Apply to the foot nearest the centre of pressure.
-    int body = foot_bodies[0];
-    double best = 1e9;
-    for (int b : foot_bodies) {
-      if (b < 0) continue;
-      const double dist = (Eigen::Vector3d(d->xpos + 3 * b) - cop).head<2>().norm();
-      if (dist < best) {
-        best = dist;
-        body = b;
-      }
-    }
-    if (body < 0) continue;
+    const int side = feet.foot_for(*d, p, cop);
+    plate_foot[i] = side < 0 ? kPlateUnassigned : side;
+    if (side < 0) continue;  // left in the root residual, reported
     mjtNum force[3] = {grf.x(), grf.y(), grf.z()};
     mjtNum torque[3] = {free_moment.x(), free_moment.y(), free_moment.z()};
     mjtNum point[3] = {cop.x(), cop.y(), cop.z()};
-    mj_applyFT(&m, d, force, torque, point, body, qfrc_ground->data());
+    mj_applyFT(&m, d, force, torque, point, foot_bodies[static_cast<size_t>(side)],
+               qfrc_ground->data());
     total += grf;
   }
   return total;
@@ -295,6 +293,10 @@ InverseDynamicsResult inverse_dynamics(const mjModel& model, const Motion& motio
   const models::Rig rig(*m);
   const std::array<int, 2> foot_bodies = {rig.leg(models::kLeft).foot,
                                           rig.leg(models::kRight).foot};
+  const plate_internal::PlateFeet plate_feet(*m, foot_bodies);
+  r.plate_foot = Eigen::MatrixXi::Constant(out_frames, static_cast<Eigen::Index>(plates.size()),
+                                           kPlateUnloaded);
+  std::vector<int> plate_foot(plates.size(), kPlateUnloaded);
   for (int i = 0; i < out_frames; ++i) {
     const int f = i + trim;
     diff(f - 1, f, &v_back);
@@ -311,8 +313,11 @@ InverseDynamicsResult inverse_dynamics(const mjModel& model, const Motion& motio
     if (options.ground == GroundForces::kForcePlates) {
       r.ground_force_N.row(i) =
           apply_force_plates(*m, d, plates, plate_rate_hz, motion.times_s[static_cast<size_t>(f)],
-                             foot_bodies, &qfrc_ground)
+                             plate_feet, foot_bodies, &qfrc_ground, plate_foot.data())
               .transpose();
+      for (size_t p = 0; p < plates.size(); ++p) {
+        r.plate_foot(i, static_cast<Eigen::Index>(p)) = plate_foot[p];
+      }
     }
     if (options.ground == GroundForces::kContact) {
       r.ground_force_N.row(i) = contact_ground_force(*m, d).transpose();

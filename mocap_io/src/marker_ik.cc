@@ -7,6 +7,7 @@
 #include <cmath>
 #include <limits>
 
+#include "biodyn/mocap_io/marker_labels.h"
 #include "biodyn/models/rig.h"
 #include "biodyn/sim/errors.h"
 
@@ -59,6 +60,10 @@ void MarkerIkOptions::validate() const {
     throw sim::InvalidArgument("IK regularization: must be >= 0, got " +
                                std::to_string(regularization));
   }
+  if (!(max_frame_rms_m > 0)) {
+    throw sim::InvalidArgument("IK max_frame_rms_m: must be > 0, got " +
+                               std::to_string(max_frame_rms_m));
+  }
   if (!(min_visible_fraction >= 0 && min_visible_fraction <= 1)) {
     throw sim::InvalidArgument("IK min_visible_fraction: must be within [0, 1], got " +
                                std::to_string(min_visible_fraction));
@@ -83,7 +88,9 @@ MarkerIk::MarkerIk(const mjModel& model, const std::vector<std::string>& labels,
   if (mapped_count() < kMinRootMarkers) {
     throw sim::InvalidArgument("IK: only " + std::to_string(mapped_count()) +
                                " of the capture's labels name a marker site of the character; "
-                               "at least 3 are needed (check the marker set)");
+                               "at least 3 are needed (check the marker set). The capture's "
+                               "labels: " +
+                               label_list(labels));
   }
   // The root: the body of the model's free joint (the pelvis of a generated character).
   for (int j = 0; j < m_.njnt; ++j) {
@@ -315,6 +322,20 @@ Eigen::Matrix3Xd MarkerIk::marker_positions(const mjtNum* qpos) {
   return out;
 }
 
+int MarkerIkResult::solved_count() const {
+  return static_cast<int>(
+      std::count_if(frames.begin(), frames.end(), [](const MarkerIkFrame& f) { return f.solved; }));
+}
+
+int MarkerIkResult::rejected_count() const {
+  return static_cast<int>(std::count_if(frames.begin(), frames.end(),
+                                        [](const MarkerIkFrame& f) { return f.rejected; }));
+}
+
+double MarkerIkResult::solved_per_second() const {
+  return solved_count() / std::max(seconds, 1e-9);
+}
+
 MarkerIkResult solve_marker_ik(const mjModel& model, const MarkerData& markers,
                                const std::vector<double>& weights, const MarkerIkOptions& options,
                                const std::vector<double>& initial_qpos,
@@ -336,12 +357,19 @@ MarkerIkResult solve_marker_ik(const mjModel& model, const MarkerData& markers,
   // One row of targets at a time, contiguous x, y, z per marker.
   Eigen::VectorXd targets(3 * markers.marker_count());
   bool have_previous = false;
+  std::vector<mjtNum> accepted = qpos;  // the last accepted pose (a rejected fit restarts here)
   const auto start = std::chrono::steady_clock::now();
   for (int f = 0; f < frames; ++f) {
     targets = markers.positions_m.row(f).transpose();
-    const MarkerIkFrame frame = ik.solve(targets.data(), have_previous, qpos.data());
+    MarkerIkFrame frame = ik.solve(targets.data(), have_previous, qpos.data());
+    if (frame.solved && frame.rms_error_m > options.max_frame_rms_m) {
+      frame.solved = false;
+      frame.rejected = true;
+      qpos = accepted;
+    }
     result.frames[static_cast<size_t>(f)] = frame;
     if (frame.solved) {
+      accepted = qpos;
       have_previous = true;
       for (int k = 0; k < model.nq; ++k) result.qpos(f, k) = qpos[static_cast<size_t>(k)];
     }

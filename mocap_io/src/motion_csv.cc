@@ -1,5 +1,6 @@
 #include "biodyn/mocap_io/motion_csv.h"
 
+#include <algorithm>
 #include <cerrno>
 #include <cmath>
 #include <cstdlib>
@@ -7,6 +8,7 @@
 #include <sstream>
 
 #include "biodyn/mocap_io/errors.h"
+#include "biodyn/models/body_file.h"
 #include "biodyn/sim/errors.h"
 #include "biodyn/sim/file_io.h"
 
@@ -119,6 +121,26 @@ Motion parse_motion_csv(const std::string& text, const std::string& source) {
     }
   }
   return motion;
+}
+
+namespace {
+const std::string kBodyPrefix = " body: ";
+}  // namespace
+
+void set_motion_body(Motion* motion, const models::CharacterSpec& spec) {
+  std::vector<std::string>& c = motion->comments;
+  c.erase(std::remove_if(c.begin(), c.end(),
+                         [](const std::string& s) { return s.rfind(kBodyPrefix, 0) == 0; }),
+          c.end());
+  c.push_back(kBodyPrefix + models::format_body_json(spec, true));
+}
+
+std::optional<models::CharacterSpec> motion_body(const Motion& motion, const std::string& source) {
+  for (const std::string& s : motion.comments) {
+    if (s.rfind(kBodyPrefix, 0) != 0) continue;
+    return models::parse_body_json(s.substr(kBodyPrefix.size()), source + ": body header");
+  }
+  return std::nullopt;
 }
 
 Motion read_motion_csv(const std::string& path) {

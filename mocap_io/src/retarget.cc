@@ -364,6 +364,7 @@ RetargetResult retarget_bvh(const BvhMotion& motion, const JointMap& map,
           std::to_string(spec.height_m) + " m, " + std::to_string(spec.mass_kg) + " kg, " +
           models::to_string(spec.detail) + " detail",
       " scale (leg length ratio): " + std::to_string(legs.scale)};
+  set_motion_body(&result.motion, spec);
   result.bvh = character_bvh(character, *model, qpos, dt, options.output_units);
   st.total_seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();

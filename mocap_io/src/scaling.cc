@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "biodyn/mocap_io/marker_ik.h"
 #include "biodyn/models/mjcf.h"
@@ -197,7 +198,10 @@ void place_markers(const models::MarkerSet& set, const MarkerData& static_trial,
     const models::Character scaled = models::generate_character(*spec);
     const sim::Model model = compile(scaled);
     const mjModel& m = *model;
-    const MarkerIkResult ik = solve_marker_ik(m, static_trial, weights);
+    // The first fit is on generic placements, centimetres off by design: refuse no frame.
+    MarkerIkOptions ik_options;
+    ik_options.max_frame_rms_m = std::numeric_limits<double>::infinity();
+    const MarkerIkResult ik = solve_marker_ik(m, static_trial, weights, ik_options);
     const std::vector<int> picked = placement_frames(ik, frames, options.placement_frames);
     if (round == options.placement_iterations) {  // the final fit: report it
       report_fit(ik, picked, result);

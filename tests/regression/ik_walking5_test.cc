@@ -13,7 +13,9 @@
 #include <vector>
 
 #include "biodyn/mocap_io/c3d.h"
+#include "biodyn/mocap_io/inverse_dynamics.h"
 #include "biodyn/mocap_io/marker_ik.h"
+#include "biodyn/mocap_io/motion_csv.h"
 #include "biodyn/mocap_io/scaling.h"
 #include "biodyn/models/marker_set.h"
 #include "biodyn/models/mjcf.h"
@@ -182,4 +184,142 @@ TEST_CASE("walking5 IK: the heading holds for the same walk in any direction of 
     REQUIRE(heading.frames > 400);
     CHECK(std::abs(heading.mean_deg) < kHeadingBound_deg);
   }
+}
+
+namespace {
+
+/// The IK's longest run of solved frames as a motion (what `mocap id` runs on).
+mocap_io::Motion solved_motion(const Walking5Ik& run) {
+  int best_start = 0, best_len = 0, start = 0;
+  const int frames = run.markers.frame_count();
+  for (int f = 0; f <= frames; ++f) {
+    if (f < frames && run.ik.frames[static_cast<size_t>(f)].solved) continue;
+    if (f - start > best_len) {
+      best_len = f - start;
+      best_start = start;
+    }
+    start = f + 1;
+  }
+  mocap_io::Motion motion;
+  motion.columns = mocap_io::qpos_names(*run.model);
+  motion.qpos = run.ik.qpos.middleRows(best_start, best_len);
+  for (int f = best_start; f < best_start + best_len; ++f) {
+    motion.times_s.push_back(run.markers.time_s(f));
+  }
+  return motion;
+}
+
+/// The centre of pressure of `plate` at time `t_s` (nearest sample).
+Eigen::Vector3d plate_cop(const mocap_io::ForcePlate& plate, double rate_hz, double t_s) {
+  const int sample =
+      std::clamp(static_cast<int>(std::lround(t_s * rate_hz)), 0, plate.sample_count() - 1);
+  return plate.cop_m.row(sample).transpose();
+}
+
+/// Whether `body`'s origin in `d` is over `plate` (inside its corners' bounding box).
+bool over_plate(const mjData& d, int body, const mocap_io::ForcePlate& plate) {
+  const auto& c = plate.corners_m;
+  const double x = d.xpos[3 * body], y = d.xpos[3 * body + 1];
+  return x >= c.row(0).minCoeff() && x <= c.row(0).maxCoeff() && y >= c.row(1).minCoeff() &&
+         y <= c.row(1).maxCoeff();
+}
+
+/// The plates' loads assigned by inverse_dynamics on the walking5 IK, against what a plate's
+/// visit says independently: the foot that struck it (the foot nearest its centre of pressure
+/// when the load starts, the other being a step away) carries it for the whole visit.
+struct PlateCheck {
+  int visits = 0, loaded_frames = 0, on_striking_foot = 0, on_other_foot = 0;
+  int crossing_frames = 0;              ///< the other foot over the loaded plate
+  double worst_crossing_knee_Nm = 0.0;  ///< the other leg's knee then
+  double worst_crossing_time_s = 0.0;
+  double worst_other_knee_change_Nm = 0.0;  ///< the other knee, plates vs no ground force
+};
+
+PlateCheck check_plates(const mjModel& m, const mocap_io::Motion& motion,
+                        const mocap_io::C3dFile& c3d) {
+  mocap_io::InverseDynamicsOptions options;
+  options.ground = mocap_io::GroundForces::kForcePlates;
+  const mocap_io::InverseDynamicsResult id =
+      mocap_io::inverse_dynamics(m, motion, options, c3d.force_plates, c3d.analog.rate_hz);
+  options.ground = mocap_io::GroundForces::kNone;
+  const mocap_io::InverseDynamicsResult free = mocap_io::inverse_dynamics(m, motion, options);
+  const models::Rig rig(m);
+  sim::Data d(m);
+  Eigen::Index knee[2];
+  for (int s = 0; s < 2; ++s) {
+    const char* name = s == models::kLeft ? "knee_flexion_l" : "knee_flexion_r";
+    knee[s] = std::find(id.dof_names.begin(), id.dof_names.end(), name) - id.dof_names.begin();
+  }
+  PlateCheck out;
+  for (Eigen::Index p = 0; p < id.plate_foot.cols(); ++p) {
+    const mocap_io::ForcePlate& plate = c3d.force_plates[static_cast<size_t>(p)];
+    int striking = -1;
+    for (Eigen::Index i = 0; i < id.plate_foot.rows(); ++i) {
+      if (id.plate_foot(i, p) == mocap_io::kPlateUnloaded) {
+        striking = -1;
+        continue;
+      }
+      const int f = static_cast<int>(i) + options.trim_frames;
+      for (int k = 0; k < m.nq; ++k) d->qpos[k] = motion.qpos(f, k);
+      mj_kinematics(&m, d.get());
+      if (striking < 0) {  // a new visit
+        ++out.visits;
+        const Eigen::Vector3d cop = plate_cop(plate, c3d.analog.rate_hz, id.times_s[size_t(i)]);
+        double best = 1e9;
+        for (int s = 0; s < 2; ++s) {
+          const int foot = rig.leg(s).foot;
+          const double dist = (Eigen::Vector3d(d->xpos + 3 * foot) - cop).head<2>().norm();
+          if (dist < best) best = dist, striking = s;
+        }
+      }
+      const int other = 1 - striking;
+      ++out.loaded_frames;
+      out.on_striking_foot += id.plate_foot(i, p) == striking;
+      out.on_other_foot += id.plate_foot(i, p) == other;
+      bool other_loaded = false;  // the other foot on the other plate (double support)
+      for (Eigen::Index q = 0; q < id.plate_foot.cols(); ++q) {
+        other_loaded = other_loaded || id.plate_foot(i, q) == other;
+      }
+      if (other_loaded) continue;
+      const double knee_other = id.generalized_force(i, knee[other]);
+      out.worst_other_knee_change_Nm =
+          std::max(out.worst_other_knee_change_Nm,
+                   std::abs(knee_other - free.generalized_force(i, knee[other])));
+      if (over_plate(*d, rig.leg(other).foot, plate)) {
+        ++out.crossing_frames;
+        if (std::abs(knee_other) > out.worst_crossing_knee_Nm) {
+          out.worst_crossing_knee_Nm = std::abs(knee_other);
+          out.worst_crossing_time_s = id.times_s[static_cast<size_t>(i)];
+        }
+      }
+    }
+  }
+  return out;
+}
+
+}  // namespace
+
+TEST_CASE("walking5 ID with the force plates: a swing foot crossing a loaded plate takes no load",
+          "[mocap][id][slow]") {
+  // On 777bb0d a plate's load went to the foot whose ankle was horizontally nearest the centre
+  // of pressure: a swing foot passing over the stance foot's plate took its load and the swing
+  // knee showed 65-77 N m.
+  const Walking5Ik& run = walking5_ik();
+  const PlateCheck c = check_plates(*run.model, solved_motion(run), mocap_io::read_c3d(kWalking5));
+  INFO(c.visits << " plate visits, " << c.loaded_frames << " loaded frames: " << c.on_striking_foot
+                << " on the foot that struck the plate, " << c.on_other_foot
+                << " on the other foot; " << c.crossing_frames
+                << " frames with the other foot over the loaded plate, its knee moment up to "
+                << c.worst_crossing_knee_Nm << " N m (t = " << c.worst_crossing_time_s
+                << " s); the other knee differs from ID without "
+                << "ground forces by up to " << c.worst_other_knee_change_Nm << " N m");
+  REQUIRE(c.visits >= 2);
+  REQUIRE(c.crossing_frames > 20);  // the case the defect is about happens in this capture
+  CHECK(c.on_other_foot == 0);
+  CHECK(c.on_striking_foot >= 0.97 * c.loaded_frames);
+  // No plate force reaches the swinging leg: its knee needs what it needs with no ground at
+  // all. (The issue asks < 20 N m for that knee; it peaks at 21.8 N m at t = 2.29 s, terminal
+  // swing of the right leg over the left foot's plate, the same value with no ground force: the
+  // leg's own deceleration on the default 80 kg body, not a plate load. Reported, not bounded.)
+  CHECK(c.worst_other_knee_change_Nm < 1e-6);
 }

@@ -214,7 +214,7 @@ TEST_CASE("Result digests: biodyn mocap ik retarget and id", "[regression][diges
        "motion.csv "
        "--json stats.json && '" +
            biodyn::testing::binary_dir() +
-           "/apps/biodyn' mocap id --motion motion.csv --height 1.872142 --mass 72 --grf from-c3d "
+           "/apps/biodyn' mocap id --motion motion.csv --mass 72 --grf from-c3d "
            "--c3d data/c3d/opensim_walking5.c3d -o id",
        {{"motion.csv"},
         {"stats.json"},

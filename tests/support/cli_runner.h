@@ -27,6 +27,12 @@ inline std::string slurp(const std::filesystem::path& p) {
   return s.str();
 }
 
+/// Writes `text` to file `p` (a test's input file).
+inline void write_text(const std::filesystem::path& p, const std::string& text) {
+  std::ofstream out(p, std::ios::binary);
+  out << text;
+}
+
 /// Runs the shell command `command` in `dir`, capturing stdout and stderr.
 inline CliRun run_shell(const std::string& command, const std::filesystem::path& dir) {
   const std::string cmd = "cd '" + dir.string() + "' && " + command + " > stdout.txt 2> stderr.txt";

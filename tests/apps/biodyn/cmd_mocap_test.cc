@@ -110,30 +110,24 @@ TEST_CASE("mocap ik on walking5 after scaling from its own frames meets OpenSim'
   CHECK(s["frames"] == 1103);
   const int solved = s["frames_solved"];
   CHECK(solved > 500);
-  // Every solved frame (a frame with enough markers) within OpenSim's RMS threshold. The max
-  // threshold holds in all but the frames where LTH1 reappears after a gap (frame 443 on):
-  // its first samples put it 15 mm off its own cluster (LTH1-LTH2 126 mm there, 141 mm five
-  // frames later), which no rigid thigh can follow: 42.3 and 40.3 mm. The issue asks for every
-  // frame; this guards the measured state (see the issue note) instead of hiding it.
-  constexpr int kFramesOverMaxMeasured = 2;
-  int over_max = 0;
+  // Every solved frame within OpenSim's thresholds (on 777bb0d, 2 frames of 566 were over 4 cm
+  // max: the unanchored placement let LTH1 drag the thigh; issue 24).
   for (const json& f : s["per_frame"]) {
     if (!f["solved"].get<bool>()) continue;
     CHECK(f["rms"].get<double>() < kIkRmsLimit_m);
-    over_max += f["max"].get<double>() >= kIkMaxLimit_m ? 1 : 0;
+    CHECK(f["max"].get<double>() < kIkMaxLimit_m);
   }
-  CHECK(over_max <= kFramesOverMaxMeasured);
+  CHECK(s["status"]["level"] == "ok");
   WARN("walking5 IK: " << solved << " frames, RMS mean " << s["rms_mean"] << " m, worst frame RMS "
                        << s["rms_max"] << " m, max " << s["max_error"] << " m ("
-                       << s["max_error_marker"] << "), " << s["frames_per_second"]
-                       << " frames/s; scaled height " << s["scaling"]["height_m"] << " m");
+                       << s["max_error_marker"] << "), " << s["solved_frames_per_second"]
+                       << " solved frames/s; scaled height " << s["scaling"]["height_m"] << " m");
   CHECK(s["scaling"]["factors"].size() == 8);
 
-  // Inverse dynamics of the result with the measured force plates.
-  const Run id = run_biodyn("mocap id --motion motion.csv --height " +
-                                std::to_string(s["scaling"]["height_m"].get<double>()) +
-                                " --mass 72 --grf from-c3d --c3d '" + c3d + "' -o id",
-                            dir);
+  // Inverse dynamics of the result with the measured force plates, on the body the IK solved
+  // (the motion's header; on 777bb0d id used the default 1.8 m body without a word).
+  const Run id = run_biodyn(
+      "mocap id --motion motion.csv --mass 72 --grf from-c3d --c3d '" + c3d + "' -o id", dir);
   INFO(id.out << id.err);
   REQUIRE(id.exit_code == 0);
   CHECK(fs::exists(dir / "id" / "torques.csv"));
@@ -144,6 +138,106 @@ TEST_CASE("mocap ik on walking5 after scaling from its own frames meets OpenSim'
        << summary["residual_force_peak_N"] << " N, rms " << summary["residual_force_rms_N"]
        << " N; moment peak " << summary["residual_moment_peak_Nm"] << " N m");
   CHECK(summary["frames_used"].get<int>() > 100);
+  CHECK(summary["body_source"] == "the motion's header");
+  CHECK(summary["character"]["height_m"].get<double>() ==
+        Approx(s["scaling"]["height_m"].get<double>()).epsilon(1e-6));
+  CHECK(summary["character"]["mass_kg"].get<double>() == 72.0);
+  CHECK(summary["body_notes"].size() == 1);  // the mass differs from the IK's: said so
+  CHECK(summary["plates"].size() == 2);
+
+  // A body that is not the one the IK solved is refused, naming both and what to do instead.
+  const Run other = run_biodyn(
+      "mocap id --motion motion.csv --height 1.8 --grf from-c3d --c3d '" + c3d + "' -o id2", dir);
+  CHECK(other.exit_code == 2);
+  CHECK(other.err.find("1.872") != std::string::npos);
+  CHECK(other.err.find("retarget") != std::string::npos);
+  CHECK_FALSE(fs::exists(dir / "id2"));
+  // The IK wrote the body it solved on beside the motion: it loads and gives the same body.
+  CHECK(fs::exists(dir / "motion.xml"));
+  const Run same =
+      run_biodyn("mocap id --motion motion.csv --body-file motion.body.json -o id3", dir);
+  INFO(same.err);
+  CHECK(same.exit_code == 0);
+}
+
+TEST_CASE("mocap ik without a static trial scales and places from the trial itself",
+          "[apps][mocap]") {
+  // On 777bb0d IK without --static kept the generic body: 8 cm RMS, exit 0, no warning.
+  const fs::path dir = mocap_dir("ik_no_static");
+  const std::string c3d = data("c3d/opensim_walking5.c3d");
+  const Run r = run_biodyn("mocap ik --c3d '" + c3d + "' -o motion.csv --json stats.json", dir);
+  INFO(r.out << r.err);
+  REQUIRE(r.exit_code == 0);
+  const json s = json::parse(slurp(dir / "stats.json"));
+  // The trial is its own static trial, and the JSON says so.
+  CHECK(s["scaling"]["static_trial"].get<std::string>().find("the trial itself") !=
+        std::string::npos);
+  CHECK(s["status"]["level"] == "ok");
+  CHECK(s["status"]["rms_mean_m"].get<double>() < kIkRmsLimit_m);
+  CHECK(s["rms_mean"].get<double>() < kIkRmsLimit_m);
+  // Frames per second count solved frames only (issue 24: skipped frames were counted).
+  CHECK(s["solved_frames_per_second"].get<double>() > 0);
+  CHECK_FALSE(s.contains("frames_per_second"));
+  CHECK(r.out.find("solved frames/s") != std::string::npos);
+
+  // The generic body kept on purpose: every frame fits worse than the refusal threshold, so
+  // nothing is written and the message says why and what to do.
+  const Run generic = run_biodyn(
+      "mocap ik --c3d '" + c3d + "' --no-scaling -o generic.csv --json generic.json", dir);
+  CHECK(generic.exit_code != 0);
+  CHECK(generic.err.find("RMS") != std::string::npos);
+  CHECK_FALSE(fs::exists(dir / "generic.csv"));
+  CHECK_FALSE(fs::exists(dir / "generic.json"));
+  // With a looser threshold it runs, and says loudly that the fit is not to be trusted.
+  const Run loose = run_biodyn("mocap ik --c3d '" + c3d +
+                                   "' --no-scaling --max-frame-rms 0.5 -o loose.csv --json "
+                                   "loose.json",
+                               dir);
+  INFO(loose.err);
+  REQUIRE(loose.exit_code == 0);
+  const json l = json::parse(slurp(dir / "loose.json"));
+  CHECK(l["status"]["level"] == "warning");
+  CHECK(l["status"]["rms_mean_m"].get<double>() > kIkRmsLimit_m);
+  CHECK(loose.err.find("WARNING") != std::string::npos);
+}
+
+TEST_CASE("mocap ik ignores the capture's subject prefix and lists the labels when none match",
+          "[apps][mocap]") {
+  // Vicon Nexus writes "Subject:LASI"; on 777bb0d no built-in set matched such a capture.
+  const fs::path dir = mocap_dir("ik_prefix");
+  const Run conv =
+      run_biodyn("mocap convert '" + data("c3d/opensim_walking5.c3d") + "' plain.trc", dir);
+  REQUIRE(conv.exit_code == 0);
+  std::string trc = slurp(dir / "plain.trc");
+  // The TRC's 4th line holds the labels, tab separated after Frame# and Time.
+  size_t line = 0;
+  for (int i = 0; i < 3; ++i) line = trc.find('\n', line) + 1;
+  const size_t end = trc.find('\n', line);
+  std::string labels = trc.substr(line, end - line), prefixed;
+  std::istringstream fields(labels);
+  std::string field;
+  for (int i = 0; std::getline(fields, field, '\t'); ++i) {
+    if (i > 0) prefixed += '\t';
+    prefixed += (i >= 2 && !field.empty() ? "Subject01:" : "") + field;
+  }
+  trc.replace(line, end - line, prefixed);
+  biodyn::testing::write_text(dir / "prefixed.trc", trc);
+  const Run r = run_biodyn("mocap ik --trc prefixed.trc -o motion.csv --json stats.json", dir);
+  INFO(r.out << r.err);
+  REQUIRE(r.exit_code == 0);
+  const json s = json::parse(slurp(dir / "stats.json"));
+  CHECK(s["marker_set"] == "opensim_walking5");
+  CHECK(s["label_prefixes_ignored"] == json::array({"Subject01"}));
+  CHECK(s["frames_solved"].get<int>() > 500);
+
+  // A set that matches nothing: the message names the capture's labels.
+  biodyn::testing::write_text(dir / "set.json",
+                              R"({"name": "other", "markers": [{"name": "XYZ", "part": "pelvis",)"
+                              R"( "along": 0.5, "ant": 1, "lat": 0, "sup": 0}]})");
+  const Run none = run_biodyn("mocap ik --trc prefixed.trc --markerset set.json -o m2.csv", dir);
+  CHECK(none.exit_code == 2);
+  CHECK(none.err.find("LASI") != std::string::npos);
+  CHECK_FALSE(fs::exists(dir / "m2.csv"));
 }
 
 TEST_CASE("mocap retarget puts the CMU walk on a 2 m body, its motion feeds mocap id",
@@ -161,7 +255,9 @@ TEST_CASE("mocap retarget puts the CMU walk on a 2 m body, its motion feeds moca
   CHECK(s["joint_map"] == "cmu");  // chosen by the BVH's joint names
   CHECK(s["frames"] == 994);
   CHECK(s["unsolved_frames"] == 0);
-  CHECK(s["max_penetration_m"].get<double>() < 0.005);
+  CHECK(s["max_penetration_m"].get<double>() <= 0.001);
+  // feet.png draws the bound the measure is held to (on 777bb0d labelled 5 mm; issue 24).
+  CHECK(slurp(dir / "out" / "feet.gp").find("penetration bound (1 mm)") != std::string::npos);
   REQUIRE(s["steps"].size() >= 14);
   for (const json& step : s["steps"]) {
     CHECK(step.contains("slide_m"));

@@ -30,8 +30,10 @@ void low_pass(Eigen::MatrixXd* samples, double rate_hz, const LowPassFilter& fil
 
 /// Where the ground reaction comes from.
 enum class GroundForces {
-  kNone,         ///< none applied: the root residual is the whole ground reaction the motion needs
-  kForcePlates,  ///< measured force plates, applied at the centre of pressure to the nearest foot
+  kNone,  ///< none applied: the root residual is the whole ground reaction the motion needs
+  /// measured force plates, each applied at its centre of pressure to the foot standing on it
+  /// (its sole on the plate and the centre of pressure under it; mocap_io/src/plate_assignment.h)
+  kForcePlates,
   /// MuJoCo's soft contact with the floor, inverted (forces from penetration and its rate):
   /// swings strongly with sub-millimetre penetration (mujoco-2.2.2.md), so an estimate only
   kContact
@@ -48,6 +50,12 @@ struct InverseDynamicsOptions {
   int trim_frames = 1;
 };
 
+/// InverseDynamicsResult::plate_foot entries besides the side (models::kLeft, models::kRight).
+inline constexpr int kPlateUnloaded = -1;  ///< the plate carries less than 20 N: nothing applied
+/// Loaded, but no single foot is on it (both feet share it, or the pose puts neither foot over
+/// the centre of pressure): the load is not applied and stays in the root residual.
+inline constexpr int kPlateUnassigned = 2;
+
 /// Per frame (frames x columns) results, SI units.
 struct InverseDynamicsResult {
   std::vector<double> times_s;
@@ -59,6 +67,9 @@ struct InverseDynamicsResult {
   Eigen::MatrixXd residual_force_N;    ///< frames x 3, world frame, on the root
   Eigen::MatrixXd residual_moment_Nm;  ///< frames x 3, world frame, about the root body origin
   Eigen::MatrixXd ground_force_N;      ///< frames x 3, world: the ground reaction applied (0: none)
+  /// frames x plates (kForcePlates): the side whose foot carried each plate's load, or
+  /// kPlateUnloaded / kPlateUnassigned.
+  Eigen::MatrixXi plate_foot;
 };
 
 /// Runs inverse dynamics of `motion` (its columns must be `model`'s qpos; frames evenly spaced)

@@ -32,6 +32,11 @@ struct MarkerIkOptions {
   /// A frame is solved when at least this fraction of the mapped markers is visible and the
   /// root has a pose (a previous frame, or >= 3 visible root-body markers); others are skipped.
   double min_visible_fraction = 0.5;
+  /// m; solve_marker_ik refuses a frame whose RMS marker error is larger (MarkerIkFrame::
+  /// rejected): no body pose is that far from every marker, so such a fit means wrong data
+  /// (gaps stored as zeros, swapped labels) or a wrong body, and is not reported as solved.
+  /// Good fits of a scaled body are 0.5-1.5 cm; a generic body scaled by height ~8 cm.
+  double max_frame_rms_m = 0.05;
 
   /// Throws sim::InvalidArgument naming the field and value.
   void validate() const;
@@ -39,7 +44,8 @@ struct MarkerIkOptions {
 
 /// What one frame's solve found.
 struct MarkerIkFrame {
-  bool solved = false;        ///< false: too few markers (qpos left as it was)
+  bool solved = false;        ///< false: too few markers, or rejected (qpos left as it was)
+  bool rejected = false;      ///< fitted, but RMS > MarkerIkOptions::max_frame_rms_m
   int iterations = 0;         ///< LM iterations taken
   int markers_used = 0;       ///< visible mapped markers with weight > 0
   double rms_error_m = 0;     ///< m, RMS distance marker - site over the used markers
@@ -105,11 +111,17 @@ struct MarkerIkResult {
   Eigen::MatrixXd qpos;  ///< frames x nq (NaN rows for unsolved frames)
   std::vector<MarkerIkFrame> frames;
   double seconds = 0.0;  ///< wall time of the solves
+  int solved_count() const;
+  int rejected_count() const;
+  /// Solved frames per second of wall time (skipped frames cost nothing and are not counted).
+  double solved_per_second() const;
 };
 
 /// Runs MarkerIk over every frame of `markers` (m, in the model's world frame), starting from
 /// `initial_qpos` (nq; the model's qpos0 if empty) and warm-starting each frame from the last
-/// solved one. `progress` (optional) is called with the fraction done.
+/// solved one. A frame fitted worse than options.max_frame_rms_m is rejected: marked unsolved
+/// (NaN row), and the next frame starts from the last accepted pose. `progress` (optional) is
+/// called with the fraction done.
 MarkerIkResult solve_marker_ik(const mjModel& model, const MarkerData& markers,
                                const std::vector<double>& weights,
                                const MarkerIkOptions& options = {},

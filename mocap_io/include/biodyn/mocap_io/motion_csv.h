@@ -8,8 +8,11 @@
 #include <mujoco/mujoco.h>
 
 #include <Eigen/Core>
+#include <optional>
 #include <string>
 #include <vector>
+
+#include "biodyn/models/character.h"
 
 namespace biodyn::mocap_io {
 
@@ -31,6 +34,14 @@ std::string format_motion_csv(const Motion& motion);
 /// column, what was expected and what was found.
 Motion parse_motion_csv(const std::string& text, const std::string& source);
 Motion read_motion_csv(const std::string& path);
+
+/// The body header: a comment line " body: {...}" holding the body file (models/body_file.h,
+/// one line) of the character the motion was made on, so `mocap id` and the viewer use that
+/// body. set_motion_body replaces an existing one.
+void set_motion_body(Motion* motion, const models::CharacterSpec& spec);
+/// The body of `motion`'s header, or nothing for a motion without one (older files, hand-made
+/// ones). Throws sim::InvalidArgument naming `source` and the field if the header is malformed.
+std::optional<models::CharacterSpec> motion_body(const Motion& motion, const std::string& source);
 
 /// Checks that `motion`'s columns are `model`'s qpos names; throws sim::InvalidArgument naming
 /// the first column that differs (a motion made for another detail level or body plan).

@@ -213,6 +213,10 @@ struct StanceStep {
   double height_error_m = 0.0;
 };
 
+/// m: the deepest a retargeted body may sink into the floor; the floor guards hold it (CMU
+/// 131_01 on 1.5-2.0 m bodies: <= 1 mm). feet.png draws it; the tests assert it.
+inline constexpr double kRetargetPenetrationBound_m = 0.001;
+
 /// Statistics measured on the output (MuJoCo kinematics of the output qpos).
 struct RetargetStats {
   int frames = 0;
