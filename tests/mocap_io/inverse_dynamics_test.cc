@@ -2,10 +2,12 @@
 // equations of motion say, and the filter does what it is documented to do.
 #include "biodyn/mocap_io/inverse_dynamics.h"
 
+#include <Eigen/Geometry>
 #include <cmath>
 #include <random>
 
 #include "biodyn/models/mjcf.h"
+#include "biodyn/models/rig.h"
 #include "biodyn/sim/errors.h"
 #include "biodyn/sim/units.h"
 #include "character.h"
@@ -168,4 +170,177 @@ TEST_CASE_METHOD(biodyn::testing::SimulationTest,
   CHECK((y.col(0) - x.col(0)).segment(100, 800).cwiseAbs().maxCoeff() < 0.01);
   CHECK(y.col(1).segment(100, 800).cwiseAbs().maxCoeff() < 0.01);
   CHECK_THROWS_AS(mocap_io::low_pass(&y, rate, {120.0}), sim::InvalidArgument);
+}
+
+namespace {
+
+constexpr int kPlateFrames = 40;
+constexpr double kPlateRate_hz = 100.0;
+constexpr double kPlateLoad_N = 700.0;
+
+/// A motion holding pose `q` for kPlateFrames frames at kPlateRate_hz.
+mocap_io::Motion held_pose(const mjModel& m, const Eigen::VectorXd& q) {
+  mocap_io::Motion motion;
+  motion.columns = mocap_io::qpos_names(m);
+  motion.qpos = q.transpose().replicate(kPlateFrames, 1);
+  for (int f = 0; f < kPlateFrames; ++f) motion.times_s.push_back(f / kPlateRate_hz);
+  return motion;
+}
+
+/// A 0.6 x 0.5 m plate centred (horizontally) on `centre`, loaded by kPlateLoad_N straight up
+/// at centre of pressure `cop` throughout.
+mocap_io::ForcePlate loaded_plate(const Eigen::Vector3d& centre, const Eigen::Vector3d& cop) {
+  mocap_io::ForcePlate p;
+  const double hx = 0.3, hy = 0.25;
+  p.corners_m << centre.x() + hx, centre.x() - hx, centre.x() - hx, centre.x() + hx,
+      centre.y() + hy, centre.y() + hy, centre.y() - hy, centre.y() - hy, 0, 0, 0, 0;
+  const int samples = kPlateFrames;
+  p.force_N = Eigen::RowVector3d(0, 0, kPlateLoad_N).replicate(samples, 1);
+  p.cop_m = cop.transpose().replicate(samples, 1);
+  p.free_moment_Nm = Eigen::MatrixXd::Zero(samples, 3);
+  p.moment_origin_Nm = Eigen::MatrixXd::Zero(samples, 3);
+  return p;
+}
+
+Eigen::Vector3d body_pos(const mjModel& m, const Eigen::VectorXd& q, int body) {
+  sim::Data d(m);
+  for (int k = 0; k < m.nq; ++k) d->qpos[k] = q(k);
+  mj_kinematics(&m, d.get());
+  return Eigen::Vector3d(d->xpos + 3 * body);
+}
+
+/// Lowest point (m, world z) in pose q of the box geoms of `foot` and its child bodies, or of
+/// every box geom for foot = -1.
+double lowest_sole(const mjModel& m, const Eigen::VectorXd& q, int foot = -1) {
+  sim::Data d(m);
+  for (int k = 0; k < m.nq; ++k) d->qpos[k] = q(k);
+  mj_kinematics(&m, d.get());
+  double low = 1e9;
+  for (int g = 0; g < m.ngeom; ++g) {
+    const int b = m.geom_bodyid[g];
+    if (m.geom_type[g] != mjGEOM_BOX || b == 0) continue;
+    if (foot >= 0 && b != foot && m.body_parentid[b] != foot) continue;
+    const Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>> r(d->geom_xmat + 9 * g);
+    for (int c = 0; c < 8; ++c) {
+      const Eigen::Vector3d local((c & 1 ? 1 : -1) * m.geom_size[3 * g],
+                                  (c & 2 ? 1 : -1) * m.geom_size[3 * g + 1],
+                                  (c & 4 ? 1 : -1) * m.geom_size[3 * g + 2]);
+      low = std::min(low, d->geom_xpos[3 * g + 2] + (r * local).z());
+    }
+  }
+  return low;
+}
+
+/// The standing pose (qpos0, soles on the floor) with the right foot lifted by at least 4 cm
+/// and its ankle brought as near as the hip and knee allow to `target` (horizontally), as a
+/// swing foot passes the stance foot's forefoot in a narrow walk.
+Eigen::VectorXd swing_past_pose(const mjModel& m, const Eigen::Vector3d& target) {
+  const models::Rig rig(m);
+  Eigen::VectorXd q = Eigen::Map<const Eigen::VectorXd>(m.qpos0, m.nq);
+  q(2) -= lowest_sole(m, q);
+  const int foot_r = rig.leg(models::kRight).foot;
+  const int hip_joint =
+      m.dof_jntid[rig.groups()[static_cast<size_t>(rig.leg(models::kRight).hip)].dof_begin];
+  const int knee_joint =
+      m.dof_jntid[rig.groups()[static_cast<size_t>(rig.leg(models::kRight).knee)].dof_begin];
+  const int ha = m.jnt_qposadr[hip_joint], ka = m.jnt_qposadr[knee_joint];
+  Eigen::VectorXd best = q;
+  double best_dist = 1e9;
+  sim::Data d(m);
+  for (double knee = 0.0; knee <= 1.0; knee += 0.1) {
+    for (double flex = -0.8; flex <= 0.8; flex += 0.1) {
+      for (double add = -0.5; add <= 0.5; add += 0.1) {
+        const Eigen::Quaterniond r(Eigen::AngleAxisd(flex, Eigen::Vector3d::UnitY()) *
+                                   Eigen::AngleAxisd(add, Eigen::Vector3d::UnitX()));
+        q.segment<4>(ha) << r.w(), r.x(), r.y(), r.z();
+        // knee in [0, 1]: from the middle of its range towards either end
+        const double lo = m.jnt_range[2 * knee_joint], hi = m.jnt_range[2 * knee_joint + 1];
+        for (double end : {lo, hi}) {
+          q(ka) = knee * end;
+          for (int k = 0; k < m.nq; ++k) d->qpos[k] = q(k);
+          mj_kinematics(&m, d.get());
+          const double dist = (Eigen::Vector3d(d->xpos + 3 * foot_r) - target).head<2>().norm();
+          if (dist >= best_dist || lowest_sole(m, q, foot_r) < 0.04) continue;
+          if (dist < best_dist) best_dist = dist, best = q;
+        }
+      }
+    }
+  }
+  return best;
+}
+
+}  // namespace
+
+// Issue 24, defect 4: a plate's load went to the foot whose ankle was horizontally nearest the
+// centre of pressure; a swing foot passing the stance foot's forefoot took the load, and its
+// knee showed a 65-77 N m spike on walking5.
+TEST_CASE_METHOD(biodyn::testing::SimulationTest,
+                 "Force plate loads go to the foot standing on the plate, not the nearest ankle",
+                 "[mocap_io][id]") {
+  const sim::Model model = testing::generated_character();
+  const mjModel& m = *model;
+  const models::Rig rig(m);
+  const int foot_l = rig.leg(models::kLeft).foot, foot_r = rig.leg(models::kRight).foot;
+  mocap_io::InverseDynamicsOptions with_plates, no_ground;
+  with_plates.ground = mocap_io::GroundForces::kForcePlates;
+
+  SECTION("a swing foot beside the stance forefoot") {
+    Eigen::VectorXd q = Eigen::Map<const Eigen::VectorXd>(m.qpos0, m.nq);
+    q(2) -= lowest_sole(m, q);
+    const models::Sole sole = models::find_sole(m, foot_l);
+    sim::Data d(m);
+    for (int k = 0; k < m.nq; ++k) d->qpos[k] = q(k);
+    mj_kinematics(&m, d.get());
+    // The centre of pressure under the left forefoot (late stance).
+    const Eigen::Matrix3d r_l =
+        Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(d->xmat + 9 * foot_l);
+    Eigen::Vector3d cop = Eigen::Vector3d(d->xpos + 3 * foot_l) +
+                          r_l * Eigen::Vector3d(sole.x_max - 0.04, sole.centre_B().y(), sole.z);
+    cop.z() = 0.0;
+    q = swing_past_pose(m, cop + Eigen::Vector3d(0, -0.08, 0));  // 8 cm to its right
+    for (int k = 0; k < m.nq; ++k) d->qpos[k] = q(k);
+    mj_kinematics(&m, d.get());
+    const Eigen::Vector3d ankle_l(d->xpos + 3 * foot_l), ankle_r(d->xpos + 3 * foot_r);
+    INFO("left ankle " << (ankle_l - cop).head<2>().norm() << " m from the centre of pressure, "
+                       << "right (lifted " << ankle_r.z() - ankle_l.z() << " m) "
+                       << (ankle_r - cop).head<2>().norm() << " m");
+    // The case of the defect: the lifted ankle is the nearer one.
+    REQUIRE((ankle_r - cop).head<2>().norm() < (ankle_l - cop).head<2>().norm());
+    const mocap_io::Motion motion = held_pose(m, q);
+    const mocap_io::InverseDynamicsResult id =
+        mocap_io::inverse_dynamics(m, motion, with_plates, {loaded_plate(cop, cop)}, kPlateRate_hz);
+    const mocap_io::InverseDynamicsResult free = mocap_io::inverse_dynamics(m, motion, no_ground);
+    CHECK((id.plate_foot.array() == models::kLeft).all());
+    // The swing leg feels no plate: its joints need what they need with no ground at all.
+    const models::JointGroup& knee_r =
+        rig.groups()[static_cast<size_t>(rig.leg(models::kRight).knee)];
+    CHECK(
+        (id.generalized_force.col(knee_r.dof_begin) - free.generalized_force.col(knee_r.dof_begin))
+            .cwiseAbs()
+            .maxCoeff() < 1e-9);
+    CHECK(id.ground_force_N(5, 2) == Approx(kPlateLoad_N));
+  }
+  SECTION("both feet on one plate, the load between them: not assigned, left in the residual") {
+    const Eigen::VectorXd q = Eigen::Map<const Eigen::VectorXd>(m.qpos0, m.nq);
+    const Eigen::Vector3d mid = 0.5 * (body_pos(m, q, foot_l) + body_pos(m, q, foot_r));
+    const Eigen::Vector3d cop(mid.x(), mid.y(), lowest_sole(m, q));
+    mocap_io::ForcePlate plate = loaded_plate(cop, cop);
+    plate.corners_m.row(2).setConstant(cop.z());
+    const mocap_io::InverseDynamicsResult id =
+        mocap_io::inverse_dynamics(m, held_pose(m, q), with_plates, {plate}, kPlateRate_hz);
+    CHECK((id.plate_foot.array() == mocap_io::kPlateUnassigned).all());
+    CHECK(id.ground_force_N.cwiseAbs().maxCoeff() == 0.0);
+  }
+  SECTION("a foot 5 cm above the plate over the centre of pressure: not on it") {
+    Eigen::VectorXd q = Eigen::Map<const Eigen::VectorXd>(m.qpos0, m.nq);
+    const double floor = lowest_sole(m, q);
+    q(2) += 0.05;
+    const Eigen::Vector3d ankle = body_pos(m, q, foot_l);
+    const Eigen::Vector3d cop(ankle.x(), ankle.y(), floor);
+    mocap_io::ForcePlate plate = loaded_plate(cop, cop);
+    plate.corners_m.row(2).setConstant(floor);
+    const mocap_io::InverseDynamicsResult id =
+        mocap_io::inverse_dynamics(m, held_pose(m, q), with_plates, {plate}, kPlateRate_hz);
+    CHECK((id.plate_foot.array() == mocap_io::kPlateUnassigned).all());
+  }
 }

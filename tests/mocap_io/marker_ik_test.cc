@@ -8,6 +8,7 @@
 
 #include "biodyn/models/marker_set.h"
 #include "biodyn/models/mjcf.h"
+#include "biodyn/sim/errors.h"
 #include "biodyn/sim/units.h"
 #include "character.h"
 #include "test_support.h"
@@ -263,4 +264,35 @@ TEST_CASE_METHOD(
     CHECK(r.solved == kIkFrames);
     CHECK(r.marker_rms_m < noise_rms_3d);  // fits the markers no worse than the noise
   }
+}
+
+// Issue 24, defect 5: a TRC's "0 0 0" gaps once read as markers at the lab origin were
+// "solved" at 0.5 m RMS with exit 0. Whatever puts markers in absurd places, a frame the body
+// cannot fit is refused (unsolved, NaN pose), and the frames after it solve as before.
+TEST_CASE_METHOD(biodyn::testing::SimulationTest,
+                 "Marker IK refuses frames it cannot fit instead of reporting them solved",
+                 "[mocap_io][ik]") {
+  const sim::Model model = character_with("full40");
+  const mjModel& m = *model;
+  const Eigen::MatrixXd truth = random_motion(m, 24);
+  mocap_io::MarkerData capture = synthetic_capture(m, truth, 0.0, 25);
+  const std::vector<double> weights(capture.labels.size(), 1.0);
+  // Frames 100-104: every marker at the origin; frame 200: one marker 1 m off.
+  for (int f = 100; f < 105; ++f) capture.positions_m.row(f).setZero();
+  capture.positions_m(200, 0) += 1.0;
+  const mocap_io::MarkerIkResult ik = mocap_io::solve_marker_ik(m, capture, weights);
+  for (int f : {100, 101, 102, 103, 104, 200}) {
+    INFO("frame " << f << " RMS " << ik.frames[static_cast<size_t>(f)].rms_error_m);
+    CHECK(ik.frames[static_cast<size_t>(f)].rejected);
+    CHECK_FALSE(ik.frames[static_cast<size_t>(f)].solved);
+    CHECK_FALSE(ik.qpos.row(f).allFinite());
+  }
+  CHECK(ik.rejected_count() == 6);
+  CHECK(ik.solved_count() == kIkFrames - 6);
+  // The frames after recover: the next one starts from the last accepted pose.
+  for (int f : {105, 201}) CHECK(ik.frames[static_cast<size_t>(f)].rms_error_m < 1e-3);
+  // A threshold must be positive.
+  mocap_io::MarkerIkOptions bad;
+  bad.max_frame_rms_m = 0.0;
+  CHECK_THROWS_AS(mocap_io::solve_marker_ik(m, capture, weights, bad), sim::InvalidArgument);
 }
