@@ -156,3 +156,31 @@ TEST_CASE("biodyn render refuses bad options and writes nothing", "[apps][render
     CHECK_FALSE(fs::exists(dir / "v.mp4"));
   }
 }
+
+TEST_CASE("biodyn render plays an IK motion on the body the IK solved, refuses another",
+          "[apps][render][mocap]") {
+  // Issue 24: a motion carries its body in its header; on 777bb0d render and view put it on
+  // the default 1.8 m body without a word.
+  const fs::path dir = biodyn::testing::fresh_dir("render_test", "ik_body");
+  const std::string c3d =
+      biodyn::testing::source_dir() + "/../shared/data/mocap/c3d/opensim_walking5.c3d";
+  const auto ik = run_biodyn("mocap ik --c3d '" + c3d + "' -o motion.csv --json ik.json", dir);
+  REQUIRE(ik.exit_code == 0);
+  const double ik_height =
+      nlohmann::json::parse(slurp(dir / "ik.json"))["scaling"]["height_m"].get<double>();
+  const auto r = run_biodyn(
+      "render --scenario mocap --motion motion.csv --duration 0.1 --size 160x120 --png f.png "
+      "--summary s.json",
+      dir);
+  INFO(r.out << r.err);
+  REQUIRE(r.exit_code == 0);
+  const auto s = nlohmann::json::parse(slurp(dir / "s.json"));
+  CHECK(s["character"]["height_m"].get<double>() == Approx(ik_height).epsilon(1e-9));
+  const auto other = run_biodyn(
+      "render --scenario mocap --motion motion.csv --height 1.6 --duration 0.1 --size 160x120 "
+      "--png g.png",
+      dir);
+  CHECK(other.exit_code == 2);
+  CHECK(other.err.find("retarget") != std::string::npos);
+  CHECK_FALSE(fs::exists(dir / "g.png"));
+}
