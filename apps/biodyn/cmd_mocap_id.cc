@@ -324,9 +324,9 @@ void print_id(const IdOptions& o, const mocap_io::InverseDynamicsResult& id,
               << " s): an estimate only; force plates (--grf from-c3d) are the "
                  "measurement\n";
   }
-  std::cout << "wrote " << o.output
-            << "/{torques.csv, residuals.csv, summary.json, "
-               "torques.png}\n";
+  std::cout << "wrote " << o.output << "/{torques.csv, residuals.csv, "
+            << (ground == mocap_io::GroundForces::kForcePlates ? "plates.csv, " : "")
+            << "summary.json, torques.png}\n";
 }
 
 int run_id(const IdOptions& o) {
