@@ -289,15 +289,19 @@ int run_id(const IdOptions& o) {
   const mocap_io::InverseDynamicsResult id =
       mocap_io::inverse_dynamics(*model, motion, options, plates, plate_rate);
   bar.finish();
-  std::filesystem::create_directories(o.output);
   const std::vector<double> strikes =
       foot_strikes(*model, motion, models::Rig(*model).leg(models::kLeft).foot);
   const double body_weight_N = character.total_mass_kg() * 9.81;
   const json summary = id_summary(o, id, first + options.trim_frames, spec, body_weight_N, strikes);
-  write_file_atomically(o.output + "/torques.csv", torques_csv(id));
-  write_file_atomically(o.output + "/residuals.csv", residuals_csv(id));
-  write_file_atomically(o.output + "/summary.json", summary.dump(1) + "\n");
+  // Every output's text first, then the plot (gnuplot may fail), then the files: a failure
+  // leaves none of torques.csv, residuals.csv, summary.json.
+  const std::string torques = torques_csv(id), residuals = residuals_csv(id);
+  const std::string summary_text = json_text(summary, 1) + "\n";
+  std::filesystem::create_directories(o.output);
   plot_torques(o.output, id, strikes, spec.mass_kg);
+  write_file_atomically(o.output + "/torques.csv", torques);
+  write_file_atomically(o.output + "/residuals.csv", residuals);
+  write_file_atomically(o.output + "/summary.json", summary_text);
   print_id(o, id, options.ground, spec, body_weight_N);
   return kExitOk;
 }

@@ -249,8 +249,11 @@ int run_ik(const IkOptions& o, bool height_given) {
   stats["inconsistencies"] = capture.inconsistencies;
   stats["character"] = character_json(spec);
   stats["per_frame"] = e.per_frame;
-  write_file_atomically(o.output, mocap_io::format_motion_csv(motion));
-  if (!o.json_path.empty()) write_file_atomically(o.json_path, stats.dump(1) + "\n");
+  // Every output's text first: nothing is written unless all of it can be.
+  const std::string motion_text = mocap_io::format_motion_csv(motion);
+  const std::string stats_text = json_text(stats, 1) + "\n";
+  write_file_atomically(o.output, motion_text);
+  if (!o.json_path.empty()) write_file_atomically(o.json_path, stats_text);
   std::cout << "mocap ik: " << e.solved << "/" << markers.frame_count()
             << " frames solved (marker set " << set.name << "), marker RMS mean "
             << 1000 * e.rms_sum / e.solved << " mm, worst frame " << 1000 * e.rms_max << " mm, max "

@@ -15,6 +15,7 @@
 #include <utility>
 
 #include "biodyn/mocap_io/errors.h"
+#include "biodyn/mocap_io/utf8.h"
 #include "biodyn/sim/errors.h"
 #include "biodyn/sim/file_io.h"
 #include "biodyn/sim/units.h"
@@ -253,6 +254,10 @@ class Parser {
       const Token& t = tok_.peek();
       tok_.fail(keyword.line, "a joint name after " + std::string(keyword.text),
                 !t.end() && t.line == keyword.line ? describe(t) : "end of line");
+    } else {
+      const std::string utf8 = to_utf8(name);
+      motion_.transcoded_names += utf8 != name ? 1 : 0;
+      name = utf8;
     }
     j.name = name;
     tok_.expect("{");

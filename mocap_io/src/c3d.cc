@@ -14,6 +14,7 @@
 #include "biodyn/mocap_io/c3d.h"
 
 #include "biodyn/mocap_io/errors.h"
+#include "biodyn/mocap_io/utf8.h"
 #include "biodyn/sim/errors.h"
 #include "biodyn/sim/file_io.h"
 #include "c3d_binary.h"
@@ -448,14 +449,18 @@ void check_data_size(const ByteReader& raw, const Layout& l) {
 }
 
 /// The strings of GROUP:NAME, GROUP:NAME2, GROUP:NAME3, ... in order ("Additional
-/// Parameters": LABELS2 etc. continue LABELS past 255 entries).
+/// Parameters": LABELS2 etc. continue LABELS past 255 entries), as UTF-8 (to_utf8: a C3D
+/// string may hold any byte; Latin-1 is common). Counts the strings transcoded in *transcoded.
 std::vector<std::string> continued_strings(const ParameterSection& params, const char* group,
-                                           const std::string& name) {
+                                           const std::string& name, int* transcoded) {
   std::vector<std::string> out;
   for (int k = 1;; ++k) {
     const Parameter* p = params.find(group, k == 1 ? name : name + std::to_string(k));
     if (p == nullptr) break;  // parameters are finite: the loop ends
-    out.insert(out.end(), p->strings.begin(), p->strings.end());
+    for (const std::string& raw : p->strings) {
+      out.push_back(to_utf8(raw));
+      *transcoded += out.back() != raw ? 1 : 0;
+    }
   }
   return out;
 }
@@ -533,14 +538,14 @@ MarkerData read_markers(const ByteReader& raw, const Layout& l, std::vector<std:
 /// value = (stored - ANALOG:OFFSET) * ANALOG:SCALE * ANALOG:GEN_SCALE, with stored values and
 /// offsets unsigned when ANALOG:FORMAT is "UNSIGNED" ("ANALOG:FORMAT").
 AnalogData read_analog(const ByteReader& raw, const ParameterSection& params, const Layout& l,
-                       std::vector<std::string>* notes) {
+                       std::vector<std::string>* notes, int* transcoded) {
   AnalogData a;
   if (l.channels == 0) return a;
   const auto n = static_cast<std::size_t>(l.channels);
   a.rate_hz = l.rate_hz * static_cast<double>(l.samples_per_frame);
-  a.labels = complete_labels(continued_strings(params, "ANALOG", "LABELS"), l.channels,
+  a.labels = complete_labels(continued_strings(params, "ANALOG", "LABELS", transcoded), l.channels,
                              "ANALOG:LABELS", "analog", notes);
-  a.units = continued_strings(params, "ANALOG", "UNITS");
+  a.units = continued_strings(params, "ANALOG", "UNITS", transcoded);
   a.units.resize(n);
   const Parameter* format = params.find("ANALOG", "FORMAT");
   const bool is_unsigned = format != nullptr && !format->strings.empty() &&
@@ -593,11 +598,11 @@ C3dFile read_c3d(const std::string& path) {
       LayoutDecider(params, header, raw, &out.inconsistencies).decide(&out.point_units);
   out.storage = layout.storage;
   check_data_size(raw, layout);
-  out.markers =
-      read_markers(raw, layout,
-                   complete_labels(continued_strings(params, "POINT", "LABELS"), layout.points,
-                                   "POINT:LABELS", "point", &out.inconsistencies));
-  out.analog = read_analog(raw, params, layout, &out.inconsistencies);
+  out.markers = read_markers(
+      raw, layout,
+      complete_labels(continued_strings(params, "POINT", "LABELS", &out.transcoded_names),
+                      layout.points, "POINT:LABELS", "point", &out.inconsistencies));
+  out.analog = read_analog(raw, params, layout, &out.inconsistencies, &out.transcoded_names);
   c3d_internal::ForcePlates plates =
       c3d_internal::read_force_plates(params, out.analog, layout.unit_m, path);
   out.force_plates = std::move(plates.plates);

@@ -10,6 +10,7 @@
 #include <sstream>
 
 #include "biodyn/mocap_io/errors.h"
+#include "biodyn/mocap_io/utf8.h"
 #include "biodyn/sim/errors.h"
 #include "biodyn/sim/file_io.h"
 
@@ -174,7 +175,7 @@ TrcHeader parse_header(const std::vector<Line>& lines, const std::string& source
 /// Line 4, "Frame# Time label..." (each label followed by two empty columns): the marker
 /// labels. Throws ParseError unless it has the Frame# and Time columns and `count` labels.
 std::vector<std::string> parse_labels(const std::vector<Line>& lines, int count,
-                                      const std::string& source) {
+                                      const std::string& source, int* transcoded) {
   const Line& label_line = line_at(lines, 3, "the marker labels line (Frame# Time ...)", source);
   const std::vector<std::string> label_fields = split_fields(label_line.text);
   if (label_fields.size() < 2 || label_fields[0] != "Frame#" || label_fields[1] != "Time") {
@@ -183,7 +184,9 @@ std::vector<std::string> parse_labels(const std::vector<Line>& lines, int count,
   }
   std::vector<std::string> labels;
   for (size_t i = 2; i < label_fields.size(); ++i) {
-    if (!label_fields[i].empty()) labels.push_back(label_fields[i]);
+    if (label_fields[i].empty()) continue;
+    labels.push_back(to_utf8(label_fields[i]));
+    *transcoded += labels.back() != label_fields[i] ? 1 : 0;
   }
   if (static_cast<int>(labels.size()) != count) {
     throw ParseError(source, ParseError::line(label_line.number),
@@ -306,7 +309,7 @@ TrcFile parse_trc(const std::string& text, const std::string& source) {
   file.units = header.units;
   MarkerData& m = file.markers;
   const int n = static_cast<int>(header.num_markers);
-  m.labels = parse_labels(lines, n, source);
+  m.labels = parse_labels(lines, n, source, &file.transcoded_names);
   // Line 5: X1 Y1 Z1 ...; then optional blank lines before the rows.
   line_at(lines, 4, "the coordinate names line (X1 Y1 Z1 ...)", source);
   const TrcRows rows = parse_rows(lines, m.labels, header.metres_per_unit, source);

@@ -504,6 +504,19 @@ TEST_CASE("BVH: format_bvh refuses a hand-built hierarchy deeper than kMaxBvhDep
   CHECK_THROWS_WITH(mocap_io::format_bvh(m), Contains("nested 257 deep"));
 }
 
+TEST_CASE("BVH: joint names that are not UTF-8 are read as Latin-1", "[bvh]") {
+  const std::string hufte_latin1 = std::string("H\xFC") + "fte";  // "Hüfte" in Latin-1
+  const std::string hufte_utf8 = std::string("H\xC3\xBC") + "fte";
+  const BvhMotion m = mocap_io::parse_bvh(
+      replace_line(replace_line(kBase, 2, "ROOT " + hufte_latin1), 6, "  JOINT Br\xC3\xBCst"),
+      "latin1.bvh");
+  CHECK(m.joints[0].name == hufte_utf8);
+  CHECK(m.joints[1].name == "Br\xC3\xBCst");  // UTF-8 "Brüst": kept
+  CHECK(m.joints[2].name == "Br\xC3\xBCst_end");
+  CHECK(m.transcoded_names == 1);
+  CHECK(mocap_io::parse_bvh(kBase, "base.bvh").transcoded_names == 0);
+}
+
 TEST_CASE("BVH: mutated files parse or throw ParseError, nothing else", "[bvh]") {
   std::mt19937 rng(5);
   const std::string alphabet = " \n\t{}-.0123456789eXYZrotaionpsJOINTEndSite:";

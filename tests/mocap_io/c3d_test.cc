@@ -820,3 +820,17 @@ TEST_CASE("Calibration matrices of different sizes share CAL_MATRIX", "[mocap_io
   CHECK(back.force_plate_cal_matrices[0].isApprox(six, 1e-7));
   CHECK(back.force_plate_cal_matrices[1].isApprox(eight, 1e-7));
 }
+TEST_CASE("C3D labels and units that are not UTF-8 are read as Latin-1", "[mocap_io][c3d]") {
+  C3dFile c = synthetic_capture();
+  c.markers.labels[0] = "M\xE9";      // Latin-1 "Mé", legal in a C3D
+  c.markers.labels[1] = "H\xC3\xBC";  // UTF-8 "Hü": kept
+  c.analog.units[0] = "\xB5V";        // Latin-1 "µV"
+  const std::string path = scratch("latin1.c3d");
+  write_c3d(path, c);
+  const C3dFile read = read_c3d(path);
+  CHECK(read.markers.labels[0] == "M\xC3\xA9");
+  CHECK(read.markers.labels[1] == "H\xC3\xBC");
+  CHECK(read.analog.units[0] == "\xC2\xB5V");
+  CHECK(read.transcoded_names == 2);
+  CHECK(read_c3d(kWalking).transcoded_names == 0);
+}

@@ -151,3 +151,9 @@ TEST_CASE("TRC: a file cut at a row's end has fewer rows than NumFrames: refused
   s = s.substr(0, s.find("7\t0.02"));
   require_parse_error(s, "line 9", "2 rows");
 }
+TEST_CASE("TRC: labels that are not UTF-8 are read as Latin-1", "[mocap_io][trc]") {
+  const mocap_io::TrcFile f =
+      mocap_io::parse_trc(with_line(4, "Frame#\tTime\tM\xE9\t\t\tH\xC3\xBC\t\t"), "latin1.trc");
+  CHECK(f.markers.labels == std::vector<std::string>{"M\xC3\xA9", "H\xC3\xBC"});  // "Mé", "Hü"
+  CHECK(f.transcoded_names == 1);
+}

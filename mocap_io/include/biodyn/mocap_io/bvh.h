@@ -41,6 +41,9 @@ struct BvhMotion {
   /// frames x channel_count(): each frame's values in file order (positions in file units,
   /// rotations in degrees).
   Eigen::MatrixXd values;
+  /// Joint names that were not UTF-8 in the file, read as Latin-1 (to_utf8 in utf8.h); every
+  /// name here is UTF-8.
+  int transcoded_names = 0;
 
   int frame_count() const { return static_cast<int>(values.rows()); }
   int channel_count() const { return static_cast<int>(values.cols()); }

@@ -20,6 +20,8 @@ struct TrcFile {
   /// column's spacing), each naming both values and saying which one was used. Empty for a
   /// consistent file.
   std::vector<std::string> inconsistencies;
+  /// Marker labels that were not UTF-8, read as Latin-1 (to_utf8 in utf8.h).
+  int transcoded_names = 0;
 };
 
 /// Parses TRC text; `source` names the file in errors. Throws ParseError naming the line, what
