@@ -83,8 +83,15 @@ json trc_info(const std::string& path) {
   json j = marker_info(f.markers);
   j["format"] = "trc";
   j["units"] = f.units;
+  j["point_units"] = f.units;  // the key C3D info uses for the same thing
+  j["zero_samples_read_as_gaps"] = f.zero_samples;
   j["transcoded_names"] = f.transcoded_names;
   json notes = transcoded_names_notes(f.transcoded_names);
+  if (f.zero_samples > 0) {
+    notes.push_back(std::to_string(f.zero_samples) +
+                    (f.zero_samples == 1 ? " sample" : " samples") +
+                    " stored as 0 0 0 read as gaps (how OpenSim writes a missing marker)");
+  }
   j["notes"] = notes;
   j["analog_channels"] = json::array();
   j["force_plates"] = json::array();

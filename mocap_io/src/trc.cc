@@ -201,14 +201,16 @@ struct TrcRows {
   std::vector<std::vector<double>> positions_m;  ///< per row: x, y, z per marker; NaN for a gap
   std::vector<double> times_s;                   ///< the Time column, increasing
   int first_frame = 1;                           ///< the first row's Frame#
+  int zero_samples = 0;                          ///< samples stored as exactly 0 0 0, read as gaps
 };
 
 /// One data row's marker coordinates (fields after Frame# and Time) times `scale`, in m; a
-/// marker with any coordinate missing is a gap in all three. Throws ParseError naming the
-/// marker and axis of a field that is not a number, NaN or empty.
+/// marker with any coordinate missing is a gap in all three, and so is one stored as exactly
+/// 0 0 0 (counted in *zero_samples). Throws ParseError naming the marker and axis of a field
+/// that is not a number, NaN or empty.
 std::vector<double> parse_row(const std::vector<std::string>& fields,
                               const std::vector<std::string>& labels, double scale,
-                              const Line& line, const std::string& source) {
+                              const Line& line, const std::string& source, int* zero_samples) {
   std::vector<double> row(3 * labels.size());
   for (size_t k = 0; k < row.size(); ++k) {
     const std::string& f = fields[2 + k];
@@ -220,9 +222,12 @@ std::vector<double> parse_row(const std::vector<std::string>& fields,
     }
     row[k] = v * scale;
   }
-  // A gap is a gap in all three coordinates.
+  // A gap is a gap in all three coordinates. OpenSim writes a missing sample as 0 0 0: a marker
+  // exactly at the lab origin to every printed digit is that, not a measurement.
   for (size_t k = 0; k < row.size(); k += 3) {
-    if (std::isnan(row[k]) || std::isnan(row[k + 1]) || std::isnan(row[k + 2])) {
+    const bool zeros = row[k] == 0.0 && row[k + 1] == 0.0 && row[k + 2] == 0.0;
+    *zero_samples += zeros ? 1 : 0;
+    if (zeros || std::isnan(row[k]) || std::isnan(row[k + 1]) || std::isnan(row[k + 2])) {
       row[k] = row[k + 1] = row[k + 2] = std::numeric_limits<double>::quiet_NaN();
     }
   }
@@ -257,7 +262,8 @@ TrcRows parse_rows(const std::vector<Line>& lines, const std::vector<std::string
                        number_text(time));
     }
     if (rows.positions_m.empty()) rows.first_frame = static_cast<int>(frame);
-    rows.positions_m.push_back(parse_row(fields, labels, scale, lines[i], source));
+    rows.positions_m.push_back(
+        parse_row(fields, labels, scale, lines[i], source, &rows.zero_samples));
     rows.times_s.push_back(time);
   }
   if (rows.positions_m.empty()) {
@@ -316,6 +322,7 @@ TrcFile parse_trc(const std::string& text, const std::string& source) {
   m.rate_hz = header.rate_hz;
   m.first_frame = rows.first_frame;
   m.times_s = rows.times_s;
+  file.zero_samples = rows.zero_samples;
   m.positions_m.resize(static_cast<Eigen::Index>(rows.positions_m.size()), 3 * n);
   for (size_t f = 0; f < rows.positions_m.size(); ++f) {
     for (int k = 0; k < 3 * n; ++k) {

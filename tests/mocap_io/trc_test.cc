@@ -151,6 +151,24 @@ TEST_CASE("TRC: a file cut at a row's end has fewer rows than NumFrames: refused
   s = s.substr(0, s.find("7\t0.02"));
   require_parse_error(s, "line 9", "2 rows");
 }
+TEST_CASE("TRC: a sample stored as 0 0 0 is a gap, and counted", "[mocap_io][trc]") {
+  // OpenSim writes a missing marker as 0 0 0; read as a position it is a marker at the lab origin.
+  const mocap_io::TrcFile f =
+      mocap_io::parse_trc(with_line(8, "6\t0.01\t0\t0\t0\t0\t0\t0.000"), "zeros.trc");
+  CHECK_FALSE(f.markers.visible(1, 0));
+  CHECK_FALSE(f.markers.visible(1, 1));
+  CHECK(std::isnan(f.markers.position(1, 0).x()));
+  CHECK(f.markers.gap_count(0) == 1);
+  CHECK(f.markers.gap_count(1) == 2);  // with the NaN sample of kSmallTrc
+  CHECK(f.zero_samples == 2);
+  // One zero coordinate, or two, is a position.
+  const mocap_io::TrcFile g =
+      mocap_io::parse_trc(with_line(8, "6\t0.01\t0\t0\t3\t0\t5\t0"), "small.trc");
+  CHECK(g.markers.visible(1, 0));
+  CHECK(g.markers.visible(1, 1));
+  CHECK(g.zero_samples == 0);
+}
+
 TEST_CASE("TRC: labels that are not UTF-8 are read as Latin-1", "[mocap_io][trc]") {
   const mocap_io::TrcFile f =
       mocap_io::parse_trc(with_line(4, "Frame#\tTime\tM\xE9\t\t\tH\xC3\xBC\t\t"), "latin1.trc");

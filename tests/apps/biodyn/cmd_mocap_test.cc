@@ -75,6 +75,7 @@ TEST_CASE("mocap info reports each real file's contents as JSON", "[apps][mocap]
     CHECK(j["markers"].size() == 40);
     CHECK(j["gaps"].size() == 40);
     CHECK(j["force_plates"].size() == 2);
+    CHECK(j["point_units"] == "mm");
     CHECK(j["analog_channels"].size() > 0);
     CHECK(j.contains("first_frame"));
   }
@@ -84,6 +85,7 @@ TEST_CASE("mocap info reports each real file's contents as JSON", "[apps][mocap]
     REQUIRE(r.exit_code == 0);
     const json j = json::parse(r.out);
     CHECK(j["format"] == "trc");
+    CHECK(j["point_units"] == "mm");  // the key C3D info uses
     CHECK(j["frames"] == 112);
     // The header says 250 Hz, the rows step 0.04 s: reported, not mis-read.
     CHECK(j["inconsistencies"].size() == 1);
@@ -266,6 +268,37 @@ TEST_CASE("mocap refuses bad input in one line naming the file", "[apps][mocap]"
     CHECK(r.err.find("missing.trc") != std::string::npos);
     CHECK_FALSE(fs::exists(dir / "m.csv"));
   }
+}
+
+TEST_CASE("mocap info: a TRC's 0 0 0 samples are gaps, said in text and JSON", "[apps][mocap]") {
+  const fs::path dir = mocap_dir("zero_gaps");
+  // OpenSim writes a missing marker as 0 0 0: marker A is missing in the second row.
+  write_text(dir / "zeros.trc",
+             "PathFileType\t4\t(X/Y/Z)\tzeros.trc\n"
+             "DataRate\tCameraRate\tNumFrames\tNumMarkers\tUnits\tOrigDataRate\t"
+             "OrigDataStartFrame\tOrigNumFrames\n"
+             "100\t100\t3\t2\tmm\t100\t1\t3\n"
+             "Frame#\tTime\tA\t\t\tB\t\t\n"
+             "\t\tX1\tY1\tZ1\tX2\tY2\tZ2\n"
+             "\n"
+             "1\t0.00\t1\t2\t3\t4\t5\t6\n"
+             "2\t0.01\t0\t0\t0\t4\t5\t6\n"
+             "3\t0.02\t2\t2\t3\t4\t5\t6\n");
+  Run r = run_biodyn("mocap info --json zeros.trc", dir);
+  INFO(r.err);
+  REQUIRE(r.exit_code == 0);
+  const json j = json::parse(r.out);
+  CHECK(j["gaps"]["A"] == 1);
+  CHECK(j["gaps"]["B"] == 0);
+  CHECK(j["zero_samples_read_as_gaps"] == 1);
+  REQUIRE(j["notes"].size() == 1);
+  CHECK(j["notes"][0].get<std::string>().find("1 sample stored as 0 0 0 read as gaps") !=
+        std::string::npos);
+  CHECK(j["point_units"] == "mm");
+  r = run_biodyn("mocap info zeros.trc", dir);
+  REQUIRE(r.exit_code == 0);
+  CHECK(r.out.find("A(1 gaps)") != std::string::npos);
+  CHECK(r.out.find("note: 1 sample stored as 0 0 0 read as gaps") != std::string::npos);
 }
 
 TEST_CASE("mocap: names and paths that are not UTF-8 never break a JSON output", "[apps][mocap]") {

@@ -1,8 +1,8 @@
 #pragma once
 /// TRC (track row column, OpenSim / Motion Analysis) marker files: a 5-line header (path line,
 /// the DataRate ... OrigNumFrames keys and their values, the marker labels, X1 Y1 Z1 ...
-/// column names), then one row per frame: Frame#, Time, x y z per marker. A gap is "NaN" or an
-/// empty field (both occur in the wild).
+/// column names), then one row per frame: Frame#, Time, x y z per marker. A gap is "NaN", an
+/// empty field or exactly 0 0 0 (all three occur in the wild; OpenSim writes 0 0 0).
 
 #include <string>
 #include <vector>
@@ -20,6 +20,8 @@ struct TrcFile {
   /// column's spacing), each naming both values and saying which one was used. Empty for a
   /// consistent file.
   std::vector<std::string> inconsistencies;
+  /// Samples stored as exactly 0 0 0, read as gaps (NaN in markers, counted by gap_count).
+  int zero_samples = 0;
   /// Marker labels that were not UTF-8, read as Latin-1 (to_utf8 in utf8.h).
   int transcoded_names = 0;
 };
