@@ -391,3 +391,29 @@ TEST_CASE("mocap retarget and id write none of their outputs when a late step fa
     CHECK_FALSE(fs::exists(dir / "id" / f));
   }
 }
+
+TEST_CASE("mocap convert TRC to C3D keeps the Time column's rate, refuses uneven rows",
+          "[apps][mocap]") {
+  const fs::path dir = mocap_dir("convert_rate");
+  // DataRate 250 Hz over rows 0.04 s apart (OpenSim keeps the capture's rate when it writes
+  // every 10th frame): the C3D gets 25 Hz and lasts as long as the capture, with a warning.
+  write_text(dir / "every10th.trc", walking5_trc_part(54, 20, "250"));
+  Run r = run_biodyn("mocap convert every10th.trc every10th.c3d", dir);
+  INFO(r.out << r.err);
+  REQUIRE(r.exit_code == 0);
+  CHECK(r.err.find("every10th.trc: DataRate is 250 Hz (line 3)") != std::string::npos);
+  CHECK(r.err.find("used 25 Hz") != std::string::npos);
+  r = run_biodyn("mocap info --json every10th.c3d", dir);
+  REQUIRE(r.exit_code == 0);
+  CHECK(json::parse(r.out)["rate"].get<double>() == 25.0);
+  CHECK(json::parse(r.out)["frames"] == 20);
+  // walking5's own TRC: 0.04 s steps but 0.008 s on its last row. One rate cannot hold it.
+  r = run_biodyn("mocap convert '" + data("c3d/opensim_walking5_markers.trc") + "' uneven.c3d",
+                 dir);
+  CHECK(r.exit_code == 2);
+  CHECK(r.err.find("opensim_walking5_markers.trc: line 118") != std::string::npos);
+  CHECK(r.err.find("DataRate 250 Hz") != std::string::npos);
+  CHECK(r.err.find("25 Hz") != std::string::npos);
+  CHECK(r.err.find("4.408") != std::string::npos);
+  CHECK_FALSE(fs::exists(dir / "uneven.c3d"));
+}

@@ -65,8 +65,9 @@ struct C3dFile {
 /// than the header, no C3D key, a parameter section pointer outside the file, a bad processor
 /// byte, a parameter record running past its section or of an unknown type or dimension count,
 /// no POINT group or POINT:USED, a negative or fractional count, a rate <= 0, unknown
-/// POINT:UNITS, a data section shorter than the parameters say (truncated), an unsupported or
-/// incomplete force plate. Never returns a partial motion.
+/// POINT:UNITS, parameter records running into the data section, a data section shorter than
+/// the parameters say (truncated), an unsupported or incomplete force plate. Never returns a
+/// partial motion. Labels are UTF-8 (C3dFile::transcoded_names).
 C3dFile read_c3d(const std::string& path);
 
 /// Options of write_c3d.
