@@ -57,6 +57,12 @@ std::vector<double> parse_number_list(const std::string& text, const std::string
 /// "<option>: expected WIDTHxHEIGHT, e.g. 1280x720, got '<text>'" on anything else.
 std::pair<int, int> parse_size(const std::string& text, const std::string& option);
 
+/// `j` as text (nlohmann's dump with `indent`) that never throws on a string that is not UTF-8
+/// (a file name or label of any bytes): such bytes become U+FFFD, the rest is dump's text.
+inline std::string json_text(const nlohmann::json& j, int indent) {
+  return j.dump(indent, ' ', false, nlohmann::json::error_handler_t::replace);
+}
+
 /// Whole-file reads (sim/file_io.h), for every subcommand.
 using sim::read_file;
 

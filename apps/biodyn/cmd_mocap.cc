@@ -14,6 +14,7 @@
 #include "biodyn/mocap_io/c3d.h"
 #include "biodyn/mocap_io/trc.h"
 #include "biodyn/sim/errors.h"
+#include "cli_common.h"
 
 namespace biodyn::apps {
 namespace {
@@ -32,11 +33,23 @@ json marker_info(const mocap_io::MarkerData& m) {
           {"gaps", gaps}};
 }
 
+/// The note `mocap info` gives when `count` names were not UTF-8 (the readers' to_utf8).
+json transcoded_names_notes(int count) {
+  json notes = json::array();
+  if (count > 0) {
+    notes.push_back(std::to_string(count) + (count == 1 ? " name was" : " names were") +
+                    " not UTF-8: read as Latin-1 and transcoded to UTF-8");
+  }
+  return notes;
+}
+
 /// info of a C3D file: markers, analog channels, force plates.
 json c3d_info(const std::string& path) {
   const mocap_io::C3dFile f = mocap_io::read_c3d(path);
   json j = marker_info(f.markers);
   j["format"] = "c3d";
+  j["transcoded_names"] = f.transcoded_names;
+  j["notes"] = transcoded_names_notes(f.transcoded_names);
   j["processor"] = mocap_io::to_string(f.processor);
   j["storage"] = mocap_io::to_string(f.storage);
   j["point_units"] = f.point_units;
@@ -70,6 +83,16 @@ json trc_info(const std::string& path) {
   json j = marker_info(f.markers);
   j["format"] = "trc";
   j["units"] = f.units;
+  j["point_units"] = f.units;  // the key C3D info uses for the same thing
+  j["zero_samples_read_as_gaps"] = f.zero_samples;
+  j["transcoded_names"] = f.transcoded_names;
+  json notes = transcoded_names_notes(f.transcoded_names);
+  if (f.zero_samples > 0) {
+    notes.push_back(std::to_string(f.zero_samples) +
+                    (f.zero_samples == 1 ? " sample" : " samples") +
+                    " stored as 0 0 0 read as gaps (how OpenSim writes a missing marker)");
+  }
+  j["notes"] = notes;
   j["analog_channels"] = json::array();
   j["force_plates"] = json::array();
   j["inconsistencies"] = f.inconsistencies;
@@ -81,6 +104,8 @@ json bvh_info(const std::string& path) {
   const mocap_io::BvhMotion b = mocap_io::read_bvh(path);
   json j;
   j["format"] = "bvh";
+  j["transcoded_names"] = b.transcoded_names;
+  j["notes"] = transcoded_names_notes(b.transcoded_names);
   j["frames"] = b.frame_count();
   j["rate"] = 1.0 / b.frame_time_s;
   j["frame_time"] = b.frame_time_s;
@@ -137,6 +162,7 @@ void print_info(const std::string& path, const json& j) {
   for (const auto& s : j["inconsistencies"]) {
     std::cout << "  header and contents disagree: " << s.get<std::string>() << "\n";
   }
+  for (const auto& s : j["notes"]) std::cout << "  note: " << s.get<std::string>() << "\n";
 }
 
 }  // namespace
@@ -166,7 +192,7 @@ Command add_mocap_info_command(CLI::App* mocap) {
   return {info_cmd, [info]() {
             const json j = info_json(info->file);
             if (info->json_out) {
-              std::cout << j.dump(1) << "\n";
+              std::cout << json_text(j, 1) << "\n";
             } else {
               print_info(info->file, j);
             }

@@ -9,6 +9,7 @@
 #include "biodyn/mocap_io/c3d.h"
 #include "biodyn/mocap_io/trc.h"
 #include "biodyn/sim/errors.h"
+#include "biodyn/sim/log.h"
 #include "cmd_mocap.h"
 
 namespace biodyn::apps {
@@ -100,7 +101,15 @@ int run_convert(const ConvertOptions& conv) {
   if (in == Format::kC3d) {
     data = mocap_io::read_c3d(conv.in);
   } else {
-    data.markers = mocap_io::read_trc(conv.in).markers;
+    const mocap_io::TrcFile trc = mocap_io::read_trc(conv.in);
+    data.markers = trc.markers;
+    if (out == Format::kC3d) {
+      // C3D stores one rate and no times: the Time column's when DataRate disagrees with it
+      // (uniform_rate says why), refused when the rows are not evenly spaced.
+      const mocap_io::TrcUniformRate rate = mocap_io::uniform_rate(trc, conv.in);
+      data.markers.rate_hz = rate.rate_hz;
+      if (!rate.note.empty()) sim::log(sim::LogLevel::kWarning, rate.note);
+    }
   }
   if (out == Format::kTrc) {
     mocap_io::write_trc(conv.out, data.markers, conv.units, conv.precision);

@@ -347,7 +347,6 @@ int run_id(const IdOptions& o) {
   const mocap_io::InverseDynamicsResult id =
       mocap_io::inverse_dynamics(*model, motion, options, plates, plate_rate);
   bar.finish();
-  std::filesystem::create_directories(o.output);
   const std::vector<double> strikes =
       foot_strikes(*model, motion, models::Rig(*model).leg(models::kLeft).foot);
   const double body_weight_N = character.total_mass_kg() * 9.81;
@@ -356,23 +355,25 @@ int run_id(const IdOptions& o) {
   summary["body_source"] =
       mocap_io::motion_body(all, o.motion) ? "the motion's header" : "the command line";
   int unassigned = 0;
-  if (options.ground == mocap_io::GroundForces::kForcePlates) {
+  const bool plates_used = options.ground == mocap_io::GroundForces::kForcePlates;
+  if (plates_used) {
     summary["plates"] = plate_summary(id, &unassigned);
     summary["plate_assignment"] =
         "a plate's load goes to the foot whose sole is on the plate (within 3 cm of its surface) "
         "with the centre of pressure under it (within 4 cm); unassigned loads (both feet or "
         "neither) are not applied and stay in the root residual";
   }
+  // Every output's text first, then the plot (gnuplot may fail), then the files: a failure
+  // leaves none of torques.csv, residuals.csv, plates.csv, summary.json.
   const std::string torques = torques_csv(id), residuals = residuals_csv(id);
-  const std::string summary_text =
-      summary.dump(1, ' ', false, json::error_handler_t::replace) + "\n";
+  const std::string plates_text = plates_used ? plates_csv(id) : std::string();
+  const std::string summary_text = json_text(summary, 1) + "\n";
+  std::filesystem::create_directories(o.output);
+  plot_torques(o.output, id, strikes, spec.mass_kg);
   write_file_atomically(o.output + "/torques.csv", torques);
   write_file_atomically(o.output + "/residuals.csv", residuals);
-  if (options.ground == mocap_io::GroundForces::kForcePlates) {
-    write_file_atomically(o.output + "/plates.csv", plates_csv(id));
-  }
+  if (plates_used) write_file_atomically(o.output + "/plates.csv", plates_text);
   write_file_atomically(o.output + "/summary.json", summary_text);
-  plot_torques(o.output, id, strikes, spec.mass_kg);
   print_id(o, id, options.ground, spec, body_weight_N);
   for (const std::string& n : body_notes) std::cout << "  note: " << n << "\n";
   if (unassigned > 0) {

@@ -360,7 +360,7 @@ int run_ik(const IkOptions& o, bool height_given) {
   IkOutputs out;
   out.motion_csv =
       mocap_io::format_motion_csv(ik_motion(model, result, markers, capture_path, set, spec));
-  out.stats_json = stats.dump(1, ' ', false, json::error_handler_t::replace) + "\n";
+  out.stats_json = json_text(stats, 1) + "\n";
   out.body_json = models::format_body_json(spec);
   out.mjcf = mjcf;
   write_file_atomically(o.output, out.motion_csv);

@@ -283,11 +283,15 @@ int run_retarget(const RetargetCliOptions& o) {
   const mocap_io::RetargetResult r =
       mocap_io::retarget_bvh(bvh, map, spec, options, [&](double f) { bar.update(f); });
   bar.finish();
-  write_file_atomically(o.output + "/motion.csv", mocap_io::format_motion_csv(r.motion));
-  write_file_atomically(o.output + "/character.bvh", mocap_io::format_bvh(r.bvh));
-  write_file_atomically(o.output + "/stats.json",
-                        retarget_stats(o, map, options, spec, r).dump(1) + "\n");
+  // Every output's text first, then the plot (gnuplot may fail), then the files: a failure
+  // leaves none of motion.csv, character.bvh, stats.json.
+  const std::string motion_text = mocap_io::format_motion_csv(r.motion);
+  const std::string bvh_text = mocap_io::format_bvh(r.bvh);
+  const std::string stats_text = json_text(retarget_stats(o, map, options, spec, r), 1) + "\n";
   plot_feet(o.output, r);
+  write_file_atomically(o.output + "/motion.csv", motion_text);
+  write_file_atomically(o.output + "/character.bvh", bvh_text);
+  write_file_atomically(o.output + "/stats.json", stats_text);
   print_retarget(o, map, spec, r);
   return kExitOk;
 }

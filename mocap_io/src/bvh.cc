@@ -15,6 +15,7 @@
 #include <utility>
 
 #include "biodyn/mocap_io/errors.h"
+#include "biodyn/mocap_io/utf8.h"
 #include "biodyn/sim/errors.h"
 #include "biodyn/sim/file_io.h"
 #include "biodyn/sim/units.h"
@@ -212,14 +213,26 @@ class Parser {
       } else if (motion_.joints[open.back()].end_site) {
         tok_.fail(t, "'}' closing the End Site");
       } else if (iequals(t.text, "JOINT")) {
+        check_depth(open, t);
         open.push_back(begin_joint(t, open.back(), false));
       } else if (iequals(t.text, "End")) {
+        check_depth(open, t);
         const Token site = tok_.expect("Site");
         open.push_back(begin_joint(site, open.back(), true));
       } else {
         tok_.fail(t, "JOINT, End Site or '}' in joint '" + motion_.joints[open.back()].name + "'");
       }
     }
+  }
+
+  /// Throws ParseError on `keyword`'s line if a joint opened inside `open` would be nested
+  /// deeper than kMaxBvhDepth.
+  void check_depth(const std::vector<int>& open, const Token& keyword) const {
+    if (static_cast<int>(open.size()) < kMaxBvhDepth) return;
+    tok_.fail(keyword.line,
+              "joints nested at most " + std::to_string(kMaxBvhDepth) + " deep (kMaxBvhDepth)",
+              "'" + std::string(keyword.text) + "' at depth " + std::to_string(open.size() + 1) +
+                  ", inside '" + motion_.joints[open.back()].name + "'");
   }
 
   /// Reads a joint's name, '{', OFFSET and (not for end sites) CHANNELS; returns its index.
@@ -241,6 +254,10 @@ class Parser {
       const Token& t = tok_.peek();
       tok_.fail(keyword.line, "a joint name after " + std::string(keyword.text),
                 !t.end() && t.line == keyword.line ? describe(t) : "end of line");
+    } else {
+      const std::string utf8 = to_utf8(name);
+      motion_.transcoded_names += utf8 != name ? 1 : 0;
+      name = utf8;
     }
     j.name = name;
     tok_.expect("{");
@@ -486,8 +503,15 @@ void check_writable(const BvhMotion& m, int precision) {
   if (!(m.frame_time_s > 0) || !std::isfinite(m.frame_time_s)) {
     invalid("frame_time_s must be > 0, got " + format_significant(m.frame_time_s, 17));
   }
+  std::vector<int> depth(m.joints.size(), 1);  // parents come first (check_structure)
   for (std::size_t i = 0; i < m.joints.size(); ++i) {
     check_name(m.joints[i], i);
+    if (m.joints[i].parent >= 0) depth[i] = depth[m.joints[i].parent] + 1;
+    if (depth[i] > kMaxBvhDepth) {
+      invalid("joint " + std::to_string(i) + " '" + m.joints[i].name + "' is nested " +
+              std::to_string(depth[i]) + " deep, more than kMaxBvhDepth (" +
+              std::to_string(kMaxBvhDepth) + ")");
+    }
     if (m.joints[i].end_site && m.joints[i].parent < 0) {
       invalid("joint " + std::to_string(i) + ": an end site needs a parent");
     }

@@ -14,6 +14,7 @@
 #include "biodyn/mocap_io/c3d.h"
 
 #include "biodyn/mocap_io/errors.h"
+#include "biodyn/mocap_io/utf8.h"
 #include "biodyn/sim/errors.h"
 #include "biodyn/sim/file_io.h"
 #include "c3d_binary.h"
@@ -284,7 +285,10 @@ class LayoutDecider {
     return *trial;
   }
 
+  /// Whether a and b are the same value (within kSameRelative). An infinite or NaN value is
+  /// the same as nothing: |250 - inf| <= 1e-6 inf would call a header rate of inf 250 Hz.
   static bool same(double a, double b) {
+    if (!std::isfinite(a) || !std::isfinite(b)) return false;
     return std::fabs(a - b) <= kSameRelative * std::max(std::fabs(a), std::fabs(b));
   }
 
@@ -447,15 +451,43 @@ void check_data_size(const ByteReader& raw, const Layout& l) {
            std::to_string(available) + " bytes before the end of the file (truncated)");
 }
 
+/// The parameter section against the data section ("The Parameter Section": its header's third
+/// byte counts its blocks, and the data start after them). Parameter records that run into the
+/// data are refused (the data would be read from parameter bytes); a block count claiming more
+/// blocks than lie before the data, over records that end before it, is noted.
+void check_parameter_blocks(const ByteReader& raw, std::size_t start, std::size_t records_end,
+                            const Layout& l, std::vector<std::string>* notes) {
+  const long data_block = static_cast<long>(l.data_offset / kBlockBytes) + 1;
+  if (records_end > l.data_offset) {
+    raw.fail(l.data_offset,
+             "the data section (block " + std::to_string(data_block) +
+                 ") to start after the parameter records",
+             "parameter records up to byte " + std::to_string(records_end));
+  }
+  const std::size_t claimed = raw.byte(start + 2, "the parameter block count");
+  const std::size_t available = (l.data_offset - start) / kBlockBytes;
+  if (claimed > available) {
+    notes->push_back("parameter section: byte " + std::to_string(start + 2) + " claims " +
+                     std::to_string(claimed) + " blocks, but the data start at block " +
+                     std::to_string(data_block) + " leaves " + std::to_string(available) +
+                     "; its records end at byte " + std::to_string(records_end) +
+                     ", before the data: read as they are");
+  }
+}
+
 /// The strings of GROUP:NAME, GROUP:NAME2, GROUP:NAME3, ... in order ("Additional
-/// Parameters": LABELS2 etc. continue LABELS past 255 entries).
+/// Parameters": LABELS2 etc. continue LABELS past 255 entries), as UTF-8 (to_utf8: a C3D
+/// string may hold any byte; Latin-1 is common). Counts the strings transcoded in *transcoded.
 std::vector<std::string> continued_strings(const ParameterSection& params, const char* group,
-                                           const std::string& name) {
+                                           const std::string& name, int* transcoded) {
   std::vector<std::string> out;
   for (int k = 1;; ++k) {
     const Parameter* p = params.find(group, k == 1 ? name : name + std::to_string(k));
     if (p == nullptr) break;  // parameters are finite: the loop ends
-    out.insert(out.end(), p->strings.begin(), p->strings.end());
+    for (const std::string& raw : p->strings) {
+      out.push_back(to_utf8(raw));
+      *transcoded += out.back() != raw ? 1 : 0;
+    }
   }
   return out;
 }
@@ -533,14 +565,14 @@ MarkerData read_markers(const ByteReader& raw, const Layout& l, std::vector<std:
 /// value = (stored - ANALOG:OFFSET) * ANALOG:SCALE * ANALOG:GEN_SCALE, with stored values and
 /// offsets unsigned when ANALOG:FORMAT is "UNSIGNED" ("ANALOG:FORMAT").
 AnalogData read_analog(const ByteReader& raw, const ParameterSection& params, const Layout& l,
-                       std::vector<std::string>* notes) {
+                       std::vector<std::string>* notes, int* transcoded) {
   AnalogData a;
   if (l.channels == 0) return a;
   const auto n = static_cast<std::size_t>(l.channels);
   a.rate_hz = l.rate_hz * static_cast<double>(l.samples_per_frame);
-  a.labels = complete_labels(continued_strings(params, "ANALOG", "LABELS"), l.channels,
+  a.labels = complete_labels(continued_strings(params, "ANALOG", "LABELS", transcoded), l.channels,
                              "ANALOG:LABELS", "analog", notes);
-  a.units = continued_strings(params, "ANALOG", "UNITS");
+  a.units = continued_strings(params, "ANALOG", "UNITS", transcoded);
   a.units.resize(n);
   const Parameter* format = params.find("ANALOG", "FORMAT");
   const bool is_unsigned = format != nullptr && !format->strings.empty() &&
@@ -592,12 +624,13 @@ C3dFile read_c3d(const std::string& path) {
   const Layout layout =
       LayoutDecider(params, header, raw, &out.inconsistencies).decide(&out.point_units);
   out.storage = layout.storage;
+  check_parameter_blocks(raw, parameter_start, params.records_end(), layout, &out.inconsistencies);
   check_data_size(raw, layout);
-  out.markers =
-      read_markers(raw, layout,
-                   complete_labels(continued_strings(params, "POINT", "LABELS"), layout.points,
-                                   "POINT:LABELS", "point", &out.inconsistencies));
-  out.analog = read_analog(raw, params, layout, &out.inconsistencies);
+  out.markers = read_markers(
+      raw, layout,
+      complete_labels(continued_strings(params, "POINT", "LABELS", &out.transcoded_names),
+                      layout.points, "POINT:LABELS", "point", &out.inconsistencies));
+  out.analog = read_analog(raw, params, layout, &out.inconsistencies, &out.transcoded_names);
   c3d_internal::ForcePlates plates =
       c3d_internal::read_force_plates(params, out.analog, layout.unit_m, path);
   out.force_plates = std::move(plates.plates);

@@ -139,6 +139,7 @@ ParameterSection parse_parameters(const ByteReader& r, std::size_t start) {
   std::map<int, std::string> group_names;  // group id -> name
   std::vector<std::pair<int, Parameter>> parameters;
   std::size_t at = start + 4;  // past the section header (C3D User Guide, "Parameter header")
+  std::size_t records_end = at;
   // Each record starts strictly after the previous one's offset word and inside the section:
   // the walk ends.
   while (at + 2 <= r.end()) {
@@ -167,6 +168,7 @@ ParameterSection parse_parameters(const ByteReader& r, std::size_t start) {
     }
     const std::uint8_t description_length = r.byte(after, "record description length");
     r.span(after + 1, description_length, "record description");
+    records_end = std::max(records_end, after + 1 + description_length);
     if (next_offset == 0) break;  // the last record (C3D User Guide, "Group Format")
     if (next_offset < 0) {
       r.fail(offset_word, "a positive offset to the next parameter record",
@@ -181,6 +183,7 @@ ParameterSection parse_parameters(const ByteReader& r, std::size_t start) {
     }
   }
   ParameterSection section;
+  section.set_records_end(records_end);
   for (const auto& [id, name] : group_names) section.groups().push_back(name);
   for (auto& [id, p] : parameters) {
     const auto it = group_names.find(id);

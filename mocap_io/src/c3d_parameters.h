@@ -51,10 +51,14 @@ class ParameterSection {
 
   std::vector<std::string>& groups() { return groups_; }
   std::vector<Parameter>& parameters() { return parameters_; }
+  /// Byte offset just past the last record read (its description included).
+  std::size_t records_end() const { return records_end_; }
+  void set_records_end(std::size_t end) { records_end_ = end; }
 
  private:
   std::vector<std::string> groups_;
   std::vector<Parameter> parameters_;
+  std::size_t records_end_ = 0;
 };
 
 /// `s` in upper case (C3D names are 7-bit ASCII).

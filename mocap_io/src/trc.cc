@@ -10,6 +10,7 @@
 #include <sstream>
 
 #include "biodyn/mocap_io/errors.h"
+#include "biodyn/mocap_io/utf8.h"
 #include "biodyn/sim/errors.h"
 #include "biodyn/sim/file_io.h"
 
@@ -19,6 +20,13 @@ namespace {
 /// Relative difference between DataRate and the Time column's rate above which the header and
 /// the rows are reported as disagreeing (TRC files print times to ~6 digits).
 constexpr double kRateMismatchTolerance = 1e-3;
+/// uniform_rate: a row's time may be this fraction of a step off an even spacing (times printed
+/// to 6 significant digits are off by at most 6% of a 120 Hz step at 100 s); more would put a
+/// sample in another frame's slot.
+constexpr double kEvenSpacingTolerance = 0.25;
+/// uniform_rate: a Time column rate this close (relative) to a whole number of Hz is that number
+/// (capture rates are whole: 50, 100, 120, 250 Hz; printed times give the mean step to ~1e-6).
+constexpr double kWholeRateTolerance = 1e-4;
 
 /// One line of the file with its 1-based number.
 struct Line {
@@ -174,7 +182,7 @@ TrcHeader parse_header(const std::vector<Line>& lines, const std::string& source
 /// Line 4, "Frame# Time label..." (each label followed by two empty columns): the marker
 /// labels. Throws ParseError unless it has the Frame# and Time columns and `count` labels.
 std::vector<std::string> parse_labels(const std::vector<Line>& lines, int count,
-                                      const std::string& source) {
+                                      const std::string& source, int* transcoded) {
   const Line& label_line = line_at(lines, 3, "the marker labels line (Frame# Time ...)", source);
   const std::vector<std::string> label_fields = split_fields(label_line.text);
   if (label_fields.size() < 2 || label_fields[0] != "Frame#" || label_fields[1] != "Time") {
@@ -183,12 +191,23 @@ std::vector<std::string> parse_labels(const std::vector<Line>& lines, int count,
   }
   std::vector<std::string> labels;
   for (size_t i = 2; i < label_fields.size(); ++i) {
-    if (!label_fields[i].empty()) labels.push_back(label_fields[i]);
+    if (label_fields[i].empty()) continue;
+    labels.push_back(to_utf8(label_fields[i]));
+    *transcoded += labels.back() != label_fields[i] ? 1 : 0;
   }
   if (static_cast<int>(labels.size()) != count) {
     throw ParseError(source, ParseError::line(label_line.number),
                      std::to_string(count) + " marker labels (NumMarkers)",
                      std::to_string(labels.size()));
+  }
+  // A label names one marker: two columns of one name would be read as one marker's.
+  std::map<std::string, size_t> first_marker;
+  for (size_t i = 0; i < labels.size(); ++i) {
+    const auto [it, is_new] = first_marker.emplace(labels[i], i);
+    if (is_new) continue;
+    throw ParseError(source, ParseError::line(label_line.number), "distinct marker labels",
+                     "'" + labels[i] + "' twice (markers " + std::to_string(it->second + 1) +
+                         " and " + std::to_string(i + 1) + ")");
   }
   return labels;
 }
@@ -197,15 +216,18 @@ std::vector<std::string> parse_labels(const std::vector<Line>& lines, int count,
 struct TrcRows {
   std::vector<std::vector<double>> positions_m;  ///< per row: x, y, z per marker; NaN for a gap
   std::vector<double> times_s;                   ///< the Time column, increasing
+  std::vector<long> lines;                       ///< each row's line number
   int first_frame = 1;                           ///< the first row's Frame#
+  int zero_samples = 0;                          ///< samples stored as exactly 0 0 0, read as gaps
 };
 
 /// One data row's marker coordinates (fields after Frame# and Time) times `scale`, in m; a
-/// marker with any coordinate missing is a gap in all three. Throws ParseError naming the
-/// marker and axis of a field that is not a number, NaN or empty.
+/// marker with any coordinate missing is a gap in all three, and so is one stored as exactly
+/// 0 0 0 (counted in *zero_samples). Throws ParseError naming the marker and axis of a field
+/// that is not a number, NaN or empty.
 std::vector<double> parse_row(const std::vector<std::string>& fields,
                               const std::vector<std::string>& labels, double scale,
-                              const Line& line, const std::string& source) {
+                              const Line& line, const std::string& source, int* zero_samples) {
   std::vector<double> row(3 * labels.size());
   for (size_t k = 0; k < row.size(); ++k) {
     const std::string& f = fields[2 + k];
@@ -217,9 +239,12 @@ std::vector<double> parse_row(const std::vector<std::string>& fields,
     }
     row[k] = v * scale;
   }
-  // A gap is a gap in all three coordinates.
+  // A gap is a gap in all three coordinates. OpenSim writes a missing sample as 0 0 0: a marker
+  // exactly at the lab origin to every printed digit is that, not a measurement.
   for (size_t k = 0; k < row.size(); k += 3) {
-    if (std::isnan(row[k]) || std::isnan(row[k + 1]) || std::isnan(row[k + 2])) {
+    const bool zeros = row[k] == 0.0 && row[k + 1] == 0.0 && row[k + 2] == 0.0;
+    *zero_samples += zeros ? 1 : 0;
+    if (zeros || std::isnan(row[k]) || std::isnan(row[k + 1]) || std::isnan(row[k + 2])) {
       row[k] = row[k + 1] = row[k + 2] = std::numeric_limits<double>::quiet_NaN();
     }
   }
@@ -254,8 +279,10 @@ TrcRows parse_rows(const std::vector<Line>& lines, const std::vector<std::string
                        number_text(time));
     }
     if (rows.positions_m.empty()) rows.first_frame = static_cast<int>(frame);
-    rows.positions_m.push_back(parse_row(fields, labels, scale, lines[i], source));
+    rows.positions_m.push_back(
+        parse_row(fields, labels, scale, lines[i], source, &rows.zero_samples));
     rows.times_s.push_back(time);
+    rows.lines.push_back(lines[i].number);
   }
   if (rows.positions_m.empty()) {
     throw ParseError(source, ParseError::line(static_cast<long>(lines.size()) + 1),
@@ -306,13 +333,16 @@ TrcFile parse_trc(const std::string& text, const std::string& source) {
   file.units = header.units;
   MarkerData& m = file.markers;
   const int n = static_cast<int>(header.num_markers);
-  m.labels = parse_labels(lines, n, source);
+  m.labels = parse_labels(lines, n, source, &file.transcoded_names);
   // Line 5: X1 Y1 Z1 ...; then optional blank lines before the rows.
   line_at(lines, 4, "the coordinate names line (X1 Y1 Z1 ...)", source);
   const TrcRows rows = parse_rows(lines, m.labels, header.metres_per_unit, source);
   m.rate_hz = header.rate_hz;
   m.first_frame = rows.first_frame;
   m.times_s = rows.times_s;
+  file.row_lines = rows.lines;
+  file.rate_line = header.value_line;
+  file.zero_samples = rows.zero_samples;
   m.positions_m.resize(static_cast<Eigen::Index>(rows.positions_m.size()), 3 * n);
   for (size_t f = 0; f < rows.positions_m.size(); ++f) {
     for (int k = 0; k < 3 * n; ++k) {
@@ -324,6 +354,61 @@ TrcFile parse_trc(const std::string& text, const std::string& source) {
 }
 
 TrcFile read_trc(const std::string& path) { return parse_trc(sim::read_file(path), path); }
+
+// The Time column wins over DataRate: it stamps every sample, while DataRate is a header field
+// that writers leave at the capture's rate when they keep every n-th frame (OpenSim's walking5
+// TRC: DataRate 250 Hz, rows 0.04 s apart). A biomechanist converting a 5 s walk expects a 5 s
+// C3D; writing DataRate would shrink it to 0.5 s and scale every velocity by 10 and every
+// acceleration by 100. Rows that are not evenly spaced are refused: C3D stores one rate, and
+// resampling is not a conversion's job.
+TrcUniformRate uniform_rate(const TrcFile& file, const std::string& source) {
+  const MarkerData& m = file.markers;
+  const std::vector<double>& t = m.times_s;
+  if (t.size() < 2) return {m.rate_hz, ""};
+  const size_t n = t.size();
+  const double mean_step = (t.back() - t.front()) / static_cast<double>(n - 1);
+  std::vector<double> steps;
+  for (size_t i = 1; i < n; ++i) steps.push_back(t[i] - t[i - 1]);
+  // The lower median: of two steps, the shorter (a row late names itself, not its predecessor).
+  const size_t middle = (steps.size() - 1) / 2;
+  std::nth_element(steps.begin(), steps.begin() + static_cast<std::ptrdiff_t>(middle), steps.end());
+  const double median_step = steps[middle];
+  const auto refuse = [&](size_t row, const std::string& rule, double off_s) {
+    const long line = row < file.row_lines.size() ? file.row_lines[row] : 0;
+    throw ParseError(source, ParseError::line(line),
+                     "rows evenly spaced in time, to be written at one rate (" + rule +
+                         "; DataRate " + number_text(m.rate_hz) + " Hz on line " +
+                         std::to_string(file.rate_line) + ", the Time column " +
+                         number_text(1.0 / median_step) + " Hz by its median step " +
+                         number_text(median_step) + " s)",
+                     "time " + number_text(t[row]) + " s, " + number_text(off_s) + " s off");
+  };
+  // Each step against the median names the row where the spacing breaks; each time against
+  // the line through the first and last catches a slow drift.
+  for (size_t i = 1; i < n; ++i) {
+    const double off_s = (t[i] - t[i - 1]) - median_step;
+    if (std::abs(off_s) > kEvenSpacingTolerance * median_step) {
+      refuse(i, "a step of " + number_text(median_step) + " s after the previous row's time",
+             off_s);
+    }
+  }
+  for (size_t i = 1; i < n; ++i) {
+    const double grid_s = t.front() + static_cast<double>(i) * mean_step;
+    if (std::abs(t[i] - grid_s) > kEvenSpacingTolerance * mean_step) {
+      refuse(i, "the time " + number_text(grid_s) + " s of an even spacing", t[i] - grid_s);
+    }
+  }
+  if (std::abs(mean_step * m.rate_hz - 1.0) <= kRateMismatchTolerance) return {m.rate_hz, ""};
+  double rate_hz = 1.0 / mean_step;
+  if (std::abs(rate_hz - std::round(rate_hz)) <= kWholeRateTolerance * rate_hz) {
+    rate_hz = std::round(rate_hz);
+  }
+  return {rate_hz, source + ": DataRate is " + number_text(m.rate_hz) + " Hz (line " +
+                       std::to_string(file.rate_line) + ") but the rows are " +
+                       number_text(mean_step) + " s apart (" + number_text(rate_hz) +
+                       " Hz): used " + number_text(rate_hz) +
+                       " Hz, the Time column's rate, so the capture keeps its duration"};
+}
 
 std::string format_trc(const MarkerData& markers, const std::string& units,
                        const std::string& file_name, int precision) {

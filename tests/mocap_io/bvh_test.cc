@@ -459,20 +459,62 @@ TEST_CASE("BVH: a truncated CMU file is always a ParseError, never a partial mot
   }
 }
 
-TEST_CASE("BVH: a very deep hierarchy parses without exhausting the stack", "[bvh]") {
-  constexpr int kDepth = 100000;  // a recursive parser would need tens of MB of stack here
+namespace {
+
+/// A chain of `depth` joints, each nested in the one before (joint k's JOINT on line 4k + 2).
+std::string nested_bvh(int depth) {
   std::string text = "HIERARCHY\nROOT j0\n{\nOFFSET 0 0 0\nCHANNELS 0\n";
-  for (int k = 1; k < kDepth; ++k) {
+  for (int k = 1; k < depth; ++k) {
     text += "JOINT j" + std::to_string(k) + "\n{\nOFFSET 0 1 0\nCHANNELS 0\n";
   }
-  text += std::string(kDepth, '}') + "\nMOTION\nFrames: 1\nFrame Time: 1\n";
+  return text + std::string(static_cast<std::size_t>(depth), '}') +
+         "\nMOTION\nFrames: 1\nFrame Time: 1\n";
+}
+
+}  // namespace
+
+TEST_CASE("BVH: joints nest kMaxBvhDepth deep, one deeper is a ParseError on its line", "[bvh]") {
+  constexpr int kDepth = mocap_io::kMaxBvhDepth;
+  std::string text = nested_bvh(kDepth);
   const BvhMotion m = mocap_io::parse_bvh(text, "deep.bvh");
   REQUIRE(m.joints.size() == kDepth);
   CHECK(m.joints.back().parent == kDepth - 2);
   CHECK(position(m, "j" + std::to_string(kDepth - 1)).y() == kDepth - 1);
+  CHECK(mocap_io::parse_bvh(mocap_io::format_bvh(m), "deep.bvh").joints.size() == kDepth);
   // One brace short: the last '}' is missing when MOTION comes.
   text.erase(text.find('}'), 1);
   check_parse_error(text, 4 * kDepth + 3, "JOINT, End Site or '}' in joint 'j0'", "'MOTION'");
+  // One joint deeper, an End Site deeper, and the 200,000 levels that once took 7.9 GB.
+  check_parse_error(nested_bvh(kDepth + 1), 4 * kDepth + 2,
+                    "joints nested at most " + std::to_string(kDepth) + " deep",
+                    "'JOINT' at depth " + std::to_string(kDepth + 1) + ", inside 'j255'");
+  std::string end_site = nested_bvh(kDepth);
+  end_site.insert(end_site.find('}'), "End Site\n{\nOFFSET 0 1 0\n}\n");
+  check_parse_error(end_site, 4 * kDepth + 2, "nested at most", "'End' at depth 257");
+  check_parse_error(nested_bvh(200000), 4 * kDepth + 2, "nested at most", "depth 257");
+}
+
+TEST_CASE("BVH: format_bvh refuses a hand-built hierarchy deeper than kMaxBvhDepth", "[bvh]") {
+  BvhMotion m = mocap_io::parse_bvh(nested_bvh(mocap_io::kMaxBvhDepth), "deep.bvh");
+  mocap_io::BvhJoint end;
+  end.name = "tip";
+  end.end_site = true;
+  end.parent = static_cast<int>(m.joints.size()) - 1;
+  m.joints.push_back(end);
+  CHECK_THROWS_WITH(mocap_io::format_bvh(m), Contains("nested 257 deep"));
+}
+
+TEST_CASE("BVH: joint names that are not UTF-8 are read as Latin-1", "[bvh]") {
+  const std::string hufte_latin1 = std::string("H\xFC") + "fte";  // "Hüfte" in Latin-1
+  const std::string hufte_utf8 = std::string("H\xC3\xBC") + "fte";
+  const BvhMotion m = mocap_io::parse_bvh(
+      replace_line(replace_line(kBase, 2, "ROOT " + hufte_latin1), 6, "  JOINT Br\xC3\xBCst"),
+      "latin1.bvh");
+  CHECK(m.joints[0].name == hufte_utf8);
+  CHECK(m.joints[1].name == "Br\xC3\xBCst");  // UTF-8 "Brüst": kept
+  CHECK(m.joints[2].name == "Br\xC3\xBCst_end");
+  CHECK(m.transcoded_names == 1);
+  CHECK(mocap_io::parse_bvh(kBase, "base.bvh").transcoded_names == 0);
 }
 
 TEST_CASE("BVH: mutated files parse or throw ParseError, nothing else", "[bvh]") {

@@ -820,3 +820,71 @@ TEST_CASE("Calibration matrices of different sizes share CAL_MATRIX", "[mocap_io
   CHECK(back.force_plate_cal_matrices[0].isApprox(six, 1e-7));
   CHECK(back.force_plate_cal_matrices[1].isApprox(eight, 1e-7));
 }
+
+TEST_CASE("A header rate of inf is reported like 0, -250 and NaN, and POINT:RATE used",
+          "[mocap_io][c3d]") {
+  const std::vector<std::uint8_t> walking = read_bytes(kWalking);
+  for (const float rate : {std::numeric_limits<float>::infinity(), 0.0f, -250.0f,
+                           std::numeric_limits<float>::quiet_NaN()}) {
+    INFO("header rate " << rate);
+    std::vector<std::uint8_t> bytes = walking;
+    std::memcpy(&bytes[20], &rate, 4);  // Intel header words 11-12
+    const C3dFile c = read_c3d(write_bytes("header_rate.c3d", bytes));
+    REQUIRE(c.inconsistencies.size() == 1);
+    CHECK_THAT(c.inconsistencies[0], Catch::Contains("frame rate: the header says ") &&
+                                         Catch::Contains("POINT:RATE says 250 Hz") &&
+                                         Catch::Contains("used POINT:RATE"));
+    CHECK(c.markers.rate_hz == 250.0);
+  }
+  std::vector<std::uint8_t> bytes = walking;
+  const float inf = std::numeric_limits<float>::infinity();
+  std::memcpy(&bytes[20], &inf, 4);
+  CHECK_THAT(read_c3d(write_bytes("header_rate.c3d", bytes)).inconsistencies[0],
+             Catch::Contains("says inf Hz"));
+}
+
+TEST_CASE("A parameter section claiming more blocks than lie before the data", "[mocap_io][c3d]") {
+  // walking5: parameters from block 2 (byte 512), records ending at byte 6268, data from block
+  // 14 (byte 6656): 12 blocks for the parameters, as byte 514 says.
+  const std::vector<std::uint8_t> walking = read_bytes(kWalking);
+  REQUIRE(walking[514] == 12);
+  std::vector<std::uint8_t> bytes = walking;
+  bytes[514] = 20;  // claims 20: 8 of them would be data
+  const C3dFile c = read_c3d(write_bytes("parameter_blocks.c3d", bytes));
+  REQUIRE(c.inconsistencies.size() == 1);
+  CHECK_THAT(c.inconsistencies[0], Catch::Contains("byte 514 claims 20 blocks") &&
+                                       Catch::Contains("data start at block 14 leaves 12") &&
+                                       Catch::Contains("records end at byte 6268"));
+  const C3dFile original = read_c3d(kWalking);
+  const auto read = c.markers.positions_m.array(), expected = original.markers.positions_m.array();
+  CHECK((read == expected || (read.isNaN() && expected.isNaN())).all());
+
+  // The data moved to block 13 (POINT:DATA_START and header word 9), where the records still
+  // are: the data would be read from parameter bytes. Refused.
+  bytes = walking;
+  const std::size_t value = find(walking, record_prefix(10, 3, "DATA_START")) + 2 + 10 + 2 + 2;
+  REQUIRE(walking[value - 2] == 2);  // an int16
+  REQUIRE(walking[value - 1] == 0);  // scalar
+  REQUIRE(walking[value] == 14);
+  bytes[value] = 13;
+  bytes[16] = 13;  // header word 9
+  const std::string path = write_bytes("data_in_parameters.c3d", bytes);
+  CHECK_THROWS_WITH(read_c3d(path), Catch::Contains(path + ": byte 6144") &&
+                                        Catch::Contains("data section (block 13)") &&
+                                        Catch::Contains("parameter records up to byte 6268"));
+}
+
+TEST_CASE("C3D labels and units that are not UTF-8 are read as Latin-1", "[mocap_io][c3d]") {
+  C3dFile c = synthetic_capture();
+  c.markers.labels[0] = "M\xE9";      // Latin-1 "Mé", legal in a C3D
+  c.markers.labels[1] = "H\xC3\xBC";  // UTF-8 "Hü": kept
+  c.analog.units[0] = "\xB5V";        // Latin-1 "µV"
+  const std::string path = scratch("latin1.c3d");
+  write_c3d(path, c);
+  const C3dFile read = read_c3d(path);
+  CHECK(read.markers.labels[0] == "M\xC3\xA9");
+  CHECK(read.markers.labels[1] == "H\xC3\xBC");
+  CHECK(read.analog.units[0] == "\xC2\xB5V");
+  CHECK(read.transcoded_names == 2);
+  CHECK(read_c3d(kWalking).transcoded_names == 0);
+}

@@ -151,3 +151,66 @@ TEST_CASE("TRC: a file cut at a row's end has fewer rows than NumFrames: refused
   s = s.substr(0, s.find("7\t0.02"));
   require_parse_error(s, "line 9", "2 rows");
 }
+
+TEST_CASE("TRC: a sample stored as 0 0 0 is a gap, and counted", "[mocap_io][trc]") {
+  // OpenSim writes a missing marker as 0 0 0; read as a position it is a marker at the lab origin.
+  const mocap_io::TrcFile f =
+      mocap_io::parse_trc(with_line(8, "6\t0.01\t0\t0\t0\t0\t0\t0.000"), "zeros.trc");
+  CHECK_FALSE(f.markers.visible(1, 0));
+  CHECK_FALSE(f.markers.visible(1, 1));
+  CHECK(std::isnan(f.markers.position(1, 0).x()));
+  CHECK(f.markers.gap_count(0) == 1);
+  CHECK(f.markers.gap_count(1) == 2);  // with the NaN sample of kSmallTrc
+  CHECK(f.zero_samples == 2);
+  // One zero coordinate, or two, is a position.
+  const mocap_io::TrcFile g =
+      mocap_io::parse_trc(with_line(8, "6\t0.01\t0\t0\t3\t0\t5\t0"), "small.trc");
+  CHECK(g.markers.visible(1, 0));
+  CHECK(g.markers.visible(1, 1));
+  CHECK(g.zero_samples == 0);
+}
+
+TEST_CASE("TRC: the same label twice is refused naming line 4 and the label", "[mocap_io][trc]") {
+  require_parse_error(with_line(4, "Frame#\tTime\tA\t\t\tA\t\t"), "line 4", "'A' twice");
+}
+
+TEST_CASE("TRC: a time column going backwards is refused naming the line", "[mocap_io][trc]") {
+  require_parse_error(with_line(9, "7\t0.005\t2\t2\t3\tNaN\tNaN\tNaN"), "line 9", "0.005");
+}
+
+TEST_CASE("TRC: labels that are not UTF-8 are read as Latin-1", "[mocap_io][trc]") {
+  const mocap_io::TrcFile f =
+      mocap_io::parse_trc(with_line(4, "Frame#\tTime\tM\xE9\t\t\tH\xC3\xBC\t\t"), "latin1.trc");
+  CHECK(f.markers.labels == std::vector<std::string>{"M\xC3\xA9", "H\xC3\xBC"});  // "Mé", "Hü"
+  CHECK(f.transcoded_names == 1);
+}
+
+TEST_CASE("TRC: the rate a C3D gets is the Time column's when DataRate disagrees",
+          "[mocap_io][trc]") {
+  const mocap_io::TrcFile consistent = mocap_io::parse_trc(kSmallTrc, "small.trc");
+  CHECK(mocap_io::uniform_rate(consistent, "small.trc").rate_hz == 100.0);
+  CHECK(mocap_io::uniform_rate(consistent, "small.trc").note.empty());
+  // DataRate 250 Hz over rows 0.01 s apart: the rows' 100 Hz, said.
+  const mocap_io::TrcFile fast =
+      mocap_io::parse_trc(with_line(3, "250\t250\t3\t2\tmm\t250\t5\t3"), "fast.trc");
+  const mocap_io::TrcUniformRate r = mocap_io::uniform_rate(fast, "fast.trc");
+  CHECK(r.rate_hz == 100.0);
+  CHECK_THAT(r.note, Catch::Contains("fast.trc") && Catch::Contains("250 Hz") &&
+                         Catch::Contains("line 3") && Catch::Contains("used 100 Hz"));
+  // Rows not evenly spaced cannot be written at one rate: refused on the row that breaks it.
+  try {
+    mocap_io::uniform_rate(
+        mocap_io::parse_trc(with_line(9, "7\t0.05\t2\t2\t3\tNaN\tNaN\tNaN"), "uneven.trc"),
+        "uneven.trc");
+    FAIL("no ParseError");
+  } catch (const ParseError& e) {
+    CHECK(e.file() == "uneven.trc");
+    CHECK(e.where() == "line 9");
+    CHECK_THAT(e.expected(), Catch::Contains("evenly spaced") && Catch::Contains("DataRate 100"));
+    CHECK_THAT(e.found(), Catch::Contains("0.05"));
+  }
+  // OpenSim's walking5 TRC: 0.04 s steps, then 4.4 s to 4.408 s on its last row (line 118).
+  const mocap_io::TrcFile walking = mocap_io::read_trc(walking5_trc());
+  CHECK_THROWS_WITH(mocap_io::uniform_rate(walking, "walking5.trc"),
+                    Catch::Contains("walking5.trc: line 118") && Catch::Contains("4.408"));
+}

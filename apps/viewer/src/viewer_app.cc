@@ -14,7 +14,6 @@
 #include <chrono>
 #include <cmath>
 #include <condition_variable>
-#include <fstream>
 #include <iostream>
 #include <mutex>
 #include <nlohmann/json.hpp>
@@ -49,8 +48,7 @@ struct ScriptCommand {
 };
 
 std::vector<ScriptCommand> parse_script(const std::string& path) {
-  std::ifstream in(path);
-  if (!in) throw sim::InvalidArgument(path + ": cannot open the script");
+  std::istringstream in(sim::read_file(path));  // bounded: no device, fifo or huge file
   std::vector<ScriptCommand> out;
   std::string text;
   for (int line = 1; std::getline(in, text); ++line) {
@@ -600,18 +598,13 @@ void parameter_files_section(Shared& sh, scenarios::LiveScenario& s, UiState& ui
     ImGui::SameLine();
     if (ImGui::Button("Load")) {
       if (s.walking()) {
-        std::ifstream in(ui.walker_path);
-        std::stringstream text;
-        text << in.rdbuf();
         controllers::TorqueWalkerParams p;
-        controllers::apply_torque_walker_json(text.str(), ui.walker_path, &p);
+        controllers::apply_torque_walker_json(sim::read_file(ui.walker_path), ui.walker_path, &p);
         s.set_gait_params(p);
       }
-      std::ifstream in(ui.controller_path);
-      std::stringstream text;
-      text << in.rdbuf();
       controllers::ControllerParams p = current_controller_params(s);
-      controllers::apply_params_json(text.str(), ui.controller_path, s.rig().groups(), &p);
+      controllers::apply_params_json(sim::read_file(ui.controller_path), ui.controller_path,
+                                     s.rig().groups(), &p);
       s.set_controller_params(p);
       sh.message = "loaded the parameter files";
     }

@@ -2,6 +2,7 @@
 // after scaling from the capture's own frames (OpenSim's thresholds), retargeting the CMU walk,
 // inverse dynamics, and bad
 // input refused in one line with nothing written.
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -30,6 +31,35 @@ std::string data(const std::string& file) {
   return biodyn::testing::source_dir() + "/../shared/data/mocap/" + file;
 }
 
+/// The lines of walking5's TRC (OpenSim's export of the C3D), without their '\n'.
+std::vector<std::string> walking5_trc_lines() {
+  std::istringstream in(slurp(data("c3d/opensim_walking5_markers.trc")));
+  std::vector<std::string> lines;
+  for (std::string line; std::getline(in, line);) lines.push_back(line);
+  return lines;
+}
+
+/// A TRC of walking5's rows on lines first..first + count - 1 (1.88 s on: every marker seen,
+/// 0.04 s apart), its header's DataRate `rate_hz`, and the first label (LTH3) spelled `label`.
+std::string walking5_trc_part(int first, int count, const std::string& rate_hz,
+                              const std::string& label = "LTH3") {
+  const std::vector<std::string> lines = walking5_trc_lines();
+  const std::string n = std::to_string(count);
+  std::string labels = lines[3];
+  labels.replace(labels.find("LTH3"), 4, label);
+  std::string text = lines[0] + "\n" + lines[1] + "\n" + rate_hz + "\t" + rate_hz + "\t" + n +
+                     "\t40\tmm\t" + rate_hz + "\t1\t" + n + "\n" + labels + "\n" + lines[4] +
+                     "\n\n";
+  for (int i = first; i < first + count; ++i) text += lines[static_cast<size_t>(i - 1)] + "\n";
+  return text;
+}
+
+void write_text(const fs::path& path, const std::string& text) {
+  std::ofstream out(path, std::ios::binary);
+  out << text;
+  REQUIRE(out);
+}
+
 }  // namespace
 
 TEST_CASE("mocap info reports each real file's contents as JSON", "[apps][mocap]") {
@@ -45,6 +75,7 @@ TEST_CASE("mocap info reports each real file's contents as JSON", "[apps][mocap]
     CHECK(j["markers"].size() == 40);
     CHECK(j["gaps"].size() == 40);
     CHECK(j["force_plates"].size() == 2);
+    CHECK(j["point_units"] == "mm");
     CHECK(j["analog_channels"].size() > 0);
     CHECK(j.contains("first_frame"));
   }
@@ -54,6 +85,7 @@ TEST_CASE("mocap info reports each real file's contents as JSON", "[apps][mocap]
     REQUIRE(r.exit_code == 0);
     const json j = json::parse(r.out);
     CHECK(j["format"] == "trc");
+    CHECK(j["point_units"] == "mm");  // the key C3D info uses
     CHECK(j["frames"] == 112);
     // The header says 250 Hz, the rows step 0.04 s: reported, not mis-read.
     CHECK(j["inconsistencies"].size() == 1);
@@ -332,4 +364,145 @@ TEST_CASE("mocap refuses bad input in one line naming the file", "[apps][mocap]"
     CHECK(r.err.find("missing.trc") != std::string::npos);
     CHECK_FALSE(fs::exists(dir / "m.csv"));
   }
+}
+
+TEST_CASE("mocap info: a TRC's 0 0 0 samples are gaps, said in text and JSON", "[apps][mocap]") {
+  const fs::path dir = mocap_dir("zero_gaps");
+  // OpenSim writes a missing marker as 0 0 0: marker A is missing in the second row.
+  write_text(dir / "zeros.trc",
+             "PathFileType\t4\t(X/Y/Z)\tzeros.trc\n"
+             "DataRate\tCameraRate\tNumFrames\tNumMarkers\tUnits\tOrigDataRate\t"
+             "OrigDataStartFrame\tOrigNumFrames\n"
+             "100\t100\t3\t2\tmm\t100\t1\t3\n"
+             "Frame#\tTime\tA\t\t\tB\t\t\n"
+             "\t\tX1\tY1\tZ1\tX2\tY2\tZ2\n"
+             "\n"
+             "1\t0.00\t1\t2\t3\t4\t5\t6\n"
+             "2\t0.01\t0\t0\t0\t4\t5\t6\n"
+             "3\t0.02\t2\t2\t3\t4\t5\t6\n");
+  Run r = run_biodyn("mocap info --json zeros.trc", dir);
+  INFO(r.err);
+  REQUIRE(r.exit_code == 0);
+  const json j = json::parse(r.out);
+  CHECK(j["gaps"]["A"] == 1);
+  CHECK(j["gaps"]["B"] == 0);
+  CHECK(j["zero_samples_read_as_gaps"] == 1);
+  REQUIRE(j["notes"].size() == 1);
+  CHECK(j["notes"][0].get<std::string>().find("1 sample stored as 0 0 0 read as gaps") !=
+        std::string::npos);
+  CHECK(j["point_units"] == "mm");
+  r = run_biodyn("mocap info zeros.trc", dir);
+  REQUIRE(r.exit_code == 0);
+  CHECK(r.out.find("A(1 gaps)") != std::string::npos);
+  CHECK(r.out.find("note: 1 sample stored as 0 0 0 read as gaps") != std::string::npos);
+}
+
+TEST_CASE("mocap: names and paths that are not UTF-8 never break a JSON output", "[apps][mocap]") {
+  const fs::path dir = mocap_dir("latin1");
+  // LTH3 spelled "LTH³" in Latin-1 (0xB3), in a file whose name is Latin-1 "walk_é.trc".
+  write_text(dir / "walk_\xE9.trc", walking5_trc_part(54, 20, "25", "LTH\xB3"));
+  Run r = run_biodyn("mocap info --json 'walk_\xE9.trc'", dir);
+  INFO(r.out << r.err);
+  REQUIRE(r.exit_code == 0);
+  json j = json::parse(r.out);
+  CHECK(j["markers"][0] == "LTH\xC2\xB3");  // UTF-8 "LTH³"
+  CHECK(j["transcoded_names"] == 1);
+  r = run_biodyn("mocap info 'walk_\xE9.trc'", dir);
+  CHECK(r.out.find("note: 1 name was not UTF-8: read as Latin-1") != std::string::npos);
+
+  // IK: the label is in the statistics (unmapped); then ID of a motion with a Latin-1 name:
+  // its path is in the summary, as U+FFFD.
+  r = run_biodyn(
+      "mocap ik --trc 'walk_\xE9.trc' --markerset opensim_walking5 -o 'motion_\xE9.csv' "
+      "--json stats.json",
+      dir);
+  REQUIRE(r.exit_code == 0);
+  j = json::parse(slurp(dir / "stats.json"));
+  const json& unmapped = j["unmapped_labels"];
+  CHECK(std::find(unmapped.begin(), unmapped.end(), "LTH\xC2\xB3") != unmapped.end());
+  r = run_biodyn("mocap id --motion 'motion_\xE9.csv' --grf none -o id", dir);
+  REQUIRE(r.exit_code == 0);
+  CHECK(json::parse(slurp(dir / "id" / "summary.json"))["motion"] == "motion_\xEF\xBF\xBD.csv");
+
+  // A C3D label in Latin-1 (legal there): walking5's LTH3 as "LTÉ3".
+  std::string c3d = slurp(data("c3d/opensim_walking5.c3d"));
+  c3d[c3d.find("LTH3") + 2] = '\xC9';
+  write_text(dir / "latin1.c3d", c3d);
+  r = run_biodyn("mocap info --json latin1.c3d", dir);
+  REQUIRE(r.exit_code == 0);
+  j = json::parse(r.out);
+  CHECK(j["markers"][0] == "LT\u00C93");
+  CHECK(j["transcoded_names"] == 1);
+
+  // A BVH joint named in Latin-1: "Hüfte" (octal \374 is the byte 0xFC).
+  write_text(dir / "latin1.bvh",
+             "HIERARCHY\nROOT H\374fte\n{\n OFFSET 0 0 0\n CHANNELS 3 Xposition Yposition "
+             "Zposition\n End Site\n {\n  OFFSET 0 1 0\n }\n}\nMOTION\nFrames: 1\n"
+             "Frame Time: 0.01\n0 0 0\n");
+  r = run_biodyn("mocap info --json latin1.bvh", dir);
+  REQUIRE(r.exit_code == 0);
+  j = json::parse(r.out);
+  CHECK(j["joints"][0]["name"] == "H\u00FCfte");
+  CHECK(j["joints"][1]["name"] == "H\u00FCfte_end");
+  CHECK(j["transcoded_names"] == 1);
+}
+
+TEST_CASE("mocap retarget and id write none of their outputs when a late step fails",
+          "[apps][mocap]") {
+  const fs::path dir = mocap_dir("late_failure");
+  // The CMU walk cut to its first 120 frames.
+  std::istringstream in(slurp(data("bvh/cmu_131_01_start_walk_stop.bvh")));
+  std::string bvh;
+  int frames = -1;
+  for (std::string line; std::getline(in, line) && frames < 120;) {
+    if (line.rfind("Frames:", 0) == 0) line = "Frames: 120";
+    if (frames >= 0) ++frames;
+    if (line.rfind("Frame Time:", 0) == 0) frames = 0;
+    bvh += line + "\n";
+  }
+  write_text(dir / "walk.bvh", bvh);
+  // No gnuplot on the PATH: the plot, the last step, fails.
+  const std::string no_gnuplot =
+      "PATH=/nonexistent '" + biodyn::testing::binary_dir() + "/apps/biodyn' ";
+  Run r = biodyn::testing::run_shell(no_gnuplot + "mocap retarget --bvh walk.bvh -o rt", dir);
+  INFO(r.out << r.err);
+  CHECK(r.exit_code == 1);
+  CHECK(r.err.find("gnuplot") != std::string::npos);
+  for (const char* f : {"motion.csv", "character.bvh", "stats.json", "feet.png"}) {
+    CHECK_FALSE(fs::exists(dir / "rt" / f));
+  }
+  r = run_biodyn("mocap retarget --bvh walk.bvh -o rt", dir);
+  REQUIRE(r.exit_code == 0);
+  r = biodyn::testing::run_shell(no_gnuplot + "mocap id --motion rt/motion.csv --grf none -o id",
+                                 dir);
+  CHECK(r.exit_code == 1);
+  for (const char* f : {"torques.csv", "residuals.csv", "summary.json", "torques.png"}) {
+    CHECK_FALSE(fs::exists(dir / "id" / f));
+  }
+}
+
+TEST_CASE("mocap convert TRC to C3D keeps the Time column's rate, refuses uneven rows",
+          "[apps][mocap]") {
+  const fs::path dir = mocap_dir("convert_rate");
+  // DataRate 250 Hz over rows 0.04 s apart (OpenSim keeps the capture's rate when it writes
+  // every 10th frame): the C3D gets 25 Hz and lasts as long as the capture, with a warning.
+  write_text(dir / "every10th.trc", walking5_trc_part(54, 20, "250"));
+  Run r = run_biodyn("mocap convert every10th.trc every10th.c3d", dir);
+  INFO(r.out << r.err);
+  REQUIRE(r.exit_code == 0);
+  CHECK(r.err.find("every10th.trc: DataRate is 250 Hz (line 3)") != std::string::npos);
+  CHECK(r.err.find("used 25 Hz") != std::string::npos);
+  r = run_biodyn("mocap info --json every10th.c3d", dir);
+  REQUIRE(r.exit_code == 0);
+  CHECK(json::parse(r.out)["rate"].get<double>() == 25.0);
+  CHECK(json::parse(r.out)["frames"] == 20);
+  // walking5's own TRC: 0.04 s steps but 0.008 s on its last row. One rate cannot hold it.
+  r = run_biodyn("mocap convert '" + data("c3d/opensim_walking5_markers.trc") + "' uneven.c3d",
+                 dir);
+  CHECK(r.exit_code == 2);
+  CHECK(r.err.find("opensim_walking5_markers.trc: line 118") != std::string::npos);
+  CHECK(r.err.find("DataRate 250 Hz") != std::string::npos);
+  CHECK(r.err.find("25 Hz") != std::string::npos);
+  CHECK(r.err.find("4.408") != std::string::npos);
+  CHECK_FALSE(fs::exists(dir / "uneven.c3d"));
 }

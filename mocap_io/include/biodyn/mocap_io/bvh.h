@@ -12,6 +12,13 @@
 
 namespace biodyn::mocap_io {
 
+/// Deepest nesting of joints the reader accepts and the writer writes: a root is at depth 1,
+/// each JOINT or End Site one deeper than its parent. Skeletons are far shallower (the CMU walk
+/// in ../shared/data nests 11 deep, end sites included; rigs with finger chains stay under 20);
+/// the bound stops a malformed or hostile file (200,000 nested joints) from costing memory
+/// quadratic in its depth (the writer's indentation: 7.9 GB, then bad_alloc).
+inline constexpr int kMaxBvhDepth = 256;
+
 /// One channel of a BVH joint.
 enum class BvhChannel { kXposition, kYposition, kZposition, kXrotation, kYrotation, kZrotation };
 
@@ -34,6 +41,9 @@ struct BvhMotion {
   /// frames x channel_count(): each frame's values in file order (positions in file units,
   /// rotations in degrees).
   Eigen::MatrixXd values;
+  /// Joint names that were not UTF-8 in the file, read as Latin-1 (to_utf8 in utf8.h); every
+  /// name here is UTF-8.
+  int transcoded_names = 0;
 
   int frame_count() const { return static_cast<int>(values.rows()); }
   int channel_count() const { return static_cast<int>(values.cols()); }
@@ -61,10 +71,10 @@ struct BvhUnits {
 /// The hierarchy is whitespace-separated words and braces (CRLF, tabs, blank lines and a UTF-8
 /// BOM are fine; keywords and channel names match ignoring case); a ROOT/JOINT name is the rest of
 /// its line; every ROOT and JOINT has OFFSET then CHANNELS (0-6 distinct channels, any order); any
-/// number of ROOTs. "Frames:" must be > 0 and "Frame Time:" > 0. Each frame is one line of
-/// exactly channel_count() values (as BVH writers put them), so a short or long frame is reported
-/// on its own line; blank lines are skipped; nothing may follow the last frame. Never returns a
-/// partial motion.
+/// number of ROOTs, joints nested at most kMaxBvhDepth deep. "Frames:" must be > 0 and "Frame
+/// Time:" > 0. Each frame is one line of exactly channel_count() values (as BVH writers put them),
+/// so a short or long frame is reported on its own line; blank lines are skipped; nothing may
+/// follow the last frame. Never returns a partial motion.
 BvhMotion parse_bvh(const std::string& text, const std::string& source);
 /// Reads a BVH file (parse_bvh on its contents; sim::InvalidArgument if it cannot be read).
 BvhMotion read_bvh(const std::string& path);
@@ -73,8 +83,9 @@ BvhMotion read_bvh(const std::string& path);
 /// result reproduces the values to that precision; 10 digits keeps a round trip to 1e-6).
 /// Joints must be in depth-first file order (as parse_bvh makes them); end sites are written as
 /// "End Site" and read back named "<parent>_end". Throws sim::InvalidArgument for a motion that
-/// cannot be written (inconsistent hierarchy or channels, no frames, frame time <= 0, non-finite
-/// values, a name with a line break or brace, precision outside 1-17).
+/// cannot be written (inconsistent hierarchy or channels, joints nested deeper than kMaxBvhDepth,
+/// no frames, frame time <= 0, non-finite values, a name with a line break or brace, precision
+/// outside 1-17).
 std::string format_bvh(const BvhMotion& motion, int precision = 10);
 /// Writes format_bvh(motion) to `path` whole or not at all (via "<path>.tmp" and a rename);
 /// throws sim::Error naming `path` if it cannot (sim::InvalidArgument as format_bvh).

@@ -39,6 +39,9 @@ struct C3dFile {
   /// defaults taken for missing parameters (e.g. no POINT:UNITS: mm assumed). Empty for a
   /// consistent file. Reported by `biodyn mocap info`.
   std::vector<std::string> inconsistencies;
+  /// Labels and units (POINT:LABELS, ANALOG:LABELS, ANALOG:UNITS) that were not UTF-8, read as
+  /// Latin-1 (to_utf8 in utf8.h); every string in this struct is UTF-8.
+  int transcoded_names = 0;
   /// FORCE_PLATFORM:CAL_MATRIX per plate of force_plates (same order): 6x6 for type 4, 8x8 for a
   /// type-3 plate whose file has one, else empty. Rows are the calibrated outputs (Fx Fy Fz Mx My
   /// Mz for type 4), columns the plate's channels. Applied by read_c3d; write_c3d writes it back
@@ -62,8 +65,9 @@ struct C3dFile {
 /// than the header, no C3D key, a parameter section pointer outside the file, a bad processor
 /// byte, a parameter record running past its section or of an unknown type or dimension count,
 /// no POINT group or POINT:USED, a negative or fractional count, a rate <= 0, unknown
-/// POINT:UNITS, a data section shorter than the parameters say (truncated), an unsupported or
-/// incomplete force plate. Never returns a partial motion.
+/// POINT:UNITS, parameter records running into the data section, a data section shorter than
+/// the parameters say (truncated), an unsupported or incomplete force plate. Never returns a
+/// partial motion. Labels are UTF-8 (C3dFile::transcoded_names).
 C3dFile read_c3d(const std::string& path);
 
 /// Options of write_c3d.

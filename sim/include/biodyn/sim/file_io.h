@@ -3,16 +3,25 @@
 /// read in one go with errors naming it; an output is written into a temporary file beside it
 /// and renamed over it, so it is whole or absent.
 
+#include <cstdint>
 #include <string>
 #include <vector>
 
 namespace biodyn::sim {
 
+/// bytes, the largest file read_file reads: 2 GiB. Generous (the largest capture in
+/// ../shared/data is under 2 MB; an hour of 100 markers at 250 Hz in C3D floats is ~1.4 GB) and
+/// a bound, so that a wrong path (a huge file, a disk image) fails at once instead of exhausting
+/// memory.
+inline constexpr std::uintmax_t kMaxInputFileBytes = std::uintmax_t{2} << 30;
+
 /// Suffix of the temporary file write_file_atomically writes before renaming it into place.
 inline constexpr const char* kPartialFileSuffix = ".tmp-biodyn";
 
-/// The bytes of the file at `path`. Throws sim::InvalidArgument naming the path if it is a
-/// directory or cannot be opened or read (a file the user gave us: bad input).
+/// The bytes of the regular file at `path` (symlinks followed). Throws sim::InvalidArgument naming
+/// the path if it is not a regular file (a directory, a device such as /dev/zero, a fifo or a
+/// socket: none has a size to bound the read), is larger than kMaxInputFileBytes, or cannot be
+/// opened or read (a file the user gave us: bad input).
 std::string read_file(const std::string& path);
 
 /// What write_file_atomically does about a parent directory that does not exist.
