@@ -33,23 +33,13 @@ json marker_info(const mocap_io::MarkerData& m) {
           {"gaps", gaps}};
 }
 
-/// The note `mocap info` gives when `count` names were not UTF-8 (the readers' to_utf8).
-json transcoded_names_notes(int count) {
-  json notes = json::array();
-  if (count > 0) {
-    notes.push_back(std::to_string(count) + (count == 1 ? " name was" : " names were") +
-                    " not UTF-8: read as Latin-1 and transcoded to UTF-8");
-  }
-  return notes;
-}
-
 /// info of a C3D file: markers, analog channels, force plates.
 json c3d_info(const std::string& path) {
   const mocap_io::C3dFile f = mocap_io::read_c3d(path);
   json j = marker_info(f.markers);
   j["format"] = "c3d";
   j["transcoded_names"] = f.transcoded_names;
-  j["notes"] = transcoded_names_notes(f.transcoded_names);
+  j["notes"] = reader_notes(f.transcoded_names, 0);
   j["processor"] = mocap_io::to_string(f.processor);
   j["storage"] = mocap_io::to_string(f.storage);
   j["point_units"] = f.point_units;
@@ -86,13 +76,7 @@ json trc_info(const std::string& path) {
   j["point_units"] = f.units;  // the key C3D info uses for the same thing
   j["zero_samples_read_as_gaps"] = f.zero_samples;
   j["transcoded_names"] = f.transcoded_names;
-  json notes = transcoded_names_notes(f.transcoded_names);
-  if (f.zero_samples > 0) {
-    notes.push_back(std::to_string(f.zero_samples) +
-                    (f.zero_samples == 1 ? " sample" : " samples") +
-                    " stored as 0 0 0 read as gaps (how OpenSim writes a missing marker)");
-  }
-  j["notes"] = notes;
+  j["notes"] = reader_notes(f.transcoded_names, f.zero_samples);
   j["analog_channels"] = json::array();
   j["force_plates"] = json::array();
   j["inconsistencies"] = f.inconsistencies;
@@ -105,7 +89,7 @@ json bvh_info(const std::string& path) {
   json j;
   j["format"] = "bvh";
   j["transcoded_names"] = b.transcoded_names;
-  j["notes"] = transcoded_names_notes(b.transcoded_names);
+  j["notes"] = reader_notes(b.transcoded_names, 0);
   j["frames"] = b.frame_count();
   j["rate"] = 1.0 / b.frame_time_s;
   j["frame_time"] = b.frame_time_s;
@@ -166,6 +150,20 @@ void print_info(const std::string& path, const json& j) {
 }
 
 }  // namespace
+
+std::vector<std::string> reader_notes(int transcoded_names, int zero_samples) {
+  std::vector<std::string> notes;
+  if (transcoded_names > 0) {
+    notes.push_back(std::to_string(transcoded_names) +
+                    (transcoded_names == 1 ? " name was" : " names were") +
+                    " not UTF-8: read as Latin-1 and transcoded to UTF-8");
+  }
+  if (zero_samples > 0) {
+    notes.push_back(std::to_string(zero_samples) + (zero_samples == 1 ? " sample" : " samples") +
+                    " stored as 0 0 0 read as gaps (how OpenSim writes a missing marker)");
+  }
+  return notes;
+}
 
 Format format_of(const std::string& path, const std::string& option) {
   const size_t dot = path.find_last_of('.');

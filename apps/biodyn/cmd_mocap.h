@@ -4,6 +4,7 @@
 
 #include <CLI/CLI.hpp>
 #include <string>
+#include <vector>
 
 #include "commands.h"
 
@@ -15,6 +16,10 @@ enum class Format { kC3d, kTrc, kBvh, kCsv };
 /// The format of `path` from its extension (case-insensitive). Throws sim::InvalidArgument
 /// naming `option` for any other extension.
 Format format_of(const std::string& path, const std::string& option);
+
+/// What a reader did to the file's contents that a user should know: names that were not UTF-8
+/// (read as Latin-1) and TRC samples stored as 0 0 0 (read as gaps). Empty when nothing.
+std::vector<std::string> reader_notes(int transcoded_names, int zero_samples);
 
 /// `mocap info FILE`: what a capture file holds.
 Command add_mocap_info_command(CLI::App* mocap);

@@ -43,17 +43,20 @@ constexpr double kTrustedRms_m = 0.02;
 struct MarkerFile {
   mocap_io::MarkerData markers;
   std::vector<std::string> inconsistencies;
+  std::vector<std::string> notes;  ///< reader_notes: transcoded names, 0 0 0 samples as gaps
 };
 
 MarkerFile read_markers(const std::string& path, const std::string& option) {
   switch (format_of(path, option)) {
     case Format::kC3d: {
       mocap_io::C3dFile f = mocap_io::read_c3d(path);
-      return {std::move(f.markers), std::move(f.inconsistencies)};
+      return {std::move(f.markers), std::move(f.inconsistencies),
+              reader_notes(f.transcoded_names, 0)};
     }
     case Format::kTrc: {
       mocap_io::TrcFile f = mocap_io::read_trc(path);
-      return {std::move(f.markers), std::move(f.inconsistencies)};
+      return {std::move(f.markers), std::move(f.inconsistencies),
+              reader_notes(f.transcoded_names, f.zero_samples)};
     }
     default:
       throw sim::InvalidArgument(option + ": expected a .c3d or .trc marker file, got '" + path +
@@ -284,6 +287,7 @@ void print_ik(const IkOptions& o, const IkErrors& e, const mocap_io::MarkerIkRes
   for (const std::string& s : capture.inconsistencies) {
     std::cout << "  note: header and contents disagree: " << s << "\n";
   }
+  for (const std::string& n : capture.notes) std::cout << "  note: " << n << "\n";
   for (const std::string& w : warnings) std::cerr << "WARNING: mocap ik: " << w << "\n";
   std::cout << "wrote " << o.output << ", " << beside(o.output, ".body.json") << " and "
             << beside(o.output, ".xml") << " (the body solved on)"
@@ -351,6 +355,7 @@ int run_ik(const IkOptions& o, bool height_given) {
     if (rig.marker_site(l) < 0) stats["unmapped_labels"].push_back(l);
   }
   stats["inconsistencies"] = capture.inconsistencies;
+  stats["reader_notes"] = capture.notes;
   stats["character"] = character_json(spec);
   stats["body_file"] = beside(o.output, ".body.json");
   stats["status"] = {{"level", warnings.empty() ? "ok" : "warning"},

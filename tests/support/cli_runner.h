@@ -3,6 +3,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <catch2/catch.hpp>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -27,10 +28,11 @@ inline std::string slurp(const std::filesystem::path& p) {
   return s.str();
 }
 
-/// Writes `text` to file `p` (a test's input file).
+/// Writes `text` to file `p` (a test's input file); the test fails if it cannot.
 inline void write_text(const std::filesystem::path& p, const std::string& text) {
   std::ofstream out(p, std::ios::binary);
   out << text;
+  REQUIRE(out);
 }
 
 /// Runs the shell command `command` in `dir`, capturing stdout and stderr.

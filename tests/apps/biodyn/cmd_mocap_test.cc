@@ -22,6 +22,7 @@ constexpr double kIkMaxLimit_m = 0.04;  // and max < 4 cm
 using Run = biodyn::testing::CliRun;
 using biodyn::testing::run_biodyn;
 using biodyn::testing::slurp;
+using biodyn::testing::write_text;
 
 fs::path mocap_dir(const std::string& name) {
   return biodyn::testing::fresh_dir("mocap_cli_test", name);
@@ -52,12 +53,6 @@ std::string walking5_trc_part(int first, int count, const std::string& rate_hz,
                      "\n\n";
   for (int i = first; i < first + count; ++i) text += lines[static_cast<size_t>(i - 1)] + "\n";
   return text;
-}
-
-void write_text(const fs::path& path, const std::string& text) {
-  std::ofstream out(path, std::ios::binary);
-  out << text;
-  REQUIRE(out);
 }
 
 }  // namespace
@@ -253,7 +248,7 @@ TEST_CASE("mocap ik ignores the capture's subject prefix and lists the labels wh
     prefixed += (i >= 2 && !field.empty() ? "Subject01:" : "") + field;
   }
   trc.replace(line, end - line, prefixed);
-  biodyn::testing::write_text(dir / "prefixed.trc", trc);
+  write_text(dir / "prefixed.trc", trc);
   const Run r = run_biodyn("mocap ik --trc prefixed.trc -o motion.csv --json stats.json", dir);
   INFO(r.out << r.err);
   REQUIRE(r.exit_code == 0);
@@ -263,9 +258,8 @@ TEST_CASE("mocap ik ignores the capture's subject prefix and lists the labels wh
   CHECK(s["frames_solved"].get<int>() > 500);
 
   // A set that matches nothing: the message names the capture's labels.
-  biodyn::testing::write_text(dir / "set.json",
-                              R"({"name": "other", "markers": [{"name": "XYZ", "part": "pelvis",)"
-                              R"( "along": 0.5, "ant": 1, "lat": 0, "sup": 0}]})");
+  write_text(dir / "set.json", R"({"name": "other", "markers": [{"name": "XYZ", "part": "pelvis",)"
+                               R"( "along": 0.5, "ant": 1, "lat": 0, "sup": 0}]})");
   const Run none = run_biodyn("mocap ik --trc prefixed.trc --markerset set.json -o m2.csv", dir);
   CHECK(none.exit_code == 2);
   CHECK(none.err.find("LASI") != std::string::npos);
@@ -395,6 +389,32 @@ TEST_CASE("mocap info: a TRC's 0 0 0 samples are gaps, said in text and JSON", "
   REQUIRE(r.exit_code == 0);
   CHECK(r.out.find("A(1 gaps)") != std::string::npos);
   CHECK(r.out.find("note: 1 sample stored as 0 0 0 read as gaps") != std::string::npos);
+}
+
+TEST_CASE("mocap ik on a TRC storing gaps as 0 0 0 solves what the gaps allow, and says so",
+          "[apps][mocap]") {
+  // On 777bb0d such a TRC's gaps were markers at the lab origin: every frame "solved" at
+  // 0.5 m RMS with exit 0.
+  const fs::path dir = mocap_dir("ik_zero_gaps");
+  const std::string c3d = data("c3d/opensim_walking5.c3d");
+  REQUIRE(run_biodyn("mocap convert '" + c3d + "' nan.trc", dir).exit_code == 0);
+  std::string trc = slurp(dir / "nan.trc");
+  for (size_t at = trc.find("NaN"); at != std::string::npos; at = trc.find("NaN", at)) {
+    trc.replace(at, 3, "0");
+  }
+  write_text(dir / "zeros.trc", trc);
+  const Run a = run_biodyn("mocap ik --trc nan.trc -o a.csv --json a.json", dir);
+  const Run b = run_biodyn("mocap ik --trc zeros.trc -o b.csv --json b.json", dir);
+  INFO(b.out << b.err);
+  REQUIRE(a.exit_code == 0);
+  REQUIRE(b.exit_code == 0);
+  const json ja = json::parse(slurp(dir / "a.json")), jb = json::parse(slurp(dir / "b.json"));
+  CHECK(jb["frames_solved"] == ja["frames_solved"]);
+  CHECK(jb["rms_mean"].get<double>() == Approx(ja["rms_mean"].get<double>()).epsilon(1e-9));
+  REQUIRE(jb["reader_notes"].size() == 1);
+  CHECK(jb["reader_notes"][0].get<std::string>().find("stored as 0 0 0 read as gaps") !=
+        std::string::npos);
+  CHECK(b.out.find("read as gaps") != std::string::npos);
 }
 
 TEST_CASE("mocap: names and paths that are not UTF-8 never break a JSON output", "[apps][mocap]") {
