@@ -5,6 +5,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <sstream>
 #include <system_error>
 
 #include "biodyn/mocap_io/motion_csv.h"
@@ -85,7 +86,9 @@ models::CharacterSpec CharacterOptions::spec_for_motion(const std::string& motio
     return to_spec();
   }
   const auto describe = [](const models::CharacterSpec& s) {
-    return std::string(models::to_string(s.sex)) + " " + std::to_string(s.height_m) + " m (" +
+    std::ostringstream height;
+    height << s.height_m;
+    return std::string(models::to_string(s.sex)) + " " + height.str() + " m (" +
            models::to_string(s.detail) + ", " + std::to_string(s.overrides.size()) +
            " segment overrides)";
   };
@@ -94,10 +97,11 @@ models::CharacterSpec CharacterOptions::spec_for_motion(const std::string& motio
     const std::string diff = models::geometry_difference(*header, given);
     if (!diff.empty()) {
       throw sim::InvalidArgument(
-          motion_path + " was made on a " + describe(*header) + " body; the body given differs (" +
-          diff +
-          "): leave out the body options to use the motion's own body, or put the motion on "
-          "the other body with biodyn mocap retarget");
+          motion_path + " was made on a " + describe(*header) + " body; the body given (" +
+          describe(given) + ", unset options at their defaults) differs: " + diff +
+          ". Leave out the body options to use the motion's own body (--mass may differ); for "
+          "another body, make the motion on it: mocap ik with that body, or mocap retarget "
+          "--bvh from the source capture");
     }
     return given;
   }
@@ -203,6 +207,48 @@ void ProgressBar::finish() {
     std::cerr << "\r" << label_ << " [" << std::string(30, '#') << "] 100%\n";
   } else {
     std::cerr << label_ << ": done\n";
+  }
+}
+
+void check_outputs(const std::vector<OutputPath>& outputs, const std::vector<std::string>& inputs) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  auto same = [&](const std::string& a, const std::string& b) {
+    return fs::weakly_canonical(a, ec) == fs::weakly_canonical(b, ec);
+  };
+  for (size_t i = 0; i < outputs.size(); ++i) {
+    const OutputPath& o = outputs[i];
+    if (o.path.empty()) continue;
+    const fs::path p(o.path);
+    if (o.directory) {
+      if (fs::exists(p, ec) && !fs::is_directory(p, ec)) {
+        throw sim::InvalidArgument(o.option + ": '" + o.path + "' is a file, not a directory");
+      }
+    } else if (fs::is_directory(p, ec)) {
+      throw sim::InvalidArgument(o.option + ": '" + o.path + "' is a directory, not a file");
+    }
+    // The nearest existing ancestor must be a directory (the rest is created).
+    for (fs::path up = p.parent_path(); !up.empty(); up = up.parent_path()) {
+      if (!fs::exists(up, ec)) continue;
+      if (!fs::is_directory(up, ec)) {
+        throw sim::InvalidArgument(o.option + ": '" + o.path + "': '" + up.string() +
+                                   "' is a file, not a directory");
+      }
+      break;
+    }
+    for (const std::string& in : inputs) {
+      if (!in.empty() && same(o.path, in)) {
+        throw sim::InvalidArgument(o.option + ": '" + o.path +
+                                   "' is an input; inputs are never "
+                                   "overwritten");
+      }
+    }
+    for (size_t k = 0; k < i; ++k) {
+      if (!outputs[k].path.empty() && same(o.path, outputs[k].path)) {
+        throw sim::InvalidArgument(o.option + " and " + outputs[k].option + ": both '" + o.path +
+                                   "'");
+      }
+    }
   }
 }
 

@@ -66,6 +66,16 @@ inline std::string json_text(const nlohmann::json& j, int indent) {
 /// Whole-file reads (sim/file_io.h), for every subcommand.
 using sim::read_file;
 
+/// Refuses (sim::InvalidArgument: exit 2, nothing written) outputs that cannot all be written,
+/// before any work: a file output that is a directory or lies under a file, a directory output
+/// that is a file, two outputs on one path, an output on an input. `what` names each path's
+/// option for the message, e.g. {"-o", path}.
+struct OutputPath {
+  std::string option, path;
+  bool directory = false;  ///< an output directory (else a file)
+};
+void check_outputs(const std::vector<OutputPath>& outputs, const std::vector<std::string>& inputs);
+
 /// sim::write_file_atomically, creating missing parent directories: a subcommand's outputs go
 /// where the user says.
 inline void write_file_atomically(const std::string& path, const std::string& text) {

@@ -330,19 +330,32 @@ void print_id(const IdOptions& o, const mocap_io::InverseDynamicsResult& id,
 }
 
 int run_id(const IdOptions& o) {
+  check_outputs({{"-o", o.output, true}}, {o.motion, o.c3d});
   mocap_io::InverseDynamicsOptions options;
   options.filter.cutoff_hz = o.cutoff_hz;
   std::vector<mocap_io::ForcePlate> plates;
   double plate_rate = 0.0;
   options.ground = ground_forces(o, &plates, &plate_rate);
   const mocap_io::Motion all = mocap_io::read_motion_csv(o.motion);
-  std::vector<std::string> body_notes;
-  const models::CharacterSpec spec = o.character.spec_for_motion(o.motion, &body_notes);
+  std::vector<std::string> notes;
+  const models::CharacterSpec spec = o.character.spec_for_motion(o.motion, &notes);
   const models::Character character = models::generate_character(spec);
   const sim::Model model = sim::Model::from_string(models::to_mjcf(character), "character");
   mocap_io::check_motion_matches(all, *model, o.motion);
   int first = 0;
   const mocap_io::Motion motion = longest_solved_span(all, &first);
+  int solved = 0;
+  for (int f = 0; f < all.frame_count(); ++f) solved += all.qpos.row(f).allFinite() ? 1 : 0;
+  if (solved > motion.frame_count()) {
+    // Finite differences need a contiguous run: the longest one is used, and that is said.
+    notes.push_back(std::to_string(solved - motion.frame_count()) +
+                    " solved frames outside the longest run without gaps (frames " +
+                    std::to_string(first) + "-" + std::to_string(first + motion.frame_count() - 1) +
+                    ") are not used");
+  }
+  if (!o.c3d.empty() && options.ground != mocap_io::GroundForces::kForcePlates) {
+    notes.push_back("--c3d is only read with --grf from-c3d: its force plates are not used");
+  }
   ProgressBar bar("mocap id: " + std::to_string(motion.frame_count()) + " frames");
   const mocap_io::InverseDynamicsResult id =
       mocap_io::inverse_dynamics(*model, motion, options, plates, plate_rate);
@@ -351,7 +364,7 @@ int run_id(const IdOptions& o) {
       foot_strikes(*model, motion, models::Rig(*model).leg(models::kLeft).foot);
   const double body_weight_N = character.total_mass_kg() * 9.81;
   json summary = id_summary(o, id, first + options.trim_frames, spec, body_weight_N, strikes);
-  summary["body_notes"] = body_notes;
+  summary["notes"] = notes;
   summary["body_source"] =
       mocap_io::motion_body(all, o.motion) ? "the motion's header" : "the command line";
   int unassigned = 0;
@@ -375,7 +388,7 @@ int run_id(const IdOptions& o) {
   if (plates_used) write_file_atomically(o.output + "/plates.csv", plates_text);
   write_file_atomically(o.output + "/summary.json", summary_text);
   print_id(o, id, options.ground, spec, body_weight_N);
-  for (const std::string& n : body_notes) std::cout << "  note: " << n << "\n";
+  for (const std::string& n : notes) std::cout << "  note: " << n << "\n";
   if (unassigned > 0) {
     std::cerr << "WARNING: " << unassigned
               << " loaded plate frames have no single foot on the plate (both feet or neither): "

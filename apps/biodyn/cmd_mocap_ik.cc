@@ -5,6 +5,7 @@
 #include <iostream>
 #include <memory>
 #include <nlohmann/json.hpp>
+#include <sstream>
 
 #include "biodyn/mocap_io/bvh.h"
 #include "biodyn/mocap_io/c3d.h"
@@ -19,6 +20,7 @@
 #include "biodyn/models/rig.h"
 #include "biodyn/sim/errors.h"
 #include "biodyn/sim/model.h"
+#include "biodyn/sim/units.h"
 #include "cli_common.h"
 #include "cmd_mocap.h"
 
@@ -38,6 +40,13 @@ struct IkOptions {
 /// The fit a user can trust: mean marker RMS over the solved frames below this (m) is a scaled
 /// body on good data (walking5: 7 mm); above it the joint angles are questionable.
 constexpr double kTrustedRms_m = 0.02;
+
+/// "50 mm", "12.5 mm": a length in millimetres as a person writes it.
+std::string format_mm(double m) {
+  std::ostringstream out;
+  out << 1000 * m << " mm";
+  return out.str();
+}
 
 /// Marker trajectories (and what else the file had) from a C3D or TRC file.
 struct MarkerFile {
@@ -113,9 +122,11 @@ models::MarkerSet choose_marker_set(const std::string& given, const mocap_io::Ma
 /// Scales `spec` to the subject and places its markers (OpenSim's ScaleTool) from `trial`
 /// (`source` names it: the --static file, or the trial itself); returns the "scaling" statistics.
 json scale_to_trial(const mocap_io::MarkerData& trial, const std::string& source, bool height_given,
-                    const models::MarkerSet& set, models::CharacterSpec* spec) {
+                    const models::MarkerSet& set, models::CharacterSpec* spec,
+                    std::vector<std::string>* warnings) {
   const mocap_io::ScaleResult scaled = mocap_io::scale_from_static(*spec, height_given, set, trial);
   *spec = scaled.spec;
+  for (const std::string& u : scaled.unmeasured) warnings->push_back("not scaled: " + u);
   json factors = json::array();
   for (const mocap_io::ScaleFactor& f : scaled.factors) {
     factors.push_back({{"segments", f.segments},
@@ -128,6 +139,7 @@ json scale_to_trial(const mocap_io::MarkerData& trial, const std::string& source
           {"height_m", spec->height_m},
           {"height_estimated", !height_given},
           {"factors", factors},
+          {"unmeasured", scaled.unmeasured},
           {"placed_markers", scaled.placed},
           {"fixed_markers", set.fixed},
           {"static_rms_m", scaled.static_rms_m},
@@ -143,12 +155,12 @@ json scale_body(const IkOptions& o, const mocap_io::MarkerData& trial,
     MarkerFile stat = read_markers(o.static_trial, "--static");
     to_z_up(&stat.markers, o.lab_up);
     mocap_io::strip_subject_prefixes(&stat.markers);
-    return scale_to_trial(stat.markers, o.static_trial, height_given, set, spec);
+    return scale_to_trial(stat.markers, o.static_trial, height_given, set, spec, warnings);
   }
   if (!o.no_scaling) {
     try {
       return scale_to_trial(trial, capture_path + " (the trial itself: no --static given)",
-                            height_given, set, spec);
+                            height_given, set, spec, warnings);
     } catch (const sim::InvalidArgument& e) {
       warnings->push_back(std::string("could not scale the body from the trial itself (") +
                           e.what() + "); give a static trial with --static");
@@ -172,9 +184,12 @@ IkErrors frame_errors(const mocap_io::MarkerIkResult& result, const mocap_io::Ma
   IkErrors e;
   for (int f = 0; f < markers.frame_count(); ++f) {
     const mocap_io::MarkerIkFrame& fr = result.frames[static_cast<size_t>(f)];
+    // A frame not fitted has no error (null); a refused one keeps the error that refused it.
+    const bool fitted = fr.solved || fr.rejected;
     e.per_frame.push_back({{"solved", fr.solved},
-                           {"rms", fr.rms_error_m},
-                           {"max", fr.max_error_m},
+                           {"rejected", fr.rejected},
+                           {"rms", fitted ? json(fr.rms_error_m) : json(nullptr)},
+                           {"max", fitted ? json(fr.max_error_m) : json(nullptr)},
                            {"markers", fr.markers_used},
                            {"iterations", fr.iterations}});
     if (!fr.solved) continue;
@@ -237,23 +252,43 @@ mocap_io::Motion ik_motion(const sim::Model& model, const mocap_io::MarkerIkResu
   return motion;
 }
 
-/// The fit's warnings: a poor mean RMS, rejected frames (status "warning" in the JSON).
-void judge_fit(const IkErrors& e, const mocap_io::MarkerIkResult& result, const IkOptions& o,
-               std::vector<std::string>* warnings) {
+/// The fit's warnings: a poor mean RMS, rejected frames, a body not upright or below the floor
+/// (a wrong --lab-up) (status "warning" in the JSON).
+void judge_fit(const IkErrors& e, const mjModel& m, const mocap_io::MarkerIkResult& result,
+               const IkOptions& o, std::vector<std::string>* warnings) {
   const double mean = e.rms_sum / e.solved;
   if (mean > kTrustedRms_m) {
-    warnings->push_back("marker RMS " + std::to_string(1000 * mean) +
-                        " mm over the solved "
-                        "frames (trusted below " +
-                        std::to_string(1000 * kTrustedRms_m) +
-                        " mm): the body or the marker set does not fit this capture");
+    warnings->push_back("marker RMS " + format_mm(mean) +
+                        " over the solved frames (trusted below " + format_mm(kTrustedRms_m) +
+                        "): the body or the marker set does not fit this capture");
   }
   if (result.rejected_count() > 0) {
     warnings->push_back(std::to_string(result.rejected_count()) +
                         " frames refused: their best fit was worse than " +
-                        std::to_string(1000 * o.max_frame_rms_m) +
-                        " mm RMS (wrong data such as gaps stored as 0 0 0, or swapped labels); "
+                        format_mm(o.max_frame_rms_m) +
+                        " RMS (wrong data such as gaps stored as 0 0 0, or swapped labels); "
                         "they are written as unsolved (nan)");
+  }
+  // A capture read with the wrong vertical lies on its side or stands below the floor.
+  const int pelvis = models::Rig(m).pelvis();
+  sim::Data d(m);
+  double up = 0.0, height = 0.0;
+  for (int f = 0; f < static_cast<int>(result.frames.size()); ++f) {
+    if (!result.frames[static_cast<size_t>(f)].solved) continue;
+    for (int k = 0; k < m.nq; ++k) d->qpos[k] = result.qpos(f, k);
+    mj_kinematics(&m, d.get());
+    up += d->xmat[9 * pelvis + 8];  // the pelvis's z axis, world z component
+    height += d->xpos[3 * pelvis + 2];
+  }
+  up /= e.solved;
+  height /= e.solved;
+  if (up < 0.7 || height < 0.3) {
+    std::ostringstream w;
+    w << "the body is not standing upright on the floor (pelvis " << height
+      << " m up, its vertical axis " << kDegPerRad * std::acos(std::clamp(up, -1.0, 1.0))
+      << " deg from the world's on average): is the lab's vertical axis " << o.lab_up
+      << "? (--lab-up)";
+    warnings->push_back(w.str());
   }
 }
 
@@ -305,6 +340,11 @@ int run_ik(const IkOptions& o, bool height_given) {
     throw sim::InvalidArgument("--no-scaling: not with --static (which scales the body)");
   }
   const std::string capture_path = o.c3d.empty() ? o.trc : o.c3d;
+  check_outputs({{"-o", o.output},
+                 {"-o (body file)", beside(o.output, ".body.json")},
+                 {"-o (MJCF)", beside(o.output, ".xml")},
+                 {"--json", o.json_path}},
+                {capture_path, o.static_trial, o.character.body_path, o.character.overrides_path});
   MarkerFile capture = read_markers(capture_path, o.c3d.empty() ? "--trc" : "--c3d");
   to_z_up(&capture.markers, o.lab_up);
   const std::vector<std::string> prefixes = mocap_io::strip_subject_prefixes(&capture.markers);
@@ -330,14 +370,17 @@ int run_ik(const IkOptions& o, bool height_given) {
   bar.finish();
   const IkErrors e = frame_errors(result, markers);
   if (e.solved == 0) {
+    const int rejected = result.rejected_count(), others = markers.frame_count() - rejected;
+    std::string why;
+    for (const std::string& w : warnings) why += "; " + w;
     throw sim::InvalidArgument(
         capture_path + ": no frame solved with the marker set '" + set.name + "' (" +
-        std::to_string(result.rejected_count()) + " fitted worse than " +
-        std::to_string(1000 * o.max_frame_rms_m) +
-        " mm RMS and refused (--max-frame-rms), the others had too few visible markers); "
-        "nothing written");
+        std::to_string(rejected) + " fitted worse than " + format_mm(o.max_frame_rms_m) +
+        " RMS and refused (--max-frame-rms)" +
+        (others > 0 ? ", " + std::to_string(others) + " had too few visible markers" : "") + ")" +
+        why + "; nothing written");
   }
-  judge_fit(e, result, o, &warnings);
+  judge_fit(e, *model, result, o, &warnings);
   stats["per_marker"] = marker_errors(model, markers, weights, options, result);
   stats["frames"] = markers.frame_count();
   stats["frames_solved"] = e.solved;

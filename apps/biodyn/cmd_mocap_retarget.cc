@@ -275,6 +275,7 @@ void RetargetCliOptions::add_to(CLI::App* cmd) {
 }
 
 int run_retarget(const RetargetCliOptions& o) {
+  check_outputs({{"-o", o.output, true}}, {o.bvh, o.map, o.character.body_path});
   const mocap_io::BvhMotion bvh = mocap_io::read_bvh(o.bvh);
   const mocap_io::JointMap map = choose_map(o.map, bvh, o.bvh);
   const mocap_io::RetargetOptions options = retarget_options(o, map);

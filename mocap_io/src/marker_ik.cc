@@ -362,7 +362,8 @@ MarkerIkResult solve_marker_ik(const mjModel& model, const MarkerData& markers,
   for (int f = 0; f < frames; ++f) {
     targets = markers.positions_m.row(f).transpose();
     MarkerIkFrame frame = ik.solve(targets.data(), have_previous, qpos.data());
-    if (frame.solved && frame.rms_error_m > options.max_frame_rms_m) {
+    // Written so that a NaN fit (non-finite data) is refused too.
+    if (frame.solved && !(frame.rms_error_m <= options.max_frame_rms_m)) {
       frame.solved = false;
       frame.rejected = true;
       qpos = accepted;

@@ -19,17 +19,26 @@ std::vector<double> weights_for(const models::MarkerSet& set, const MarkerData& 
   return w;
 }
 
-/// The scale factors of `set`'s measurements on character `c` against `trial`.
+/// The scale factors of `set`'s measurements on character `c` against `trial`; a measurement
+/// the trial cannot make is described in *unmeasured instead. Throws sim::InvalidArgument for a
+/// marker the set measures but does not put on the character.
 std::vector<ScaleFactor> measure(const models::Character& c, const models::MarkerSet& set,
-                                 const MarkerData& trial) {
+                                 const MarkerData& trial, std::vector<std::string>* unmeasured) {
+  unmeasured->clear();
   const std::map<std::string, Eigen::Vector3d> model_pos = standing_marker_positions(c);
   std::vector<ScaleFactor> out;
   for (size_t k = 0; k < set.scaling.size(); ++k) {
     const models::ScaleMeasurement& meas = set.scaling[k];
     ScaleFactor sf;
     sf.segments = meas.segments;
+    sf.measurement = static_cast<int>(k);
+    std::string segments;
+    for (const std::string& seg : meas.segments) segments += (segments.empty() ? "" : ", ") + seg;
+    const std::string what = "scaling[" + std::to_string(k) + "] (" + meas.pairs[0].first + "-" +
+                             meas.pairs[0].second + ", " + segments + ")";
     std::vector<std::pair<int, int>> columns;
     double model_sum = 0.0;
+    std::string missing;
     for (const auto& [a, b] : meas.pairs) {
       for (const std::string& name : {a, b}) {
         if (model_pos.count(name) == 0) {
@@ -37,15 +46,15 @@ std::vector<ScaleFactor> measure(const models::Character& c, const models::Marke
                                      " is not on the " + models::to_string(c.spec.detail) +
                                      " character");
         }
-        if (trial.find(name) < 0) {
-          throw sim::InvalidArgument("scaling[" + std::to_string(k) +
-                                     "]: the static trial has no "
-                                     "marker labelled " +
-                                     name);
-        }
+        if (trial.find(name) < 0 && missing.empty()) missing = name;
       }
       model_sum += (model_pos.at(a) - model_pos.at(b)).norm();
       columns.emplace_back(trial.find(a), trial.find(b));
+    }
+    if (!missing.empty()) {
+      unmeasured->push_back(what + ": the trial has no marker labelled " + missing +
+                            "; kept at the height-scaled size");
+      continue;
     }
     sf.model_m = model_sum / static_cast<double>(meas.pairs.size());
     double measured_sum = 0.0;
@@ -64,9 +73,9 @@ std::vector<ScaleFactor> measure(const models::Character& c, const models::Marke
       ++sf.frames;
     }
     if (sf.frames == 0) {
-      throw sim::InvalidArgument("scaling[" + std::to_string(k) + "] (" + meas.pairs[0].first +
-                                 "-" + meas.pairs[0].second +
-                                 "): no frame of the static trial shows all its markers");
+      unmeasured->push_back(what + ": no frame of the trial shows all its markers; kept at the " +
+                            "height-scaled size");
+      continue;
     }
     sf.measured_m = measured_sum / sf.frames;
     sf.factor = sf.measured_m / sf.model_m;
@@ -85,9 +94,9 @@ double estimated_height(double height_m, const models::MarkerSet& set,
                         const std::vector<ScaleFactor>& factors) {
   double mean = 0.0;
   int lengths = 0;
-  for (size_t k = 0; k < factors.size(); ++k) {
-    if (set.scaling[k].dimension == "width") continue;
-    mean += factors[k].factor;
+  for (const ScaleFactor& f : factors) {
+    if (set.scaling[static_cast<size_t>(f.measurement)].dimension == "width") continue;
+    mean += f.factor;
     ++lengths;
   }
   mean = lengths > 0 ? mean / lengths : 1.0;
@@ -100,8 +109,8 @@ double estimated_height(double height_m, const models::MarkerSet& set,
 /// character lacks or a width on another segment than the pelvis.
 void apply_factors(const models::Character& plain, const models::MarkerSet& set,
                    const std::vector<ScaleFactor>& factors, models::CharacterSpec* spec) {
-  for (size_t k = 0; k < factors.size(); ++k) {
-    const ScaleFactor& f = factors[k];
+  for (const ScaleFactor& f : factors) {
+    const size_t k = static_cast<size_t>(f.measurement);
     for (const std::string& seg : f.segments) {
       const models::Segment* s = plain.find(seg);
       if (s == nullptr) {
@@ -237,11 +246,11 @@ ScaleResult scale_from_static(const models::CharacterSpec& base, bool height_giv
   spec.markers = set.markers;
   spec.overrides.clear();
   models::Character plain = models::generate_character(spec);
-  std::vector<ScaleFactor> factors = measure(plain, set, static_trial);
+  std::vector<ScaleFactor> factors = measure(plain, set, static_trial, &result.unmeasured);
   if (!height_given && options.estimate_height && !factors.empty()) {
     spec.height_m = estimated_height(spec.height_m, set, factors);
     plain = models::generate_character(spec);
-    factors = measure(plain, set, static_trial);
+    factors = measure(plain, set, static_trial, &result.unmeasured);
   }
   apply_factors(plain, set, factors, &spec);
   result.factors = factors;

@@ -224,7 +224,7 @@ struct TrcRows {
 /// One data row's marker coordinates (fields after Frame# and Time) times `scale`, in m; a
 /// marker with any coordinate missing is a gap in all three, and so is one stored as exactly
 /// 0 0 0 (counted in *zero_samples). Throws ParseError naming the marker and axis of a field
-/// that is not a number, NaN or empty.
+/// that is not a finite number, NaN or empty.
 std::vector<double> parse_row(const std::vector<std::string>& fields,
                               const std::vector<std::string>& labels, double scale,
                               const Line& line, const std::string& source, int* zero_samples) {
@@ -232,10 +232,12 @@ std::vector<double> parse_row(const std::vector<std::string>& fields,
   for (size_t k = 0; k < row.size(); ++k) {
     const std::string& f = fields[2 + k];
     double v = std::numeric_limits<double>::quiet_NaN();
-    if (!f.empty() && !parse_number(f, &v)) {
-      throw ParseError(source, ParseError::line(line.number),
-                       "a number, NaN or an empty field for " + labels[k / 3] + " " + "XYZ"[k % 3],
-                       "'" + f + "'");
+    // inf (or a number that overflows once scaled) is no position and no gap marker.
+    if ((!f.empty() && !parse_number(f, &v)) || std::isinf(v) || std::isinf(v * scale)) {
+      throw ParseError(
+          source, ParseError::line(line.number),
+          "a finite number, NaN or an empty field for " + labels[k / 3] + " " + "XYZ"[k % 3],
+          "'" + f + "'");
     }
     row[k] = v * scale;
   }

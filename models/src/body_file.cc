@@ -117,15 +117,22 @@ CharacterSpec parse_body_json(const std::string& json_text, const std::string& s
 }
 
 std::string geometry_difference(const CharacterSpec& a, const CharacterSpec& b) {
+  // Every whole-body difference (a user changing the sex also sees the default height), then
+  // the first segment's.
   std::ostringstream out;
-  if (!same(a.height_m, b.height_m)) {
-    out << "height " << a.height_m << " m vs " << b.height_m << " m";
-    return out.str();
+  const char* sep = "";
+  if (a.sex != b.sex) {
+    out << "sex " << to_string(a.sex) << " vs " << to_string(b.sex);
+    sep = "; ";
   }
-  if (a.sex != b.sex) return std::string("sex ") + to_string(a.sex) + " vs " + to_string(b.sex);
   if (a.detail != b.detail) {
-    return std::string("detail ") + to_string(a.detail) + " vs " + to_string(b.detail);
+    out << sep << "detail " << to_string(a.detail) << " vs " << to_string(b.detail);
+    sep = "; ";
   }
+  if (!same(a.height_m, b.height_m)) {
+    out << sep << "height " << a.height_m << " m vs " << b.height_m << " m";
+  }
+  if (!out.str().empty()) return out.str();
   std::map<std::string, std::pair<SegmentOverride, SegmentOverride>> both;
   for (const auto& [name, o] : a.overrides) both[name].first = o;
   for (const auto& [name, o] : b.overrides) both[name].second = o;

@@ -169,7 +169,7 @@ TEST_CASE("mocap ik on walking5 after scaling from its own frames meets OpenSim'
   CHECK(summary["character"]["height_m"].get<double>() ==
         Approx(s["scaling"]["height_m"].get<double>()).epsilon(1e-6));
   CHECK(summary["character"]["mass_kg"].get<double>() == 72.0);
-  CHECK(summary["body_notes"].size() == 1);  // the mass differs from the IK's: said so
+  CHECK(summary["notes"].size() == 1);  // the mass differs from the IK's: said so
   CHECK(summary["plates"].size() == 2);
 
   // A body that is not the one the IK solved is refused, naming both and what to do instead.
@@ -415,6 +415,57 @@ TEST_CASE("mocap ik on a TRC storing gaps as 0 0 0 solves what the gaps allow, a
   CHECK(jb["reader_notes"][0].get<std::string>().find("stored as 0 0 0 read as gaps") !=
         std::string::npos);
   CHECK(b.out.find("read as gaps") != std::string::npos);
+}
+
+TEST_CASE("mocap ik: outputs checked before any work, inf refused, a missing marker scales less",
+          "[apps][mocap]") {
+  // Found by trying the change as a new user (issue 24 review).
+  const fs::path dir = mocap_dir("ik_review");
+  REQUIRE(run_biodyn("mocap convert '" + data("c3d/opensim_walking5.c3d") + "' w5.trc", dir)
+              .exit_code == 0);
+  const std::string original = slurp(dir / "w5.trc");
+  // Outputs that cannot all be written, or would overwrite an input: refused, nothing written.
+  fs::create_directories(dir / "adir");
+  for (const std::string& bad : {std::string("-o m.csv --json adir"),
+                                 std::string("-o m.csv --json m.csv"), std::string("-o w5.trc")}) {
+    const Run r = run_biodyn("mocap ik --trc w5.trc " + bad, dir);
+    INFO(bad << ": " << r.err);
+    CHECK(r.exit_code == 2);
+    CHECK_FALSE(fs::exists(dir / "m.csv"));
+  }
+  CHECK(slurp(dir / "w5.trc") == original);
+  // inf is no coordinate and no gap: refused naming the line and the marker.
+  std::string trc = original;
+  const size_t row = trc.find("\n500\t");
+  REQUIRE(row != std::string::npos);
+  const size_t field = trc.find('\t', trc.find('\t', row + 1) + 1) + 1;
+  trc.replace(field, trc.find('\t', field) - field, "inf");
+  write_text(dir / "inf.trc", trc);
+  const Run inf = run_biodyn("mocap ik --trc inf.trc -o inf.csv", dir);
+  CHECK(inf.exit_code == 2);
+  CHECK(inf.err.find("finite") != std::string::npos);
+  CHECK_FALSE(fs::exists(dir / "inf.csv"));
+  // A capture without one scaling marker (LCAL): the other segments are scaled, and the one
+  // that could not be is named in a warning.
+  std::string no_cal = original;
+  const size_t cal = no_cal.find("LCAL");
+  REQUIRE(cal != std::string::npos);
+  no_cal.replace(cal, 4, "XCAL");
+  write_text(dir / "nocal.trc", no_cal);
+  const Run r = run_biodyn("mocap ik --trc nocal.trc -o nocal.csv --json nocal.json", dir);
+  INFO(r.err);
+  REQUIRE(r.exit_code == 0);
+  const json s = json::parse(slurp(dir / "nocal.json"));
+  CHECK(s["rms_mean"].get<double>() < kIkRmsLimit_m);
+  CHECK(s["scaling"]["factors"].size() == 7);
+  REQUIRE(s["scaling"]["unmeasured"].size() == 1);
+  CHECK(s["status"]["level"] == "warning");
+  CHECK(r.err.find("LCAL") != std::string::npos);
+  // A z-up capture read as y-up lies on its side: said loudly.
+  const Run side = run_biodyn("mocap ik --trc w5.trc --lab-up y -o side.csv --json side.json", dir);
+  REQUIRE(side.exit_code == 0);
+  CHECK(json::parse(slurp(dir / "side.json"))["status"]["level"] == "warning");
+  CHECK(side.err.find("--lab-up") != std::string::npos);
 }
 
 TEST_CASE("mocap: names and paths that are not UTF-8 never break a JSON output", "[apps][mocap]") {

@@ -30,11 +30,15 @@ struct ScaleFactor {
   double model_m = 0.0;     ///< the same distance on the unscaled character
   double factor = 1.0;      ///< measured / model
   int frames = 0;           ///< frames in which every pair was visible
+  int measurement = 0;      ///< index into MarkerSet::scaling
 };
 
 struct ScaleResult {
-  models::CharacterSpec spec;  ///< the scaled character: height, overrides, placed markers
-  std::vector<ScaleFactor> factors;
+  models::CharacterSpec spec;        ///< the scaled character: height, overrides, placed markers
+  std::vector<ScaleFactor> factors;  ///< the measurements the trial allowed
+  /// Measurements the trial could not make (a marker missing or never seen with its partner):
+  /// their segments keep the height-scaled size. One sentence each.
+  std::vector<std::string> unmeasured;
   std::vector<std::string> placed;  ///< markers moved by the static trial
   /// Marker error of the final static fit (over the placement frames), m.
   double static_rms_m = 0.0, static_max_m = 0.0;
@@ -42,8 +46,9 @@ struct ScaleResult {
 
 /// Scales `base` (height, mass, sex, detail; its markers are replaced by `set`'s) to the
 /// subject of `static_trial` (lab frame, z up, metres). `height_given` false lets the stature be
-/// estimated (ScaleOptions::estimate_height). Throws sim::InvalidArgument naming the measurement
-/// when a scaling pair is never visible, or when too few frames have enough markers.
+/// estimated (ScaleOptions::estimate_height). A measurement whose markers the trial lacks or
+/// never shows together is skipped (ScaleResult::unmeasured). Throws sim::InvalidArgument when
+/// too few frames have enough markers.
 ScaleResult scale_from_static(const models::CharacterSpec& base, bool height_given,
                               const models::MarkerSet& set, const MarkerData& static_trial,
                               const ScaleOptions& options = {});

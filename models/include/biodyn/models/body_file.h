@@ -25,7 +25,8 @@ std::string format_body_json(const CharacterSpec& spec, bool compact = false);
 CharacterSpec parse_body_json(const std::string& json_text, const std::string& source);
 
 /// The fields that fix a body's geometry (height, sex, detail, segment lengths and widths)
-/// differ between `a` and `b`: a description of the first difference, or "" when they agree
+/// differ between `a` and `b`: a description of the differences (every whole-body one, else the
+/// first segment's), or "" when they agree
 /// (to 1e-6 relative). Mass and markers are not geometry: a motion's joint angles hold on
 /// any mass.
 std::string geometry_difference(const CharacterSpec& a, const CharacterSpec& b);
