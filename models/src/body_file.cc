@@ -6,6 +6,7 @@
 
 #include "biodyn/models/marker_set.h"
 #include "biodyn/sim/errors.h"
+#include "json_input.h"
 
 namespace biodyn::models {
 namespace {
@@ -68,13 +69,7 @@ std::string format_body_json(const CharacterSpec& spec, bool compact) {
 }
 
 CharacterSpec parse_body_json(const std::string& json_text, const std::string& source) {
-  json doc;
-  try {
-    doc = json::parse(json_text);
-  } catch (const json::parse_error& e) {
-    throw InvalidArgument(source + ": malformed JSON at byte " + std::to_string(e.byte) + ": " +
-                          e.what());
-  }
+  const json doc = parse_json_input(json_text, source);
   if (!doc.is_object()) {
     throw InvalidArgument(source +
                           ": expected a body object {\"height_m\": ..., \"mass_kg\": "

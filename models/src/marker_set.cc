@@ -5,6 +5,7 @@
 
 #include "biodyn/models/tables.h"
 #include "biodyn/sim/errors.h"
+#include "json_input.h"
 
 namespace biodyn::models {
 namespace embedded {
@@ -114,13 +115,7 @@ double MarkerSet::weight(const std::string& marker) const {
 }
 
 MarkerSet parse_marker_set(const std::string& json_text, const std::string& source) {
-  json doc;
-  try {
-    doc = json::parse(json_text);
-  } catch (const json::parse_error& e) {
-    throw InvalidArgument(source + ": malformed JSON at byte " + std::to_string(e.byte) + ": " +
-                          e.what());
-  }
+  const json doc = parse_json_input(json_text, source);
   if (!doc.is_object()) {
     throw InvalidArgument(source + ": expected an object {\"markers\": [...]}, found " +
                           std::string(doc.type_name()));

@@ -2,20 +2,14 @@
 
 #include "biodyn/models/character.h"
 #include "biodyn/sim/errors.h"
+#include "json_input.h"
 
 namespace biodyn::models {
 
 std::map<std::string, SegmentOverride> parse_overrides(const std::string& json_text,
                                                        const std::string& source) {
   using sim::InvalidArgument;
-  nlohmann::json doc;
-  try {
-    doc = nlohmann::json::parse(json_text);
-  } catch (const nlohmann::json::parse_error& e) {
-    // e.byte is the 1-based offset of the error.
-    throw InvalidArgument(source + ": malformed JSON at byte " + std::to_string(e.byte) + ": " +
-                          e.what());
-  }
+  const nlohmann::json doc = parse_json_input(json_text, source);
   if (!doc.is_object() || !doc.contains("segments") || !doc["segments"].is_object()) {
     throw InvalidArgument(source + ": expected an object {\"segments\": {name: {...}}}, found " +
                           std::string(doc.type_name()) +
