@@ -34,6 +34,7 @@ namespace {
 const std::set<std::string> kTimingFields = {"wall_s",
                                              "realtime_factor",
                                              "frames_per_second",
+                                             "solved_frames_per_second",
                                              "frames_per_s",
                                              "physics_s",
                                              "render_s",
