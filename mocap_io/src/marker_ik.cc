@@ -72,7 +72,7 @@ void MarkerIkOptions::validate() const {
 
 MarkerIk::MarkerIk(const mjModel& model, const std::vector<std::string>& labels,
                    const std::vector<double>& weights, const MarkerIkOptions& options)
-    : m_(model), data_(model), options_(options) {
+    : m_(model), data_(model), options_(options), ldlt_(model.nv) {
   options_.validate();
   check_weights(weights, labels.size(), [&](size_t i) { return labels[i]; });
   const models::Rig rig(model);
@@ -107,7 +107,6 @@ MarkerIk::MarkerIk(const mjModel& model, const std::vector<std::string>& labels,
   jtr_ = Eigen::VectorXd::Zero(m_.nv);
   rhs_ = Eigen::VectorXd::Zero(m_.nv);
   step_ = Eigen::VectorXd::Zero(m_.nv);
-  ldlt_ = Eigen::LDLT<Eigen::MatrixXd>(m_.nv);
   jac_site_.assign(3 * static_cast<size_t>(m_.nv), 0.0);
   trial_qpos_.assign(static_cast<size_t>(m_.nq), 0.0);
 }

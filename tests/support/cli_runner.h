@@ -43,6 +43,15 @@ inline CliRun run_shell(const std::string& command, const std::filesystem::path&
   r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
   r.out = slurp(dir / "stdout.txt");
   r.err = slurp(dir / "stderr.txt");
+  // In the sanitized build (./test.sh --sanitize) the `biodyn` run here is instrumented too: its
+  // sanitizers' report fails the test, whatever exit code the test expects, and shows the report.
+  for (const char* report :
+       {"ERROR: AddressSanitizer", "ERROR: LeakSanitizer", ": runtime error: "}) {
+    if (r.err.find(report) != std::string::npos) {
+      FAIL_CHECK("sanitizer report from `" << command << "`:\n" << r.err);
+      break;
+    }
+  }
   return r;
 }
 

@@ -27,6 +27,7 @@
 #include "biodyn/sim/queries.h"
 #include "biodyn/sim/renderer.h"
 #include "biodyn/sim/units.h"
+#include "biodyn/viewer/headless_gl.h"
 #include "biodyn/viewer/image_output.h"
 #include "biodyn/viewer/overlays.h"
 
@@ -708,6 +709,7 @@ class Window {
     ImGui_ImplGlfw_Shutdown();
     ImGui::DestroyContext();
     glfwDestroyWindow(window_);
+    keep_gl_libraries_loaded();
     glfwTerminate();
   }
   Window(const Window&) = delete;

@@ -101,6 +101,8 @@ class MarkerIk {
   Eigen::MatrixXd jtj_, system_;
   Eigen::VectorXd jtr_, rhs_, step_;
   double weight_sum_visible_ = 0.0;
+  // Sized in the constructor's initialiser list: LDLT(size) leaves its info unset, so assigning
+  // one (a copy of that indeterminate enum) is undefined behaviour (UBSan, issue 24).
   Eigen::LDLT<Eigen::MatrixXd> ldlt_;
   std::vector<mjtNum> jac_site_;  ///< 3 x nv, one site's translational Jacobian
   std::vector<mjtNum> trial_qpos_;

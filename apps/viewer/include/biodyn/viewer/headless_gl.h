@@ -18,4 +18,9 @@ class HeadlessGl {
   void* context_ = nullptr;
 };
 
+/// In a build with AddressSanitizer (./test.sh --sanitize), keeps Mesa's OpenGL libraries
+/// (libglapi, the *_dri.so driver) loaded until the process exits; does nothing otherwise. Called
+/// before the teardown that would unload them (eglTerminate, glfwTerminate). Throws nothing.
+void keep_gl_libraries_loaded();
+
 }  // namespace biodyn::viewer
