@@ -766,6 +766,7 @@ Character generate_character(const CharacterSpec& spec) {
   const auto [lowest, highest] = geom_z_span(c.segments);
   c.lowest_point_m = lowest;
   c.standing_height_m = highest - lowest;
+  if (spec.muscles) c.muscles = generate_muscles(c);
   return c;
 }
 

@@ -25,6 +25,9 @@ constexpr int kBodyContype = 2, kBodyConaffinity = 1;
 constexpr int kMarkerSiteGroup = 4;            // hidden in the viewer unless group 4 is shown
 constexpr double kMarkerSiteRadius = 0.01;     // m
 constexpr double kOffDiagonalEpsilon = 1e-12;  // kg m^2: below this the inertia is diagonal
+constexpr double kMuscleSiteRadius = 0.005;    // m
+constexpr double kMusclePathWidth = 0.006;     // m, drawn tendon radius
+constexpr int kWrapGeomGroup = 3;              // wrapping cylinders: hidden unless group 3 is shown
 
 std::string fmt(double v) {
   std::ostringstream s;
@@ -242,6 +245,51 @@ tinyxml2::XMLElement* add_body(tinyxml2::XMLElement* parent_el, const Segment& s
   return body;
 }
 
+/// The muscles' paths (muscle_anatomy.h): sites on the segments' bodies, wrapping cylinders (no
+/// mass: explicit <inertial>; no contacts) and one spatial tendon per muscle. The tendons carry
+/// no actuator: biodyn's Hill model computes each force and applies it through the tendon's
+/// Jacobian, and stock MuJoCo loads the file and draws the paths.
+void add_muscles(tinyxml2::XMLElement* root,
+                 const std::map<std::string, tinyxml2::XMLElement*>& bodies, const Character& c) {
+  if (c.muscles.empty()) return;
+  tinyxml2::XMLElement* tendons = child(root, "tendon");
+  std::map<std::string, bool> wrap_written;
+  for (const MuscleDefinition& m : c.muscles) {
+    tinyxml2::XMLElement* spatial =
+        child(tendons, "spatial",
+              {{"name", m.name}, {"width", fmt(kMusclePathWidth)}, {"rgba", "0.75 0.15 0.15 1"}});
+    for (size_t i = 0; i < m.path.size(); ++i) {
+      const std::string site = "muscle_" + m.name + "_" + std::to_string(i);
+      child(bodies.at(m.path[i].segment), "site",
+            {{"name", site}, {"pos", fmt(m.path[i].position_B)}, {"size", fmt(kMuscleSiteRadius)}});
+      child(spatial, "site", {{"site", site}});
+      for (const MuscleWrapCylinder& w : m.wraps) {
+        if (w.after_point != static_cast<int>(i)) continue;
+        const std::string geom = "wrap_" + w.name, side = "wrapside_" + m.name + "_" + w.name;
+        if (!wrap_written[geom]) {
+          wrap_written[geom] = true;
+          child(bodies.at(w.segment), "geom",
+                {{"name", geom},
+                 {"type", "cylinder"},
+                 {"fromto", fmt(w.center_B - w.half_length_m * w.axis_B) + " " +
+                                fmt(w.center_B + w.half_length_m * w.axis_B)},
+                 {"size", fmt(w.radius_m)},
+                 {"contype", "0"},
+                 {"conaffinity", "0"},
+                 {"group", std::to_string(kWrapGeomGroup)},
+                 {"rgba", "0.9 0.85 0.6 0.35"}});
+        }
+        tinyxml2::XMLElement* wrap = child(spatial, "geom", {{"geom", geom}});
+        if (w.has_side) {
+          child(bodies.at(w.segment), "site",
+                {{"name", side}, {"pos", fmt(w.side_B)}, {"size", fmt(kMuscleSiteRadius)}});
+          set(wrap, "sidesite", side);
+        }
+      }
+    }
+  }
+}
+
 }  // namespace
 
 std::vector<std::string> actuator_names(const Joint& joint) {
@@ -268,6 +316,8 @@ std::string to_mjcf(const Character& c, const PhysicsOptions& o) {
     const Segment* parent = s.parent.empty() ? nullptr : by_name.at(s.parent);
     body_elements[s.name] = add_body(parent_el, s, parent, c.markers, actuators);
   }
+
+  add_muscles(root, body_elements, c);
 
   // Foot-contact welds (paper §4.1), off until a controller switches one on at foot strike
   // and sets its pose from the foot's current pose (controllers/foot_contact.h).
@@ -352,6 +402,35 @@ std::string summary_json(const Character& c) {
         {{"name", m.name}, {"segment", m.segment}, {"position_m", vec(m.position_B)}});
   }
   j["markers"] = markers;
+  if (!c.muscles.empty()) {
+    json muscles = json::array();
+    for (const MuscleDefinition& m : c.muscles) {
+      json path = json::array();
+      for (const MusclePathPoint& p : m.path)
+        path.push_back({{"segment", p.segment}, {"position_m", vec(p.position_B)}});
+      json wraps = json::array();
+      for (const MuscleWrapCylinder& w : m.wraps)
+        wraps.push_back({{"name", w.name}, {"segment", w.segment}, {"radius_m", w.radius_m}});
+      muscles.push_back({{"name", m.name},
+                         {"description", m.description},
+                         {"compartments", m.compartments},
+                         {"parameters_from", m.parameters_from},
+                         {"max_isometric_force_N", m.max_isometric_force_N},
+                         {"optimal_fiber_length_m", m.optimal_fiber_length_m},
+                         {"tendon_slack_length_m", m.tendon_slack_length_m},
+                         {"pennation_at_optimal_deg", m.pennation_at_optimal_rad * 180 / kPi},
+                         {"tendon", m.tendon},
+                         {"path_length_standing_m", m.path_length_m},
+                         {"source_path_length_m", m.source_path_length_m},
+                         {"path", path},
+                         {"wraps", wraps}});
+    }
+    j["muscles"] = muscles;
+    j["muscle_source"] = muscle_table_source();
+    j["muscle_scaling_rule"] =
+        "path points by segment length ratios; l_opt and l_slack by path length / source path "
+        "length (standing pose); F_max by body mass / 75.337 kg (README, Muscles)";
+  }
   return j.dump(2) + "\n";
 }
 

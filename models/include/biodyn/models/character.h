@@ -13,6 +13,8 @@
 #include <string>
 #include <vector>
 
+#include "biodyn/models/muscle_anatomy.h"
+
 namespace biodyn::models {
 
 enum class Sex { kMale, kFemale };
@@ -55,6 +57,9 @@ struct CharacterSpec {
   /// Marker sites to place; empty: the thesis's 26 markers (markers_26.csv). A marker on an arm
   /// part is left out of the gait detail (it has no arms).
   std::vector<MarkerPlacement> markers;
+  /// Add the Hill muscles of the legs (muscle_anatomy.h): sites, wrapping cylinders and one
+  /// spatial tendon per muscle in the MJCF. Mass, joints and geometry are the same either way.
+  bool muscles = false;
 
   static constexpr double kMinHeight = 0.5;  ///< m; below: not a standing human
   static constexpr double kMaxHeight = 2.8;  ///< m; taller than any recorded human
@@ -123,6 +128,7 @@ struct Character {
   CharacterSpec spec;
   std::vector<Segment> segments;  ///< parents before children; segments[0] is the root
   std::vector<Marker> markers;
+  std::vector<MuscleDefinition> muscles;  ///< empty unless spec.muscles
   double torque_scale = 1.0;       ///< (mass/82.2 kg) * (height/1.799 m), paper §5.1
   double standing_height_m = 0.0;  ///< highest geom point in the standing pose
   double lowest_point_m = 0.0;     ///< lowest geom point (the soles), 0 by construction
