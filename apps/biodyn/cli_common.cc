@@ -1,10 +1,12 @@
 #include "cli_common.h"
 
 #include <algorithm>
+#include <array>
 #include <exception>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <map>
 #include <sstream>
 #include <system_error>
 
@@ -139,6 +141,76 @@ models::CharacterSpec CharacterOptions::to_spec() const {
     models::check_override_names(spec.overrides, spec.detail, overrides_path);
   }
   return spec;
+}
+
+void MuscleOptions::add_to(CLI::App* cmd) {
+  cmd->add_option("--muscles", muscles,
+                  "on: the legs' Hill muscles (13 per leg, Rajagopal 2016) give the joint "
+                  "controllers' torques, with backups where they cannot; off: joint torques")
+      ->capture_default_str();
+  cmd->add_option("--tendons", tendons,
+                  "with --muscles on: default (compliant soleus and gastrocnemius, rigid others), "
+                  "rigid or compliant")
+      ->capture_default_str();
+  cmd->add_option("--muscle-params", params_path,
+                  "with --muscles on: muscle parameters (JSON {\"muscles\": {\"soleus\": "
+                  "{\"max_isometric_force_N\": 5000}}}; README, Muscles)");
+}
+
+scenarios::MuscleConfig MuscleOptions::to_config() const {
+  scenarios::MuscleConfig c;
+  if (muscles != "on" && muscles != "off")
+    throw sim::InvalidArgument("--muscles: must be on or off, got '" + muscles + "'");
+  c.on = muscles == "on";
+  c.tendons = muscles::parse_tendon_choice(tendons, "--tendons");
+  if (!c.on && (tendons != "default" || !params_path.empty()))
+    throw sim::InvalidArgument("--tendons/--muscle-params: only with --muscles on");
+  if (!params_path.empty()) {
+    c.params_json = read_file(params_path);
+    c.params_source = params_path;
+    // Checked now, against the default body's muscles (names and fields), so a bad file is
+    // refused before any work.
+    models::CharacterSpec spec;
+    spec.detail = models::Detail::kGait;
+    spec.muscles = true;
+    std::vector<muscles::MuscleParams> params =
+        muscles::muscle_params(models::generate_character(spec).muscles, c.tendons);
+    muscles::apply_muscle_overrides(c.params_json, c.params_source, &params);
+  }
+  return c;
+}
+
+nlohmann::json muscles_json(const std::optional<scenarios::MuscleRunReport>& report) {
+  if (!report) return nullptr;
+  nlohmann::json per_joint = nlohmann::json::object();
+  for (const scenarios::MuscleJointShare& j : report->joints) {
+    per_joint[j.joint] = {{"backup_share", j.backup_share()},
+                          {"muscle_share", 1.0 - j.backup_share()},
+                          {"muscle_Nms", j.muscle_Nms},
+                          {"backup_Nms", j.backup_Nms},
+                          {"not_given_Nms", j.not_given_Nms}};
+  }
+  return {{"muscles", report->muscles},
+          {"compliant_tendons", report->compliant_tendons},
+          {"rigid_tendons", report->rigid_tendons},
+          {"per_joint", per_joint},
+          {"share_rule",
+           "integrals of |torque| over the run; backup_share = backup / (muscle + backup); "
+           "not_given: wanted by the controller, beyond the backups' range"},
+          {"qp_failures", report->qp_failures},
+          {"fiber_solve_failures", report->fiber_solve_failures}};
+}
+
+void print_muscles(const std::optional<scenarios::MuscleRunReport>& report, std::ostream& out) {
+  if (!report) return;
+  out << "  muscles:  " << report->muscles.size() << " (" << report->compliant_tendons
+      << " compliant tendons); backups' share of the joint torque:";
+  for (const scenarios::MuscleJointShare& j : report->joints) {
+    char text[64];
+    std::snprintf(text, sizeof text, " %s %.0f%%", j.joint.c_str(), 100 * j.backup_share());
+    out << text;
+  }
+  out << "\n";
 }
 
 void plot_with_gnuplot(const std::string& command, const std::string& script_path,

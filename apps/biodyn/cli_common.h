@@ -11,6 +11,7 @@
 #include "biodyn/sim/file_io.h"
 
 #include "biodyn/models/character.h"
+#include "biodyn/scenarios/scenario.h"
 
 namespace biodyn::apps {
 
@@ -42,6 +43,25 @@ struct CharacterOptions {
   std::vector<CLI::Option*> geometry_options_;
   CLI::Option* mass_option_ = nullptr;
 };
+
+/// --muscles on|off, --tendons, --muscle-params: the legs' Hill muscles under a scenario's
+/// controllers (scenarios::MuscleConfig).
+struct MuscleOptions {
+  std::string muscles = "off";
+  std::string tendons = "default";
+  std::string params_path;
+
+  void add_to(CLI::App* cmd);
+  /// Throws sim::InvalidArgument naming the option and the value (or the parameter file's
+  /// muscle, field and value: the file is checked against the muscles here).
+  scenarios::MuscleConfig to_config() const;
+};
+
+/// A run's muscle report (scenario.h) for the JSON summaries: tendons, and per joint the shares
+/// of the torque the muscles and the backups gave; null without muscles.
+nlohmann::json muscles_json(const std::optional<scenarios::MuscleRunReport>& report);
+/// The same in a few lines a person reads (nothing without muscles).
+void print_muscles(const std::optional<scenarios::MuscleRunReport>& report, std::ostream& out);
 
 /// The body an output was computed for, as every JSON summary reports it: height_m, mass_kg,
 /// sex, detail (add a command's own inputs to it).

@@ -80,6 +80,7 @@ Command add_pose_command(CLI::App* app) {
     std::string params_path;
     std::string json;
     std::string csv;
+    MuscleOptions muscles;
   };
   auto o = std::make_shared<Options>();
   CLI::App* cmd = app->add_subcommand(
@@ -100,13 +101,15 @@ Command add_pose_command(CLI::App* app) {
   cmd->add_option("--push-onset", o->push_onset_s, "Simulation time of the push, s")
       ->capture_default_str();
   cmd->add_option("--params", o->params_path, "Controller parameters (JSON; see README)");
+  o->muscles.add_to(cmd);
   cmd->add_option("--json", o->json, "Write the run summary as JSON here");
   cmd->add_option("--csv", o->csv, "Write a per-step trace (CSV) here");
   return {
       cmd, [o]() {
-        const models::CharacterSpec spec = o->character.to_spec();
         scenarios::PoseRunParams run = o->run;
-        run.config.character = spec;
+        run.config.character = o->character.to_spec();
+        run.config.muscles = o->muscles.to_config();
+        const models::CharacterSpec spec = run.config.model_spec();
         run.config.controller = controllers::parse_controller_kind(o->controller, "--controller");
         run.config.weld = controllers::parse_weld_mode(o->weld, "--weld");
         if (!o->push.empty()) run.config.pose_push = parse_push(o->push, o->push_onset_s);
@@ -154,6 +157,7 @@ Command add_pose_command(CLI::App* app) {
             << "  run:      " << r.simulated_s << " s simulated in " << r.wall_s << " s, "
             << std::setprecision(1) << r.realtime_factor
             << "x real time; MuJoCo warnings: " << r.warnings.describe() << "\n";
+        print_muscles(r.muscles, out);
         std::cout << out.str();
         if (!o->csv.empty()) {
           write_file_atomically(o->csv, trace.str());
@@ -164,6 +168,12 @@ Command add_pose_command(CLI::App* app) {
           j["inputs"] = character_json(spec);
           j["inputs"]["params"] = o->params_path;
           j["inputs"]["push"] = o->push;
+          if (r.muscles) {
+            j["muscles"] = muscles_json(r.muscles);
+            j["inputs"]["muscles"] = "on";
+            j["inputs"]["tendons"] = o->muscles.tendons;
+            j["inputs"]["muscle_params"] = o->muscles.params_path;
+          }
           write_file_atomically(o->json, j.dump(2) + "\n");
           std::cout << "  summary:  " << o->json << "\n";
         }

@@ -228,7 +228,7 @@ int run_sweep(SweepOptions& o) {
   int threads = o.threads > 0 ? o.threads
                               : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
   threads = std::min<int>(threads, static_cast<int>(cells.size()));
-  const models::CharacterSpec character_spec = o.walk.character.to_spec();
+  const models::CharacterSpec character_spec = spec.walk.config.model_spec();
   const models::Character character = models::generate_character(character_spec);
   const std::string mjcf = models::to_mjcf(character, o.walk.physics());
   const double mass = character.total_mass_kg();

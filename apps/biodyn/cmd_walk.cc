@@ -33,6 +33,7 @@ void WalkOptions::add_to(CLI::App* cmd) {
       "Joint controller parameters (JSON as biodyn pose --params; the viewer saves both)");
   cmd->add_option("--timestep", timestep_s, "Physics timestep, s, in [0.0005, 0.004]")
       ->capture_default_str();
+  muscles.add_to(cmd);
 }
 
 models::PhysicsOptions WalkOptions::physics() const {
@@ -54,6 +55,7 @@ scenarios::WalkRunParams WalkOptions::to_params() const {
   c.heading_rate_deg_s = heading_rate_deg_s;
   c.weld = controllers::parse_weld_mode(weld, "--weld");
   c.reaction_time_s = reaction_time_s;
+  c.muscles = muscles.to_config();
   if (!params_path.empty()) {
     c.gait_json = read_file(params_path);
     c.gait_source = params_path;
@@ -118,6 +120,7 @@ nlohmann::json walk_json(const scenarios::WalkRunResult& r) {
       {"units",
        "m, s, m/s, N, steps/min; after the start-up (first 5 s) for steady_speed, "
        "cadence, mean_step_length, joint_ranges_deg, swing_knee_peak_deg"}};
+  if (r.muscles) j["muscles"] = muscles_json(r.muscles);
   if (r.push) {
     const scenarios::WalkPushOutcome& o = *r.push;
     j["push"] = {{"survived", o.survived},
@@ -184,6 +187,7 @@ void print_walk_summary(const scenarios::WalkRunResult& r, std::ostream& out) {
       << ", root force " << r.max_root_force_N << " N, peak torque " << std::setprecision(0)
       << 100 * r.max_torque_ratio << "% of tau_max, " << std::setprecision(1) << r.realtime_factor
       << "x real time\n";
+  print_muscles(r.muscles, out);
   if (r.stopped_at_s >= 0) {
     out << "  stopped (feet side by side, standing controller) at " << std::setprecision(2)
         << r.stopped_at_s << " s; at the end "
@@ -293,7 +297,7 @@ Command add_walk_command(CLI::App* app) {
             }
             p.config.stop_at_s = o->stop_at_s;
             p.validate();
-            const models::CharacterSpec spec = o->walk.character.to_spec();
+            const models::CharacterSpec spec = p.config.model_spec();
             const models::PhysicsOptions physics = o->walk.physics();
             std::cout << "biodyn walk: " << to_string(spec.sex) << " " << spec.height_m << " m "
                       << spec.mass_kg << " kg (" << to_string(spec.detail) << "), " << p.duration_s
@@ -318,6 +322,11 @@ nlohmann::json WalkOptions::inputs_json(const models::CharacterSpec& spec) const
   j["reaction_time_s"] = reaction_time_s;
   j["params"] = params_path;
   j["timestep_s"] = timestep_s;
+  if (muscles.muscles == "on") {
+    j["muscles"] = "on";
+    j["tendons"] = muscles.tendons;
+    j["muscle_params"] = muscles.params_path;
+  }
   return j;
 }
 
@@ -354,7 +363,7 @@ Command add_push_command(CLI::App* app) {
             scenarios::WalkRunParams p = o->walk.to_params();
             p.config.walk_push = o->push;
             p.validate();
-            const models::CharacterSpec spec = o->walk.character.to_spec();
+            const models::CharacterSpec spec = p.config.model_spec();
             const models::PhysicsOptions physics = o->walk.physics();
             std::cout << "biodyn push: " << o->push.force_N << " N for " << o->push.duration_s
                       << " s on the " << o->push.body << ", " << o->push.direction_deg

@@ -23,9 +23,10 @@ struct WalkOptions {
   /// s, physics timestep. 2 ms is the default of every biodyn model; 3 ms walks the same
   /// (controllers/README.md, "Timestep and speed") at 1.5x the speed.
   double timestep_s = 0.002;
+  MuscleOptions muscles;
 
   /// Adds the character options and --speed --heading-rate --weld --reaction-time --params
-  /// --controller-params --timestep.
+  /// --controller-params --timestep --muscles --tendons --muscle-params.
   void add_to(CLI::App* cmd);
   /// The model's physics options for --timestep.
   /// Throws sim::InvalidArgument.

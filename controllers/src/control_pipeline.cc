@@ -35,10 +35,15 @@ ControlPipeline::ControlPipeline(sim::Simulation* sim, const models::Rig& rig,
       standing_(sim->model(), rig, config.balance),
       snapshot_(sim->model()),
       qfrc_other_(static_cast<std::size_t>(sim->model().nv)),
-      torque_(static_cast<std::size_t>(sim->model().nv)) {
+      torque_(static_cast<std::size_t>(sim->model().nv)),
+      applied_(static_cast<std::size_t>(sim->model().nv)) {
   const mjModel& m = sim->model();
   for (int a = 0; a < m.nu; ++a)
     if (m.actuator_trntype[a] == mjTRN_JOINT) joint_motors_.push_back(a);
+  if (!config_.muscles.empty()) {
+    muscles_ = std::make_unique<muscles::MuscleDrive>(m, muscles::MuscleSet(m, config_.muscles),
+                                                      joints_.tau_max(), config_.muscle_drive);
+  }
 }
 
 void ControlPipeline::set_params(const ControllerParams& params) {
@@ -59,6 +64,7 @@ void ControlPipeline::reset() {
                 {rig_->leg(models::kLeft).foot, rig_->leg(models::kRight).foot});
   standing_.reset(sim_->data().time);
   driver_ = nullptr;
+  if (muscles_) muscles_->reset(sim_->model(), sim_->data(), joints_.previous_torque().data());
 }
 
 void ControlPipeline::reset_in_pose(const Pose& pose) {
@@ -116,8 +122,11 @@ void ControlPipeline::control(mjData& d) {
     joints_.update_pd_gains(m, d, supports, n);
   }
   last_status_ = joints_.compute(m, d, frame_, qfrc_other_.data(), torque_.data());
-  // 5. Applied: the extra forces plus the muscle torques (zero on the free root: no helping hand).
-  for (int i = 0; i < nv; ++i) d.qfrc_applied[i] = extra[i] + torque_[static_cast<std::size_t>(i)];
+  // 5. The Hill muscles give the legs' torques (with the backups), the controllers the others'.
+  std::copy(torque_.begin(), torque_.end(), applied_.begin());
+  if (muscles_) muscles_->compute(m, d, torque_.data(), applied_.data());
+  // 6. Applied: the extra forces plus the joint torques (zero on the free root: no helping hand).
+  for (int i = 0; i < nv; ++i) d.qfrc_applied[i] = extra[i] + applied_[static_cast<std::size_t>(i)];
   for (int a : joint_motors_) d.ctrl[a] = 0;  // the joint torques go through qfrc_applied
 }
 
@@ -145,6 +154,7 @@ StepReport ControlPipeline::step() {
   }
   welds_.release_near_edges(m, d.time);
   joints_.commit();
+  if (muscles_) muscles_->commit();
   report.joints = last_status_;
   report.joints_outside_limits = last_outside_;
   report.balance = driver_ == nullptr ? standing_.offsets() : BalanceOffsets{};
@@ -157,7 +167,9 @@ StepReport ControlPipeline::step() {
 }
 
 ControlState ControlPipeline::state() const {
-  return ControlState{frame_, joints_.state(), welds_.state(), standing_.state(), last_report_};
+  return ControlState{frame_,         joints_.state(),
+                      welds_.state(), standing_.state(),
+                      last_report_,   muscles_ ? muscles_->state() : muscles::MuscleDriveState{}};
 }
 
 void ControlPipeline::restore(const ControlState& state) {
@@ -166,6 +178,7 @@ void ControlPipeline::restore(const ControlState& state) {
   welds_.restore(state.welds);
   standing_.restore(state.standing);
   last_report_ = state.last_report;
+  if (muscles_) muscles_->restore(state.muscles);
 }
 
 }  // namespace biodyn::controllers

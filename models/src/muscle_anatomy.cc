@@ -150,6 +150,7 @@ MuscleDefinition make_muscle(const json& j, const SideMap& m, const Character& c
     d.compartments += (d.compartments.empty() ? "" : "+") + comp.get<std::string>();
   d.parameters_from = j["parameters_from"].get<std::string>();
   d.tendon = j["tendon"].get<std::string>();
+  d.passive_strain_at_fmax = muscle_table()["passive_strain_at_fmax"].get<double>();
   std::vector<Vector3d> here, source;
   for (const json& p : j["path"]) {
     const std::string body = p["body"].get<std::string>();

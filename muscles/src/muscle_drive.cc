@@ -36,9 +36,9 @@ MuscleDrive::MuscleDrive(const mjModel& m, MuscleSet set, const std::vector<doub
   c_.setZero(k);
   x_.setZero(n);
   tension_.setZero(n);
-  l_next_.assign(static_cast<std::size_t>(n), 0.0);
   MuscleDriveState& s = state_;
-  for (auto* v : {&s.activation, &s.excitation, &s.fiber_length_m, &s.tension_N})
+  for (auto* v :
+       {&s.activation, &s.excitation, &s.fiber_length_m, &s.fiber_velocity_m_s, &s.tension_N})
     v->assign(static_cast<std::size_t>(n), 0.0);
   for (auto* v : {&s.muscle_torque_Nm, &s.backup_torque_Nm, &s.wanted_torque_Nm,
                   &s.muscle_impulse_Nms, &s.backup_impulse_Nms, &s.missing_impulse_Nms})
@@ -130,19 +130,18 @@ void MuscleDrive::compute(const mjModel& m, const mjData& d, const double* tau_w
     const ActivationRange reach = reachable_activation(state_.activation[ii], dt, p);
     lo_(i) = reach.lo;
     hi_(i) = reach.hi;
-    const double l = set_.length(d, i), v = set_.velocity(d, i);
     if (p.tendon == TendonModel::kRigid) {
-      const ForceAffine f = rigid_tendon_affine(p, l, v);
+      const ForceAffine f = rigid_tendon_affine(p, set_.length(d, i), set_.velocity(d, i));
       A_(i) = f.active_N;
       P_(i) = f.passive_N;
     } else {
-      l_next_[ii] = l + dt * v;  // the path's length at the end of the step
+      // The backward-Euler fibre step at both ends of the reachable activations, interpolated:
+      // the tendon force this step can give (CMC's one-step look-ahead).
+      const double l_next = set_.length(d, i) + dt * set_.velocity(d, i);
       const double f_lo =
-          compliant_tendon_step(p, reach.lo, state_.fiber_length_m[ii], l_next_[ii], dt)
-              .tendon_force_N;
+          compliant_tendon_step(p, reach.lo, state_.fiber_length_m[ii], l_next, dt).tendon_force_N;
       const double f_hi =
-          compliant_tendon_step(p, reach.hi, state_.fiber_length_m[ii], l_next_[ii], dt)
-              .tendon_force_N;
+          compliant_tendon_step(p, reach.hi, state_.fiber_length_m[ii], l_next, dt).tendon_force_N;
       A_(i) = reach.hi > reach.lo ? (f_hi - f_lo) / (reach.hi - reach.lo) : 0.0;
       P_(i) = f_lo - A_(i) * reach.lo;
     }
@@ -159,12 +158,16 @@ void MuscleDrive::compute(const mjModel& m, const mjData& d, const double* tau_w
       const MuscleKinematics kin = rigid_tendon_state(p, a, set_.length(d, i), set_.velocity(d, i));
       tension_(i) = kin.tendon_force_N;
       pending_.fiber_length_m[ii] = kin.fiber_length_m;
+      pending_.fiber_velocity_m_s[ii] = kin.fiber_velocity_m_s;
     } else {
+      // Backward Euler to the path's length at the end of the step (l + dt v).
+      const double l_next = set_.length(d, i) + dt * set_.velocity(d, i);
       const MuscleKinematics kin =
-          compliant_tendon_step(p, a, state_.fiber_length_m[ii], l_next_[ii], dt);
+          compliant_tendon_step(p, a, state_.fiber_length_m[ii], l_next, dt);
       if (!kin.converged) ++pending_.fiber_failures;
       tension_(i) = kin.tendon_force_N;
       pending_.fiber_length_m[ii] = kin.fiber_length_m;
+      pending_.fiber_velocity_m_s[ii] = kin.fiber_velocity_m_s;
     }
     pending_.tension_N[ii] = tension_(i);
   }

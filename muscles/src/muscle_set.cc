@@ -127,6 +127,7 @@ std::vector<MuscleParams> muscle_params(const std::vector<models::MuscleDefiniti
     p.optimal_fiber_length_m = d.optimal_fiber_length_m;
     p.tendon_slack_length_m = d.tendon_slack_length_m;
     p.pennation_at_optimal_rad = d.pennation_at_optimal_rad;
+    p.curves.passive_strain_at_fmax = d.passive_strain_at_fmax;
     p.tendon = tendons == TendonChoice::kAllRigid       ? TendonModel::kRigid
                : tendons == TendonChoice::kAllCompliant ? TendonModel::kCompliant
                                                         : parse_tendon_model(d.tendon, d.name);

@@ -55,10 +55,8 @@ MocapScenario::MocapScenario(sim::Simulation* sim, ScenarioConfig config)
   if (config_.track) {
     tracked_ = controllers::make_tracked_motion(sim->model(), rig_, times_, frames_);
     params_ = controller_params_from_config();
-    controllers::ControlPipelineConfig pc;
-    pc.kind = config_.controller;
-    pc.weld.mode = config_.weld;
-    pipeline_ = std::make_unique<controllers::ControlPipeline>(sim, rig_, params_, pc);
+    pipeline_ = std::make_unique<controllers::ControlPipeline>(sim, rig_, params_,
+                                                               config_.pipeline_config());
     start_tracking();
   } else {
     playback_time_s_ = 0;

@@ -230,6 +230,7 @@ PoseRunResult run_pose(sim::Simulation* sim, const PoseRunParams& params,
     }
   }
   metrics.finish();
+  r.muscles = muscle_report(*scenario.pipeline());
   const double dt = sim->model().opt.timestep;
   r.fallen = scenario.fell_at_s() >= 0;
   r.time_fallen_s = scenario.fell_at_s();

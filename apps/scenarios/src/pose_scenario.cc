@@ -8,17 +8,6 @@
 #include "fall_watch.h"
 
 namespace biodyn::scenarios {
-namespace {
-
-controllers::ControlPipelineConfig pipeline_config(const ScenarioConfig& c) {
-  controllers::ControlPipelineConfig p;
-  p.kind = c.controller;
-  p.weld.mode = c.weld;
-  return p;
-}
-
-}  // namespace
-
 struct PoseScenario::State : ScenarioState {
   CommonState common;
   std::size_t bytes() const override { return sizeof(*this) + common.bytes(); }
@@ -31,7 +20,7 @@ struct PoseScenario::State : ScenarioState {
 PoseScenario::PoseScenario(sim::Simulation* sim, ScenarioConfig config)
     : Scenario(sim, std::move(config)),
       params_(controller_params_from_config()),
-      pipeline_(sim, rig_, params_, pipeline_config(config_)),
+      pipeline_(sim, rig_, params_, config_.pipeline_config()),
       poses_(controllers::pose_scenario(config_.scenario, rig_.groups(), config_.pose_duration_s)) {
   double total = 0;
   for (const controllers::Pose& p : poses_) total += p.duration_s;

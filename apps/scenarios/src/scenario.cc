@@ -30,6 +30,50 @@ void check_heading_rate(double deg_s) {
 
 std::vector<double> paper_stepping_stones_m() { return {0.60, 0.20, 0.50, 0.16, 0.50, 0.30}; }
 
+std::optional<MuscleRunReport> muscle_report(const controllers::ControlPipeline& pipeline) {
+  if (pipeline.muscles() == nullptr) return std::nullopt;
+  const muscles::MuscleDrive& drive = *pipeline.muscles();
+  const muscles::MuscleDriveState& s = drive.state();
+  const mjModel& m = pipeline.simulation().model();
+  MuscleRunReport r;
+  for (const muscles::MuscleParams& p : drive.set().params()) {
+    r.muscles.push_back(p.name);
+    (p.tendon == muscles::TendonModel::kCompliant ? r.compliant_tendons : r.rigid_tendons) += 1;
+  }
+  const std::vector<int>& dofs = drive.set().covered_dofs();
+  for (std::size_t k = 0; k < dofs.size(); ++k) {
+    const std::string name = mj_id2name(&m, mjOBJ_JOINT, m.dof_jntid[dofs[k]]);
+    if (r.joints.empty() || r.joints.back().joint != name) r.joints.push_back({name});
+    MuscleJointShare& j = r.joints.back();
+    j.muscle_Nms += s.muscle_impulse_Nms[k];
+    j.backup_Nms += s.backup_impulse_Nms[k];
+    j.not_given_Nms += s.missing_impulse_Nms[k];
+  }
+  r.qp_failures = s.qp_failures;
+  r.fiber_solve_failures = s.fiber_failures;
+  return r;
+}
+
+models::CharacterSpec ScenarioConfig::model_spec() const {
+  models::CharacterSpec spec = character;
+  spec.muscles = spec.muscles || muscles.on;
+  return spec;
+}
+
+controllers::ControlPipelineConfig ScenarioConfig::pipeline_config() const {
+  controllers::ControlPipelineConfig p;
+  p.kind = controller;
+  p.weld.mode = weld;
+  if (muscles.on) {
+    const models::Character c = models::generate_character(model_spec());
+    p.muscles = muscles::muscle_params(c.muscles, muscles.tendons);
+    if (!muscles.params_json.empty())
+      muscles::apply_muscle_overrides(muscles.params_json, muscles.params_source, &p.muscles);
+    p.muscle_drive = muscles.drive;
+  }
+  return p;
+}
+
 void ScenarioConfig::validate() const {
   check_scenario_name(scenario);
   const bool pose = is_pose_scenario(scenario), mocap = scenario == "mocap";

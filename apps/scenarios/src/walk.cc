@@ -482,6 +482,7 @@ WalkRunResult run_walk(sim::Simulation* sim, const WalkRunParams& params,
   r.simulated_s = r.sim_steps * dt;
   r.realtime_factor = r.wall_s > 0 ? r.simulated_s / r.wall_s : 0;
   metrics.finish(scenario);
+  r.muscles = muscle_report(*scenario.pipeline());
 
   if (!params.config.steps_m.empty()) {
     SteppingStonesResult stones;

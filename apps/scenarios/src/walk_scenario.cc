@@ -19,13 +19,6 @@ controllers::TorqueWalkerParams walker_params_from(const ScenarioConfig& c) {
   return p;
 }
 
-controllers::ControlPipelineConfig pipeline_config(const ScenarioConfig& c) {
-  controllers::ControlPipelineConfig p;
-  p.kind = c.controller;
-  p.weld.mode = c.weld;
-  return p;
-}
-
 // The body a push goes through: "trunk" is the rig's trunk body (thorax, or the gait model's
 // trunk), any other name that body.
 int push_body_id(const models::Rig& rig, const std::string& body) {
@@ -50,7 +43,7 @@ WalkScenario::WalkScenario(sim::Simulation* sim, ScenarioConfig config)
     : Scenario(sim, std::move(config)),
       params_(controller_params_from_config()),
       walker_params_(walker_params_from(config_)),
-      pipeline_(sim, rig_, params_, pipeline_config(config_)),
+      pipeline_(sim, rig_, params_, config_.pipeline_config()),
       walker_(rig_, walker_params_) {
   if (config_.scenario == "stones" && config_.steps_m.empty())
     config_.steps_m = paper_stepping_stones_m();

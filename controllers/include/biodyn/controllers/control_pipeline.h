@@ -7,11 +7,14 @@
 ///      motion tracker) sets targets, DOF commands and stance wishes;
 ///   2. the foot welds take the stance wishes and switch on at foot strikes (foot_contact.h);
 ///   3. the swing-twist limits add their torques to the frame's extra forces (joint_limits.h);
-///      a muscle layer is one more stage here, adding its tendon forces the same way;
 ///   4. the joint controllers solve for the muscle torques (velocity-based whole-body solve or
 ///      PD) within tau_max and the reaction-time rate limit, with the extra forces and pushes
 ///      acting (joint_controller.h);
-///   5. qfrc_applied = extra forces + muscle torques; nothing acts on the free root.
+///   5. with Hill muscles (config.muscles), the torques of step 4 on the legs are what is
+///      wanted: the muscles share them through activation dynamics and the Hill model, the
+///      backups add what they cannot within their range (muscles/muscle_drive.h);
+///   6. qfrc_applied = extra forces + joint (or muscle and backup) torques; nothing acts on the
+///      free root.
 ///
 /// After mj_step2 the welds' wrenches are measured; in honest mode a step with a weld in tension
 /// is undone (the simulation's StateSnapshot, one aggregate) and taken again with that weld off,
@@ -23,6 +26,7 @@
 /// are apart: a rewind saves state() and restore()s it.
 
 #include <array>
+#include <memory>
 #include <vector>
 
 #include "biodyn/controllers/control_driver.h"
@@ -34,6 +38,7 @@
 #include "biodyn/controllers/poses.h"
 #include "biodyn/controllers/standing_controller.h"
 #include "biodyn/models/rig.h"
+#include "biodyn/muscles/muscle_drive.h"
 #include "biodyn/sim/simulation.h"
 #include "biodyn/sim/snapshot.h"
 
@@ -44,6 +49,12 @@ struct ControlPipelineConfig {
   ControllerKind kind = ControllerKind::kVelocity;
   FootWeldParams weld;
   BalanceParams balance;
+  /// The legs' Hill muscles (muscles/muscle_drive.h), named as the model's spatial tendons:
+  /// empty = no muscles (the joint controllers' torques act directly). With muscles, the
+  /// controllers' torques on the DOFs the muscles span are what is wanted: the muscles share it
+  /// and the backups give what they cannot, within their range.
+  std::vector<muscles::MuscleParams> muscles;
+  muscles::MuscleDriveParams muscle_drive;
 };
 
 /// Everything of the pipeline that changes from step to step, in one copyable aggregate (the
@@ -54,6 +65,7 @@ struct ControlState {
   FootWeldState welds;
   StandingControllerState standing;
   StepReport last_report;
+  muscles::MuscleDriveState muscles;  ///< empty without muscles
 };
 
 class ControlPipeline {
@@ -70,9 +82,12 @@ class ControlPipeline {
   const FootWelds& welds() const { return welds_; }
   const StandingController& standing() const { return standing_; }
   const StandingBalance& balance() const { return standing_.balance(); }
+  /// The muscles, or nullptr (config().muscles empty).
+  const muscles::MuscleDrive* muscles() const { return muscles_.get(); }
   const ControlPipelineConfig& config() const { return config_; }
   const ControlFrame& frame() const { return frame_; }
   sim::Simulation& simulation() { return *sim_; }
+  const sim::Simulation& simulation() const { return *sim_; }
 
   /// Live tuning: new joint parameters (validated; throws InvalidArgument).
   void set_params(const ControllerParams& params);
@@ -126,7 +141,8 @@ class ControlPipeline {
   StepReport last_report_;
   JointControlStatus last_status_;
   int last_outside_ = 0;
-  std::vector<mjtNum> qfrc_other_, torque_;  // nv scratch
+  std::unique_ptr<muscles::MuscleDrive> muscles_;
+  std::vector<mjtNum> qfrc_other_, torque_, applied_;  // nv scratch
   std::vector<int> joint_motors_;  // actuators on joints: their torques go through qfrc_applied
 };
 

@@ -129,9 +129,9 @@ struct Character {
   std::vector<Segment> segments;  ///< parents before children; segments[0] is the root
   std::vector<Marker> markers;
   std::vector<MuscleDefinition> muscles;  ///< empty unless spec.muscles
-  double torque_scale = 1.0;       ///< (mass/82.2 kg) * (height/1.799 m), paper §5.1
-  double standing_height_m = 0.0;  ///< highest geom point in the standing pose
-  double lowest_point_m = 0.0;     ///< lowest geom point (the soles), 0 by construction
+  double torque_scale = 1.0;              ///< (mass/82.2 kg) * (height/1.799 m), paper §5.1
+  double standing_height_m = 0.0;         ///< highest geom point in the standing pose
+  double lowest_point_m = 0.0;            ///< lowest geom point (the soles), 0 by construction
 
   double total_mass_kg() const;
   int actuated_dof_count() const;

@@ -55,6 +55,8 @@ struct MuscleDefinition {
   double tendon_slack_length_m = 0;
   double pennation_at_optimal_rad = 0;
   std::string tendon = "rigid";  ///< "rigid" or "compliant" (the default for this muscle)
+  /// Passive fibre strain at which the passive force reaches F_max (the source model's).
+  double passive_strain_at_fmax = 0.6;
   std::vector<MusclePathPoint> path;
   std::vector<MuscleWrapCylinder> wraps;
   /// m, path length in the standing pose (straight segments) here and in the source model;

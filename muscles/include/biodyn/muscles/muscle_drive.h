@@ -6,9 +6,11 @@
 ///      muscles by a small QP (box_qp.h), as in OpenSim's Computed Muscle Control:
 ///        minimise  sum a_i^2 + w_b sum_k (tau_w,k - sum_i r_ki F_i(a_i))^2
 ///      over the activations a_i at the end of the step, bounded by what activation dynamics can
-///      reach in one step from the present ones; F_i(a) is the Hill force at this state (exactly
-///      affine for a rigid tendon; for a compliant one, the backward-Euler fibre step taken at
-///      both bounds and interpolated);
+///      reach in one step from the present ones; F_i(a) is the Hill force at the end of the step,
+///      affine in a: for a rigid tendon exactly; for a compliant one the backward-Euler fibre
+///      step taken at both ends of the reachable range and interpolated (the tendon force this
+///      step can give: a compliant muscle's force follows its activation with the tendon's lag,
+///      and the sharing sees it);
 ///   2. the forces that act are the Hill model's at the chosen activations (activation dynamics,
 ///      force-length-velocity, the tendon), applied through the tendons (muscle_set.h);
 ///   3. the backups (the controller's remaining torque, tau_w - muscle torque) act only within
@@ -47,13 +49,14 @@ struct MuscleDriveParams {
 
 /// Everything of the muscles that changes from step to step (copyable: rewinds and redos).
 struct MuscleDriveState {
-  std::vector<double> activation;        ///< per muscle, in [min_activation, 1]
-  std::vector<double> excitation;        ///< per muscle, the last step's
-  std::vector<double> fiber_length_m;    ///< per muscle (compliant: the state; rigid: kinematic)
-  std::vector<double> tension_N;         ///< per muscle, the last step's force along the path
-  std::vector<double> muscle_torque_Nm;  ///< per covered DOF, the last step's
-  std::vector<double> backup_torque_Nm;  ///< per covered DOF, the last step's
-  std::vector<double> wanted_torque_Nm;  ///< per covered DOF, the last step's
+  std::vector<double> activation;          ///< per muscle, in [min_activation, 1]
+  std::vector<double> excitation;          ///< per muscle, the last step's
+  std::vector<double> fiber_length_m;      ///< per muscle (compliant: the state; rigid: kinematic)
+  std::vector<double> fiber_velocity_m_s;  ///< per muscle, m/s, the last step's
+  std::vector<double> tension_N;           ///< per muscle, the last step's force along the path
+  std::vector<double> muscle_torque_Nm;    ///< per covered DOF, the last step's
+  std::vector<double> backup_torque_Nm;    ///< per covered DOF, the last step's
+  std::vector<double> wanted_torque_Nm;    ///< per covered DOF, the last step's
   /// Per covered DOF: integrals over the run of |muscle torque|, |backup torque| and the
   /// torque wanted but given by neither (N m s).
   std::vector<double> muscle_impulse_Nms, backup_impulse_Nms, missing_impulse_Nms;
@@ -101,7 +104,6 @@ class MuscleDrive {
   // Per-step workspace (sized once).
   Eigen::MatrixXd R_, B_, H_;
   Eigen::VectorXd A_, P_, lo_, hi_, g_, c_, x_, tension_;
-  std::vector<double> l_next_;
 };
 
 }  // namespace biodyn::muscles

@@ -42,8 +42,10 @@ struct MuscleParams {
   double activation_time_constant_s = 0.015;
   /// s, deactivation time constant; Thelen 2003 / references.md: 50 ms. In (0, 1].
   double deactivation_time_constant_s = 0.050;
-  /// Lowest activation (and excitation): OpenSim Thelen2003Muscle's 0.01. In [0, 0.5].
-  double min_activation = 0.01;
+  /// Lowest activation (and excitation). OpenSim Thelen2003Muscle uses 0.01 to avoid its
+  /// equilibrium solve's singularity at zero activation; the damped backward-Euler fibre step here
+  /// has none, and a floor would pull every muscle at once. In [0, 0.5].
+  double min_activation = 0.0;
   /// Fibre damping beta (force per unit normalised velocity, x F_max) in the compliant-tendon
   /// fibre balance: Millard 2012's damped equilibrium model (0.1) keeps the fibre velocity
   /// defined when the fibre is inactive and slack. Rigid tendons do not use it. In [0, 1].

@@ -67,6 +67,8 @@ struct PoseRunResult {
   sim::WarningCounts warnings;
   /// A push was given, the character did not fall and no foot moved 3 cm or more (no step).
   bool survived_push = false;
+  /// With --muscles on: what the muscles and backups gave (scenario.h).
+  std::optional<MuscleRunReport> muscles;
 };
 
 /// Builds and runs the scenario on `sim` (a generated character, reset inside): a PoseScenario

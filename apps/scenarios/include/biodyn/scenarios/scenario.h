@@ -26,6 +26,8 @@
 #include "biodyn/controllers/torque_walker.h"
 #include "biodyn/models/character.h"
 #include "biodyn/models/rig.h"
+#include "biodyn/muscles/muscle_drive.h"
+#include "biodyn/muscles/muscle_set.h"
 #include "biodyn/sim/simulation.h"
 
 namespace biodyn::scenarios {
@@ -73,6 +75,37 @@ struct WalkPush {
   double watch_s = 5.0;         ///< s, watched after the push ends (references.md: 5 s)
 };
 
+/// The legs' Hill muscles (`--muscles on`): the joint controllers' torques on the legs are shared
+/// among them, with backups (muscles/muscle_drive.h). The character must be generated with
+/// muscles (CharacterSpec::muscles, which model_spec() sets).
+struct MuscleConfig {
+  bool on = false;
+  muscles::TendonChoice tendons = muscles::TendonChoice::kPerMuscle;
+  /// A muscle parameter file's text and name (`--muscle-params`; muscle_set.h), optional.
+  std::string params_json, params_source;
+  muscles::MuscleDriveParams drive;
+};
+
+/// What a run's muscles did, per joint (a ball joint's three DOFs together): integrals over the
+/// run of the torque magnitudes the muscles gave, the backups gave, and the controller wanted
+/// but neither gave (beyond the backups' range), N m s.
+struct MuscleJointShare {
+  std::string joint;
+  double muscle_Nms = 0, backup_Nms = 0, not_given_Nms = 0;
+  /// backup / (muscle + backup): the "backups' share of the joint torque".
+  double backup_share() const {
+    return muscle_Nms + backup_Nms > 0 ? backup_Nms / (muscle_Nms + backup_Nms) : 0.0;
+  }
+};
+struct MuscleRunReport {
+  std::vector<std::string> muscles;
+  int compliant_tendons = 0, rigid_tendons = 0;
+  std::vector<MuscleJointShare> joints;
+  int qp_failures = 0, fiber_solve_failures = 0;
+};
+/// The report of `pipeline`'s muscles so far; nullopt without muscles.
+std::optional<MuscleRunReport> muscle_report(const controllers::ControlPipeline& pipeline);
+
 /// Everything a scenario is built from. Fields a scenario does not use must keep their
 /// defaults (validate() refuses them, naming the option, rather than ignoring them).
 struct ScenarioConfig {
@@ -88,6 +121,7 @@ struct ScenarioConfig {
   double reaction_time_s = 0;  ///< s; > 0 replaces every joint's t_r
   /// Controller parameter overrides (controller_params.h JSON; `--controller-params`), optional.
   std::string controller_json, controller_source;
+  MuscleConfig muscles;
 
   // Pose scenarios.
   /// s; 0: the scenario's own length; longer: the last pose holds (0 in the viewer: forever).
@@ -122,6 +156,13 @@ struct ScenarioConfig {
 
   /// Throws sim::InvalidArgument naming the field, the rule and the value.
   void validate() const;
+  /// The body to generate the simulation's model from: `character`, with the muscles' tendons
+  /// when muscles are on.
+  models::CharacterSpec model_spec() const;
+  /// The control pipeline's configuration: controller kind, weld mode, and the muscles (their
+  /// parameters from the character's anatomy, the tendon choice and the parameter file).
+  /// Throws sim::InvalidArgument for a bad muscle parameter file.
+  controllers::ControlPipelineConfig pipeline_config() const;
   /// Whether the scenario walks ("walk", "stones").
   bool walking() const { return scenario == "walk" || scenario == "stones"; }
 };

@@ -108,6 +108,8 @@ struct WalkRunResult {
   double stopped_at_s = -1;
   bool standing_at_end = false;    ///< not fallen, CoM < 5 cm/s, both feet on the floor
   double final_com_speed_m_s = 0;  ///< m/s, horizontal, at the end
+  /// With --muscles on: what the muscles and backups gave (scenario.h).
+  std::optional<MuscleRunReport> muscles;
 };
 
 /// Start-up excluded from the steady figures, s.
