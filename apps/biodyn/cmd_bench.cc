@@ -1,5 +1,6 @@
 // biodyn bench: cost of the controllers against the bare physics step, on the same model and
 // the same states in one run.
+#include <algorithm>
 #include <chrono>
 #include <iomanip>
 #include <iostream>
@@ -10,6 +11,7 @@
 #include "biodyn/controllers/control_pipeline.h"
 #include "biodyn/models/mjcf.h"
 #include "biodyn/models/rig.h"
+#include "biodyn/scenarios/walk.h"
 #include "biodyn/sim/errors.h"
 #include "biodyn/sim/model.h"
 #include "biodyn/sim/snapshot.h"
@@ -17,6 +19,62 @@
 #include "commands.h"
 
 namespace biodyn::apps {
+namespace {
+
+// Wall time per simulated second of a walk at 1 m/s on `spec`, with the legs' muscles or not.
+double walk_wall_per_sim_s(const models::CharacterSpec& spec, bool muscles, double duration_s) {
+  scenarios::WalkRunParams p;
+  p.config.scenario = "walk";
+  p.config.character = spec;
+  p.config.muscles.on = muscles;
+  p.duration_s = duration_s;
+  const models::Character c = models::generate_character(p.config.model_spec());
+  sim::Simulation sim(sim::Model::from_string(models::to_mjcf(c), "<character>"));
+  const scenarios::WalkRunResult r = scenarios::run_walk(&sim, p, {});
+  if (r.fallen) throw sim::Error("bench --muscles: the walk fell; no speed figure");
+  return r.wall_s / r.simulated_s;
+}
+
+// bench --muscles: the same walk without and with muscles, alternated `repeats` times (the
+// median of each: other load on the machine hits both alike).
+int bench_muscles(const models::CharacterSpec& spec, double duration_s, int repeats,
+                  const std::string& json_path) {
+  std::vector<double> off, on;
+  {
+    ProgressBar bar("bench: walks without and with muscles");
+    for (int k = 0; k < repeats; ++k) {
+      off.push_back(walk_wall_per_sim_s(spec, false, duration_s));
+      bar.update((2.0 * k + 1) / (2.0 * repeats));
+      on.push_back(walk_wall_per_sim_s(spec, true, duration_s));
+      bar.update((2.0 * k + 2) / (2.0 * repeats));
+    }
+  }
+  const auto median = [](std::vector<double> v) {
+    std::sort(v.begin(), v.end());
+    return v[v.size() / 2];
+  };
+  const double t_off = median(off), t_on = median(on);
+  std::cout << std::fixed << std::setprecision(2) << "biodyn bench --muscles: walk at 1 m/s, "
+            << duration_s << " s, " << to_string(spec.detail) << " character, median of " << repeats
+            << " alternated runs\n"
+            << "  without muscles: " << 1.0 / t_off << "x real time\n"
+            << "  with muscles:    " << 1.0 / t_on << "x real time\n"
+            << "  speed ratio:     " << t_off / t_on << " (goal >= 0.75)\n";
+  if (!json_path.empty()) {
+    const nlohmann::json j = {{"detail", to_string(spec.detail)},
+                              {"duration_s", duration_s},
+                              {"repeats", repeats},
+                              {"realtime_factor_without_muscles", 1.0 / t_off},
+                              {"realtime_factor_with_muscles", 1.0 / t_on},
+                              {"speed_ratio", t_off / t_on},
+                              {"wall_per_sim_s_without", off},
+                              {"wall_per_sim_s_with", on}};
+    write_file_atomically(json_path, j.dump(2) + "\n");
+  }
+  return kExitOk;
+}
+
+}  // namespace
 
 Command add_bench_command(CLI::App* app) {
   struct Options {
@@ -25,6 +83,8 @@ Command add_bench_command(CLI::App* app) {
     std::string controller = "velocity";
     std::string weld = "honest";
     std::string json;
+    bool muscles = false;
+    int repeats = 3;
   };
   auto o = std::make_shared<Options>();
   CLI::App* cmd = app->add_subcommand(
@@ -35,12 +95,23 @@ Command add_bench_command(CLI::App* app) {
   cmd->add_option("--controller", o->controller, "velocity | pd")->capture_default_str();
   cmd->add_option("--weld", o->weld, "off | honest | glue")->capture_default_str();
   cmd->add_option("--json", o->json, "Write the figures as JSON here");
+  cmd->add_flag("--muscles", o->muscles,
+                "Instead: the speed of walking with the legs' Hill muscles against without "
+                "(a walk of --duration, alternated --repeats times)");
+  cmd->add_option("--repeats", o->repeats, "With --muscles: runs of each kind (median)")
+      ->capture_default_str();
   return {cmd, [o]() {
             if (!(o->duration_s > 0 && o->duration_s <= 600)) {
               throw sim::InvalidArgument("--duration: must be in (0, 600] s, got " +
                                          std::to_string(o->duration_s));
             }
             const models::CharacterSpec spec = o->character.to_spec();
+            if (o->muscles) {
+              if (!(o->repeats >= 1 && o->repeats <= 50))
+                throw sim::InvalidArgument("--repeats: must be in [1, 50], got " +
+                                           std::to_string(o->repeats));
+              return bench_muscles(spec, o->duration_s, o->repeats, o->json);
+            }
             const models::Character character = models::generate_character(spec);
             sim::Simulation sim(sim::Model::from_string(models::to_mjcf(character), "<character>"));
             const mjModel& m = sim.model();

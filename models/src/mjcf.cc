@@ -254,6 +254,16 @@ void add_muscles(tinyxml2::XMLElement* root,
   if (c.muscles.empty()) return;
   tinyxml2::XMLElement* tendons = child(root, "tendon");
   std::map<std::string, bool> wrap_written;
+  // The wrapping cylinders ride on a massless, jointless child body per segment
+  // ("<segment>_wraps", fixed at the segment's origin): geoms that never collide still cost
+  // MuJoCo 2.2.2's collision pass per body they sit on (measured: +59% of mj_collision's
+  // instructions with the cylinders on the segments, +15% on child bodies).
+  std::map<std::string, tinyxml2::XMLElement*> wrap_bodies;
+  const auto wrap_body = [&](const std::string& segment) {
+    tinyxml2::XMLElement*& b = wrap_bodies[segment];
+    if (b == nullptr) b = child(bodies.at(segment), "body", {{"name", segment + "_wraps"}});
+    return b;
+  };
   for (const MuscleDefinition& m : c.muscles) {
     tinyxml2::XMLElement* spatial =
         child(tendons, "spatial",
@@ -268,7 +278,7 @@ void add_muscles(tinyxml2::XMLElement* root,
         const std::string geom = "wrap_" + w.name, side = "wrapside_" + m.name + "_" + w.name;
         if (!wrap_written[geom]) {
           wrap_written[geom] = true;
-          child(bodies.at(w.segment), "geom",
+          child(wrap_body(w.segment), "geom",
                 {{"name", geom},
                  {"type", "cylinder"},
                  {"fromto", fmt(w.center_B - w.half_length_m * w.axis_B) + " " +

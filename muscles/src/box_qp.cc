@@ -47,14 +47,19 @@ void BoxQp::solve_free(int n_free) {
 
 BoxQpResult BoxQp::solve(const Eigen::MatrixXd& H, const Eigen::VectorXd& g,
                          const Eigen::VectorXd& lo, const Eigen::VectorXd& hi,
-                         Eigen::VectorXd* x_out) {
+                         Eigen::VectorXd* x_out, const int* start_bounds) {
   const int n = static_cast<int>(g.size());
   assert(n <= max_n_);
   Eigen::VectorXd& x = *x_out;
   for (int i = 0; i < n; ++i) {
     assert(lo(i) <= hi(i));
     x(i) = std::clamp(x(i), lo(i), hi(i));
-    state_[static_cast<std::size_t>(i)] = x(i) <= lo(i) ? -1 : (x(i) >= hi(i) ? 1 : 0);
+    int st = x(i) <= lo(i) ? -1 : (x(i) >= hi(i) ? 1 : 0);
+    if (start_bounds != nullptr) {
+      st = start_bounds[i];
+      if (st != 0) x(i) = st < 0 ? lo(i) : hi(i);
+    }
+    state_[static_cast<std::size_t>(i)] = st;
   }
   BoxQpResult result;
   const int max_iterations = 4 * n + 20;

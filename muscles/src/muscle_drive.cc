@@ -20,23 +20,79 @@ void MuscleDriveParams::validate() const {
   }
 }
 
+MuscleDrive::Group::Group(std::vector<int> muscle_ids, std::vector<int> row_ids)
+    : muscles(std::move(muscle_ids)),
+      rows(std::move(row_ids)),
+      qp(static_cast<int>(muscles.size())),
+      B(Eigen::MatrixXd::Zero(static_cast<int>(rows.size()), static_cast<int>(muscles.size()))),
+      H(Eigen::MatrixXd::Zero(static_cast<int>(muscles.size()), static_cast<int>(muscles.size()))),
+      g(Eigen::VectorXd::Zero(static_cast<int>(muscles.size()))),
+      c(Eigen::VectorXd::Zero(static_cast<int>(rows.size()))),
+      x(Eigen::VectorXd::Zero(static_cast<int>(muscles.size()))),
+      lo(Eigen::VectorXd::Zero(static_cast<int>(muscles.size()))),
+      hi(Eigen::VectorXd::Zero(static_cast<int>(muscles.size()))),
+      bounds(muscles.size(), 0) {}
+
+namespace {
+
+// Connected components of the muscle-DOF graph: muscles that share a DOF share a QP.
+std::vector<std::pair<std::vector<int>, std::vector<int>>> independent_groups(
+    const MuscleSet& set) {
+  const int n = set.size(), k = static_cast<int>(set.covered_dofs().size());
+  std::vector<int> group_of_muscle(static_cast<std::size_t>(n), -1);
+  std::vector<std::pair<std::vector<int>, std::vector<int>>> groups;
+  for (int seed = 0; seed < n; ++seed) {
+    if (group_of_muscle[static_cast<std::size_t>(seed)] >= 0) continue;
+    const int id = static_cast<int>(groups.size());
+    groups.emplace_back();
+    std::vector<int> todo = {seed};
+    group_of_muscle[static_cast<std::size_t>(seed)] = id;
+    std::vector<char> row_taken(static_cast<std::size_t>(k), 0);
+    while (!todo.empty()) {
+      const int i = todo.back();
+      todo.pop_back();
+      groups.back().first.push_back(i);
+      for (int row = 0; row < k; ++row) {
+        const std::vector<int>& on_row = set.muscles_of_dof()[static_cast<std::size_t>(row)];
+        if (std::find(on_row.begin(), on_row.end(), i) == on_row.end()) continue;
+        if (!row_taken[static_cast<std::size_t>(row)]) {
+          row_taken[static_cast<std::size_t>(row)] = 1;
+          groups.back().second.push_back(row);
+        }
+        for (int j : on_row) {
+          if (group_of_muscle[static_cast<std::size_t>(j)] < 0) {
+            group_of_muscle[static_cast<std::size_t>(j)] = id;
+            todo.push_back(j);
+          }
+        }
+      }
+    }
+    std::sort(groups.back().first.begin(), groups.back().first.end());
+    std::sort(groups.back().second.begin(), groups.back().second.end());
+  }
+  return groups;
+}
+
+}  // namespace
+
 MuscleDrive::MuscleDrive(const mjModel& m, MuscleSet set, const std::vector<double>& tau_max_Nm,
                          MuscleDriveParams params)
-    : set_(std::move(set)), params_(params), qp_(set_.size()) {
+    : set_(std::move(set)), params_(params) {
   params_.validate();
   const int n = set_.size(), k = static_cast<int>(set_.covered_dofs().size());
+  for (auto& [muscle_ids, row_ids] : independent_groups(set_))
+    groups_.emplace_back(std::move(muscle_ids), std::move(row_ids));
   R_.setZero(k, n);
-  B_.setZero(k, n);
-  H_.setZero(n, n);
   A_.setZero(n);
   P_.setZero(n);
   lo_.setZero(n);
   hi_.setZero(n);
-  g_.setZero(n);
-  c_.setZero(k);
   x_.setZero(n);
   tension_.setZero(n);
+  fiber_guess_.setZero(n);
+  fiber_slope_.setZero(n);
   MuscleDriveState& s = state_;
+  s.qp_bounds.assign(static_cast<std::size_t>(n), 0);
   for (auto* v :
        {&s.activation, &s.excitation, &s.fiber_length_m, &s.fiber_velocity_m_s, &s.tension_N})
     v->assign(static_cast<std::size_t>(n), 0.0);
@@ -69,21 +125,47 @@ MuscleDrive::MuscleDrive(const mjModel& m, MuscleSet set, const std::vector<doub
 
 void MuscleDrive::share(const double* tau_wanted_Nm, const Eigen::VectorXd& lo,
                         const Eigen::VectorXd& hi) {
-  // minimise sum a^2 + w |c - B a|^2 with B = R diag(A), c = tau_w - R P (forces F = A a + P).
-  const int n = set_.size(), k = static_cast<int>(set_.covered_dofs().size());
+  // Per group: minimise sum a^2 + w |c - B a|^2 with B = R diag(A), c = tau_w - R P (forces
+  // F = A a + P), warm-started from the last step's active set.
   const double w = params_.backup_weight_per_Nm2;
-  for (int row = 0; row < k; ++row) {
-    double c = tau_wanted_Nm[set_.covered_dofs()[static_cast<std::size_t>(row)]];
-    for (int i = 0; i < n; ++i) c -= R_(row, i) * P_(i);
-    c_(row) = c;
+  for (Group& grp : groups_) {
+    const int n = static_cast<int>(grp.muscles.size()), k = static_cast<int>(grp.rows.size());
+    for (int r = 0; r < k; ++r) {
+      const int row = grp.rows[static_cast<std::size_t>(r)];
+      double c = tau_wanted_Nm[set_.covered_dofs()[static_cast<std::size_t>(row)]];
+      for (int a = 0; a < n; ++a) {
+        const int i = grp.muscles[static_cast<std::size_t>(a)];
+        c -= R_(row, i) * P_(i);
+        grp.B(r, a) = R_(row, i) * A_(i);
+      }
+      grp.c(r) = c;
+    }
+    // H = I + w B'B, g = -w B'c, written out for these small sizes.
+    for (int a = 0; a < n; ++a) {
+      for (int b = 0; b <= a; ++b) {
+        double sum = 0;
+        for (int r = 0; r < k; ++r) sum += grp.B(r, a) * grp.B(r, b);
+        grp.H(a, b) = grp.H(b, a) = w * sum + (a == b ? 1.0 : 0.0);
+      }
+      double sum = 0;
+      for (int r = 0; r < k; ++r) sum += grp.B(r, a) * grp.c(r);
+      grp.g(a) = -w * sum;
+    }
+    for (int a = 0; a < n; ++a) {
+      const auto i = static_cast<std::size_t>(grp.muscles[static_cast<std::size_t>(a)]);
+      grp.x(a) = state_.activation[i];
+      grp.lo(a) = lo(static_cast<int>(i));
+      grp.hi(a) = hi(static_cast<int>(i));
+      grp.bounds[static_cast<std::size_t>(a)] = state_.qp_bounds[i];
+    }
+    const BoxQpResult r = grp.qp.solve(grp.H, grp.g, grp.lo, grp.hi, &grp.x, grp.bounds.data());
+    if (!r.converged) ++pending_.qp_failures;
+    for (int a = 0; a < n; ++a) {
+      const auto i = static_cast<std::size_t>(grp.muscles[static_cast<std::size_t>(a)]);
+      x_(static_cast<int>(i)) = grp.x(a);
+      pending_.qp_bounds[i] = grp.qp.bound(a);
+    }
   }
-  B_.noalias() = R_ * A_.asDiagonal();
-  H_.noalias() = w * B_.transpose() * B_;
-  H_.diagonal().array() += 1.0;
-  g_.noalias() = -w * B_.transpose() * c_;
-  for (int i = 0; i < n; ++i) x_(i) = state_.activation[static_cast<std::size_t>(i)];
-  const BoxQpResult r = qp_.solve(H_, g_, lo, hi, &x_);
-  if (!r.converged) ++pending_.qp_failures;
 }
 
 void MuscleDrive::reset(const mjModel& m, const mjData& d, const double* tau_hold_Nm) {
@@ -123,7 +205,7 @@ void MuscleDrive::compute(const mjModel& m, const mjData& d, const double* tau_w
   const double dt = m.opt.timestep;
   pending_ = state_;
   set_.moment_arms(m, d, &R_);
-  // The force each muscle would give at either end of the activations it can reach this step.
+  // Each muscle's force at the end of the step, affine in the activation it can reach.
   for (int i = 0; i < n; ++i) {
     const MuscleParams& p = set_.params(i);
     const auto ii = static_cast<std::size_t>(i);
@@ -131,19 +213,25 @@ void MuscleDrive::compute(const mjModel& m, const mjData& d, const double* tau_w
     lo_(i) = reach.lo;
     hi_(i) = reach.hi;
     if (p.tendon == TendonModel::kRigid) {
-      const ForceAffine f = rigid_tendon_affine(p, set_.length(d, i), set_.velocity(d, i));
-      A_(i) = f.active_N;
-      P_(i) = f.passive_N;
+      // F = A a + P exactly at this state: the fibre's kinematics follow the path's.
+      const MuscleKinematics kin =
+          rigid_tendon_state(p, 0.0, set_.length(d, i), set_.velocity(d, i));
+      const double scale = p.max_isometric_force_N * kin.cos_pennation;
+      A_(i) = scale * kin.active_fl * kin.fv;
+      P_(i) = scale * kin.passive_fl;
+      pending_.fiber_length_m[ii] = kin.fiber_length_m;
+      pending_.fiber_velocity_m_s[ii] = kin.fiber_velocity_m_s;
     } else {
-      // The backward-Euler fibre step at both ends of the reachable activations, interpolated:
-      // the tendon force this step can give (CMC's one-step look-ahead).
+      // The backward-Euler fibre step at the present activation and its tangent in the
+      // activation: the tendon force this step can give (CMC's one-step look-ahead).
       const double l_next = set_.length(d, i) + dt * set_.velocity(d, i);
-      const double f_lo =
-          compliant_tendon_step(p, reach.lo, state_.fiber_length_m[ii], l_next, dt).tendon_force_N;
-      const double f_hi =
-          compliant_tendon_step(p, reach.hi, state_.fiber_length_m[ii], l_next, dt).tendon_force_N;
-      A_(i) = reach.hi > reach.lo ? (f_hi - f_lo) / (reach.hi - reach.lo) : 0.0;
-      P_(i) = f_lo - A_(i) * reach.lo;
+      const double a0 = state_.activation[ii];
+      const MuscleKinematics kin =
+          compliant_tendon_step(p, a0, state_.fiber_length_m[ii], l_next, dt);
+      A_(i) = kin.force_per_activation_N;
+      P_(i) = kin.tendon_force_N - A_(i) * a0;
+      fiber_guess_(i) = kin.fiber_length_m - kin.fiber_length_per_activation_m * a0;
+      fiber_slope_(i) = kin.fiber_length_per_activation_m;
     }
   }
   share(tau_wanted_Nm, lo_, hi_);
@@ -155,15 +243,13 @@ void MuscleDrive::compute(const mjModel& m, const mjData& d, const double* tau_w
     pending_.excitation[ii] = excitation_for(state_.activation[ii], a, dt, p);
     pending_.activation[ii] = a;
     if (p.tendon == TendonModel::kRigid) {
-      const MuscleKinematics kin = rigid_tendon_state(p, a, set_.length(d, i), set_.velocity(d, i));
-      tension_(i) = kin.tendon_force_N;
-      pending_.fiber_length_m[ii] = kin.fiber_length_m;
-      pending_.fiber_velocity_m_s[ii] = kin.fiber_velocity_m_s;
+      tension_(i) = A_(i) * a + P_(i);
     } else {
-      // Backward Euler to the path's length at the end of the step (l + dt v).
+      // Backward Euler to the path's length at the end of the step (l + dt v), from the
+      // tangent's prediction.
       const double l_next = set_.length(d, i) + dt * set_.velocity(d, i);
-      const MuscleKinematics kin =
-          compliant_tendon_step(p, a, state_.fiber_length_m[ii], l_next, dt);
+      const MuscleKinematics kin = compliant_tendon_step(p, a, state_.fiber_length_m[ii], l_next,
+                                                         dt, fiber_guess_(i) + fiber_slope_(i) * a);
       if (!kin.converged) ++pending_.fiber_failures;
       tension_(i) = kin.tendon_force_N;
       pending_.fiber_length_m[ii] = kin.fiber_length_m;

@@ -26,6 +26,7 @@ struct FiberBalance {
 
   struct Value {
     double g, slope;
+    double d_tendon;  // d(tendon force / F_max) / dx
     MuscleKinematics k;
   };
 
@@ -48,6 +49,7 @@ struct FiberBalance {
     k.tendon_force_N = tendon * p.max_isometric_force_N;
     out.g = tendon - k.cos_pennation * fibre;
     const double d_tendon = -tendon_force_strain_slope(strain, c) / (k.cos_pennation * l_slack);
+    out.d_tendon = d_tendon;
     const double d_cos = h * h / (x * x * x) / k.cos_pennation;
     const double d_fibre =
         activation * (active_force_length_slope(l_norm, c) / l_opt * k.fv +
@@ -63,17 +65,22 @@ struct FiberBalance {
 MuscleKinematics solve_fiber(const FiberBalance& balance, double x_start) {
   const MuscleParams& p = balance.p;
   const double slack_along = std::max(balance.l_mtu - balance.l_slack, 0.0);
-  double lo = p.min_fiber_length_m();
+  const double l_min = p.min_fiber_length_m();
+  double lo = l_min;
   double hi =
       std::max({std::sqrt(slack_along * slack_along + balance.h * balance.h), balance.x_prev, lo}) *
       (1.0 + 1e-12);
-  FiberBalance::Value at_lo = balance(lo);
-  if (at_lo.g <= 0.0) {  // the fibre cannot get shorter: it sits at its minimum length
-    at_lo.k.iterations = 1;
-    return at_lo.k;
-  }
   double x = std::clamp(x_start, lo, hi);
   FiberBalance::Value v = balance(x);
+  // g decreases with x: the root lies above x if g(x) > 0; below it only if g(l_min) > 0, else
+  // the fibre sits at its minimum length (checked only when the root is below the start).
+  if (v.g <= 0.0 && x > l_min) {
+    FiberBalance::Value at_lo = balance(l_min);
+    if (at_lo.g <= 0.0) {
+      at_lo.k.iterations = 2;
+      return at_lo.k;
+    }
+  }
   int it = 1;
   for (; it < kMaxFiberIterations; ++it) {
     if (std::abs(v.g) <= kFiberForceTolerance) break;
@@ -87,6 +94,12 @@ MuscleKinematics solve_fiber(const FiberBalance& balance, double x_start) {
   v.k.iterations = it;
   v.k.converged =
       std::abs(v.g) <= kFiberForceTolerance || hi - lo <= 1e-12 * p.optimal_fiber_length_m;
+  // Implicit-function tangent: g(x(a), a) = 0 -> dx/da = cos(alpha) f_L f_V / slope.
+  if (v.slope < 0.0) {
+    const double dx_da = v.k.cos_pennation * v.k.active_fl * v.k.fv / v.slope;
+    v.k.force_per_activation_N = p.max_isometric_force_N * v.d_tendon * dx_da;
+    v.k.fiber_length_per_activation_m = dx_da;
+  }
   return v.k;
 }
 
@@ -157,9 +170,9 @@ MuscleKinematics rigid_tendon_state(const MuscleParams& p, double activation, do
                                     double v_mtu_m_s) {
   MuscleKinematics k;
   const double h = p.fiber_height_m();
+  const double l_min = p.min_fiber_length_m();
   const double along =
-      std::max(l_mtu_m - p.tendon_slack_length_m,
-               std::sqrt(std::max(std::pow(p.min_fiber_length_m(), 2) - h * h, 0.0)));
+      std::max(l_mtu_m - p.tendon_slack_length_m, std::sqrt(std::max(l_min * l_min - h * h, 0.0)));
   k.fiber_length_m = std::sqrt(along * along + h * h);
   k.cos_pennation = along / k.fiber_length_m;
   k.tendon_length_m = p.tendon_slack_length_m;
@@ -182,7 +195,8 @@ ForceAffine rigid_tendon_affine(const MuscleParams& p, double l_mtu_m, double v_
 }
 
 MuscleKinematics compliant_tendon_step(const MuscleParams& p, double activation,
-                                       double fiber_length_prev_m, double l_mtu_m, double dt_s) {
+                                       double fiber_length_prev_m, double l_mtu_m, double dt_s,
+                                       double fiber_length_guess_m) {
   const FiberBalance balance{
       p,
       activation,
@@ -192,7 +206,8 @@ MuscleKinematics compliant_tendon_step(const MuscleParams& p, double activation,
       p.fiber_height_m(),
       p.optimal_fiber_length_m,
       p.tendon_slack_length_m};
-  MuscleKinematics k = solve_fiber(balance, fiber_length_prev_m);
+  MuscleKinematics k =
+      solve_fiber(balance, fiber_length_guess_m > 0 ? fiber_length_guess_m : fiber_length_prev_m);
   k.fiber_velocity_m_s = (k.fiber_length_m - fiber_length_prev_m) / dt_s;
   return k;
 }

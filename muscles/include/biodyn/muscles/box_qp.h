@@ -27,9 +27,16 @@ class BoxQp {
   explicit BoxQp(int max_n);
 
   /// Solves for the first n = g.size() variables. `x` holds a start (clamped into the box) and
-  /// receives the solution. Bounds with lo > hi are an invariant broken (assert).
+  /// receives the solution. `start_bounds` (optional, n): a guess of the active set (-1 on lo,
+  /// +1 on hi, 0 free), e.g. the last solution's bounds(): a sequence of close problems then
+  /// takes one or two iterations each. The problem is strictly convex, so the solution does
+  /// not depend on the start (to the tolerance). Bounds with lo > hi are an invariant broken
+  /// (assert).
   BoxQpResult solve(const Eigen::MatrixXd& H, const Eigen::VectorXd& g, const Eigen::VectorXd& lo,
-                    const Eigen::VectorXd& hi, Eigen::VectorXd* x);
+                    const Eigen::VectorXd& hi, Eigen::VectorXd* x,
+                    const int* start_bounds = nullptr);
+  /// The last solution's active set: -1 on lo, +1 on hi, 0 free, for variable i.
+  int bound(int i) const { return state_[static_cast<std::size_t>(i)]; }
 
  private:
   bool factor_free(const Eigen::MatrixXd& H, int n_free);

@@ -61,6 +61,9 @@ struct MuscleDriveState {
   /// torque wanted but given by neither (N m s).
   std::vector<double> muscle_impulse_Nms, backup_impulse_Nms, missing_impulse_Nms;
   long steps = 0;
+  /// Per muscle, the last QP solution's active set (-1 lower bound, +1 upper, 0 free): the next
+  /// step's warm start (part of the state so a rewound run repeats bit for bit).
+  std::vector<int> qp_bounds;
   int qp_failures = 0;     ///< steps whose QP did not converge (forces of its last iterate used)
   int fiber_failures = 0;  ///< compliant fibre solves that missed their tolerance
 };
@@ -96,14 +99,25 @@ class MuscleDrive {
  private:
   void share(const double* tau_wanted_Nm, const Eigen::VectorXd& lo, const Eigen::VectorXd& hi);
 
+  /// Muscles that share no DOF (the two legs) are shared out by separate QPs.
+  struct Group {
+    explicit Group(std::vector<int> muscle_ids, std::vector<int> row_ids);
+    std::vector<int> muscles, rows;  // indices into the set's muscles and covered DOFs
+    BoxQp qp;
+    Eigen::MatrixXd B, H;
+    Eigen::VectorXd g, c, x, lo, hi;
+    std::vector<int> bounds;
+  };
+
   MuscleSet set_;
   MuscleDriveParams params_;
-  BoxQp qp_;
+  std::vector<Group> groups_;
   std::vector<double> backup_lo_, backup_hi_;
   MuscleDriveState state_, pending_;
   // Per-step workspace (sized once).
-  Eigen::MatrixXd R_, B_, H_;
-  Eigen::VectorXd A_, P_, lo_, hi_, g_, c_, x_, tension_;
+  Eigen::MatrixXd R_;
+  Eigen::VectorXd A_, P_, lo_, hi_, x_, tension_;
+  Eigen::VectorXd fiber_guess_, fiber_slope_;  // compliant: l_M(a) ~ guess + slope * a
 };
 
 }  // namespace biodyn::muscles

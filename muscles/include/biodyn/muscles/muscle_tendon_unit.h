@@ -72,8 +72,12 @@ struct MuscleKinematics {
   double fv = 1;              ///< f_V(v~)
   double passive_fl = 0;      ///< f_PE(l~)
   double tendon_force_N = 0;  ///< tension along the path (>= 0)
-  int iterations = 0;         ///< compliant solve: Newton/bisection iterations
-  bool converged = true;      ///< compliant solve: met its tolerance
+  /// Compliant step: dF/da, N per unit activation, of the tendon force at the end of the step
+  /// (implicit-function tangent of the fibre balance; 0 at the fibre's minimum length).
+  double force_per_activation_N = 0;
+  double fiber_length_per_activation_m = 0;  ///< compliant step: dl_M/da, m per unit activation
+  int iterations = 0;                        ///< compliant solve: Newton/bisection iterations
+  bool converged = true;                     ///< compliant solve: met its tolerance
 };
 
 /// Exact step of first-order activation dynamics da/dt = (u - a) / tau, tau = the activation
@@ -108,8 +112,10 @@ ForceAffine rigid_tendon_affine(const MuscleParams& p, double l_mtu_m, double v_
 /// step such that tendon force = fibre force along the tendon, with the fibre velocity
 /// (l_M - l_M_prev) / dt, the activation `activation` and the path length `l_mtu_m` at the end of
 /// the step. Safeguarded Newton on a bracket (no exception, at most kMaxFiberIterations).
+/// `fiber_length_guess_m` (optional, > 0): where the solve starts (default: the previous length).
 MuscleKinematics compliant_tendon_step(const MuscleParams& p, double activation,
-                                       double fiber_length_prev_m, double l_mtu_m, double dt_s);
+                                       double fiber_length_prev_m, double l_mtu_m, double dt_s,
+                                       double fiber_length_guess_m = 0);
 
 /// Compliant tendon at rest: the fibre length where tendon and fibre forces balance with no
 /// fibre velocity (to start a run).
