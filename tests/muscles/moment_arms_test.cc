@@ -16,13 +16,13 @@
 #include "biodyn/models/mjcf.h"
 #include "biodyn/muscles/muscle_set.h"
 #include "biodyn/sim/model.h"
+#include "biodyn/sim/units.h"
 #include "test_support.h"
 
 namespace biodyn::muscles::moment_arms_test {
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
-constexpr double kDegree = kPi / 180.0;
+constexpr double kDegree = kRadPerDeg;
 constexpr double kFdStep_rad = 1e-6;
 // Jacobian vs central difference of the length: MuJoCo's tendon Jacobian is exact for a taut
 // path (its wrap points slide along the cylinder without changing the length to first order);

@@ -14,12 +14,12 @@
 #include "biodyn/muscles/muscle_set.h"
 #include "biodyn/sim/errors.h"
 #include "biodyn/sim/model.h"
+#include "biodyn/sim/units.h"
 #include "test_support.h"
 
 namespace biodyn::muscles::muscle_set_test {
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
 constexpr const char* kSource = "legs.json";
 
 models::Character muscled_character() {
@@ -68,7 +68,7 @@ TEST_CASE("muscle parameter files: a good one applies, side-less names to both s
   }
   CHECK(find(params, "tib_ant_l").max_isometric_force_N ==
         Approx(2 * find(before, "tib_ant_l").max_isometric_force_N));
-  CHECK(find(params, "tib_ant_l").pennation_at_optimal_rad == Approx(10 * kPi / 180));
+  CHECK(find(params, "tib_ant_l").pennation_at_optimal_rad == Approx(10 * kRadPerDeg));
   CHECK(find(params, "tib_ant_r").max_isometric_force_N ==
         find(before, "tib_ant_r").max_isometric_force_N);
   const MuscleParams& v = find(params, "vasti_r");

@@ -15,12 +15,12 @@
 #include "biodyn/muscles/muscle_set.h"
 #include "biodyn/muscles/muscle_tendon_unit.h"
 #include "biodyn/sim/model.h"
+#include "biodyn/sim/units.h"
 #include "test_support.h"
 
 namespace biodyn::muscles::mtu_test {
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
 constexpr double kTimeTolerance_s = 1e-9;      // exponential crossing time: rounding only
 constexpr double kActivationExact = 1e-12;     // closed-form activation: rounding only
 constexpr double kExcitationInverse = 1e-9;    // excitation_for undoes activation_step
@@ -334,7 +334,7 @@ TEST_CASE_METHOD(biodyn::testing::SimulationTest,
       set.covered_dofs().begin();
   REQUIRE(ankle_row < static_cast<Eigen::Index>(set.covered_dofs().size()));
   for (int deg = -40; deg <= 20; deg += 5) {
-    const double angle = deg * kPi / 180.0;
+    const double angle = deg * kRadPerDeg;
     const double r_fd = -(path_length(angle + kFdStep_rad) - path_length(angle - kFdStep_rad)) /
                         (2.0 * kFdStep_rad);
     const double l_mtu = path_length(angle);
