@@ -184,7 +184,7 @@ TEST_CASE_METHOD(biodyn::testing::SimulationTest,
 }
 
 TEST_CASE_METHOD(biodyn::testing::SimulationTest,
-                 "moment arms: nothing acts on the free root; sparse and dense Jacobians agree",
+                 "moment arms: nothing acts on the free root, sparse and dense Jacobians agree",
                  "[muscles]") {
   MuscledBody body(kBodies[0]);
   const mjModel& m = body.m();
