@@ -486,12 +486,12 @@ TEST_CASE_METHOD(biodyn::testing::SimulationTest, "moment arm report", "[.][repo
         }
         body.pose(dof, 0.0);
         std::cout << "  " << std::setw(12) << name << " " << std::setw(22) << body.dof_name(dof)
-                  << " [" << std::setw(6) << lo / kDegree << "," << std::setw(5) << hi / kDegree
-                  << "] r(0) " << std::setw(7) << std::fixed << std::setprecision(2)
-                  << 100 * body.jacobian_arm(i, dof, 0.0) << "  min " << std::setw(7) << 100 * rmin
-                  << " max " << std::setw(7) << 100 * rmax << " cm  |J-FD| " << std::scientific
-                  << std::setprecision(1) << worst << std::defaultfloat << " wraps:" << wraps.str()
-                  << "\n";
+                  << std::fixed << std::setprecision(0) << " [" << std::setw(4) << lo / kDegree
+                  << ", " << std::setw(4) << hi / kDegree << "] deg: r(0) " << std::setprecision(2)
+                  << std::setw(6) << 100 * body.jacobian_arm(i, dof, 0.0) << ", min "
+                  << std::setw(6) << 100 * rmin << ", max " << std::setw(6) << 100 * rmax
+                  << " cm; |J - FD| " << std::scientific << std::setprecision(1) << worst
+                  << " m; wraps change:" << std::defaultfloat << wraps.str() << "\n";
       }
     }
   }
