@@ -2,10 +2,12 @@
 // KKT conditions, equals the minimiser found by enumerating every active set (small n), and
 // handles fixed variables (lo == hi), starts on the bounds and the unconstrained case.
 #include <Eigen/Cholesky>
+#include <algorithm>
 #include <catch2/catch.hpp>
 #include <cmath>
 #include <limits>
 #include <random>
+#include <vector>
 
 #include "biodyn/muscles/box_qp.h"
 

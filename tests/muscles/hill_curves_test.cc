@@ -2,10 +2,12 @@
 // they come from: the force-length peak and width, Hill's hyperbola, the eccentric branch as
 // Thelen's eq. 6 inverted, the passive and tendon curves at their documented points, and every
 // slope against central finite differences on seeded random samples.
+#include <algorithm>
 #include <catch2/catch.hpp>
 #include <cmath>
 #include <functional>
 #include <random>
+#include <vector>
 
 #include "biodyn/muscles/hill_curves.h"
 #include "biodyn/sim/errors.h"

@@ -2,6 +2,7 @@
 // the muscle, the field and the value, a good one applied (a side-less name to both sides); the
 // set bound to the generated character's tendons (which DOFs each muscle spans); and the muscle
 // drive holding a constant wanted torque (muscles/muscle_drive.h).
+#include <algorithm>
 #include <catch2/catch.hpp>
 #include <cmath>
 #include <string>
