@@ -52,7 +52,7 @@ std::string refusal(const std::string& json, std::vector<MuscleParams> params) {
 TEST_CASE("muscle parameter files: a good one applies, side-less names to both sides",
           "[muscles]") {
   const models::Character c = muscled_character();
-  REQUIRE(c.muscles.size() == 26);
+  REQUIRE(c.muscles.size() == 28);  // 14 per leg
   const std::vector<MuscleParams> before = muscle_params(c.muscles, TendonChoice::kPerMuscle);
   std::vector<MuscleParams> params = before;
   apply_muscle_overrides(R"({"muscles": {
@@ -148,7 +148,7 @@ TEST_CASE_METHOD(biodyn::testing::SimulationTest,
   const sim::Model model = sim::Model::from_string(models::to_mjcf(c));
   const mjModel& m = *model;
   const MuscleSet set(m, muscle_params(c.muscles, TendonChoice::kPerMuscle));
-  REQUIRE(set.size() == 26);
+  REQUIRE(set.size() == 28);
   const auto dof_names = [&](int i) {
     std::vector<std::string> names;
     for (std::size_t k = 0; k < set.covered_dofs().size(); ++k) {
@@ -170,7 +170,7 @@ TEST_CASE_METHOD(biodyn::testing::SimulationTest,
   using V = std::vector<std::string>;
   CHECK(dof_names(index("soleus_r")) == V{"ankle_dorsiflexion_r", "ankle_inversion_r"});
   CHECK(dof_names(index("vasti_l")) == V{"knee_flexion_l"});
-  CHECK(dof_names(index("glut_med_l")) == V{"hip_l_x", "hip_l_y", "hip_l_z"});
+  CHECK(dof_names(index("glut_med_ant_l")) == V{"hip_l_x", "hip_l_y", "hip_l_z"});
   CHECK(dof_names(index("rect_fem_r")) == V{"hip_r_x", "hip_r_y", "hip_r_z", "knee_flexion_r"});
   CHECK(dof_names(index("gastroc_l")) ==
         V{"knee_flexion_l", "ankle_dorsiflexion_l", "ankle_inversion_l"});

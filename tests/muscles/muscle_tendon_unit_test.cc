@@ -241,10 +241,12 @@ TEST_CASE("rigid and compliant tendons agree for a very stiff tendon at slow spe
 namespace {
 
 // Thelen 2003, written here from the paper (not from hill_curves.cc): eq. 3 active
-// force-length (gamma 0.45), eq. 2 passive (kPE 5, eps0_M 0.6), eq. 4 tendon (eps0_T 0.04,
-// toe to 0.609 eps0_T with F_toe 0.33 and k_toe 3, then 1.712/eps0_T linear).
+// force-length (gamma 0.45), eq. 2 passive (kPE 5; eps0_M the muscle's, Thelen's 0.6 or the
+// anatomy table's), eq. 4 tendon (eps0_T 0.04, toe to 0.609 eps0_T with F_toe 0.33 and k_toe 3,
+// then 1.712/eps0_T linear).
 struct Thelen2003 {
-  double gamma = 0.45, k_pe = 5.0, eps_m = 0.6, eps_t = 0.04;
+  double eps_m = 0.6;  // passive strain at F_max
+  double gamma = 0.45, k_pe = 5.0, eps_t = 0.04;
 
   double active(double l) const { return std::exp(-(l - 1.0) * (l - 1.0) / gamma); }
   double passive(double l) const {
@@ -266,9 +268,11 @@ struct IsometricResult {
 // At rest (v = 0: f_V = 1, no damping), constant-thickness pennation (sin alpha = h / l_M):
 // tendon force = cos(alpha) F_max (a f_L + f_PE). Bisection on the fibre length between the
 // pennation limit (fibre as short as its height) and the length that leaves the tendon slack.
-IsometricResult independent_isometric(double F_max, double l_opt, double l_slack, double alpha_opt,
-                                      double activation, double l_mtu) {
-  const Thelen2003 t;
+IsometricResult independent_isometric(const models::MuscleDefinition& def, double activation,
+                                      double l_mtu) {
+  const double F_max = def.max_isometric_force_N, l_opt = def.optimal_fiber_length_m,
+               l_slack = def.tendon_slack_length_m, alpha_opt = def.pennation_at_optimal_rad;
+  const Thelen2003 t{def.passive_strain_at_fmax};
   const double h = l_opt * std::sin(alpha_opt);
   const auto balance = [&](double l) {
     const double along = std::sqrt(l * l - h * h);
@@ -341,9 +345,7 @@ TEST_CASE_METHOD(biodyn::testing::SimulationTest,
     set.moment_arms(m, d, &R);
     for (double activation : {1.0, 0.5}) {
       INFO("ankle " << deg << " deg, activation " << activation << ", l_MTU " << l_mtu);
-      const IsometricResult want = independent_isometric(
-          def->max_isometric_force_N, def->optimal_fiber_length_m, def->tendon_slack_length_m,
-          def->pennation_at_optimal_rad, activation, l_mtu);
+      const IsometricResult want = independent_isometric(*def, activation, l_mtu);
       REQUIRE(want.sign_changes == 1);
       const double l_eq = equilibrium_fiber_length(p, activation, l_mtu);
       const MuscleKinematics got = compliant_tendon_step(p, activation, l_eq, l_mtu, 0.002);
