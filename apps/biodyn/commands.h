@@ -33,6 +33,9 @@ Command add_bench_command(CLI::App* app);
 /// inverse dynamics.
 Command add_mocap_command(CLI::App* app);
 
+/// `biodyn muscles curves`: the Hill curves, and one muscle's isometric force-angle curve.
+Command add_muscles_command(CLI::App* app);
+
 /// `biodyn render`: a scenario filmed headless (MP4, PNG).
 Command add_render_command(CLI::App* app);
 /// `biodyn view`: the interactive viewer.

@@ -81,16 +81,16 @@ BoxQpResult BoxQp::solve(const Eigen::MatrixXd& H, const Eigen::VectorXd& g,
     }
     // Step towards the free minimiser as far as the box allows; a blocked variable joins its bound.
     double step = 1.0;
-    int blocking = -1;
+    int blocking = -1, blocking_bound = 0;  // the bound it meets: -1 lo, +1 hi
     for (int a = 0; a < n_free; ++a) {
       const int i = free_[static_cast<std::size_t>(a)];
       const double d = rhs_(a) - x(i);
       if (d < 0.0 && x(i) + d < lo(i)) {
         const double t = (lo(i) - x(i)) / d;
-        if (t < step) step = t, blocking = i;
+        if (t < step) step = t, blocking = i, blocking_bound = -1;
       } else if (d > 0.0 && x(i) + d > hi(i)) {
         const double t = (hi(i) - x(i)) / d;
-        if (t < step) step = t, blocking = i;
+        if (t < step) step = t, blocking = i, blocking_bound = 1;
       }
     }
     for (int a = 0; a < n_free; ++a) {
@@ -98,8 +98,10 @@ BoxQpResult BoxQp::solve(const Eigen::MatrixXd& H, const Eigen::VectorXd& g,
       x(i) = std::clamp(x(i) + step * (rhs_(a) - x(i)), lo(i), hi(i));
     }
     if (blocking >= 0) {
-      state_[static_cast<std::size_t>(blocking)] = x(blocking) <= lo(blocking) ? -1 : 1;
-      x(blocking) = state_[static_cast<std::size_t>(blocking)] < 0 ? lo(blocking) : hi(blocking);
+      // The bound the step met, not the one x is nearer after rounding: x + t d can stop a hair
+      // inside lo, and reading that as "at hi" put the variable on the wrong bound (it cycled).
+      state_[static_cast<std::size_t>(blocking)] = blocking_bound;
+      x(blocking) = blocking_bound < 0 ? lo(blocking) : hi(blocking);
       continue;
     }
     // At the free minimiser: release the bound whose multiplier has the wrong sign the most.

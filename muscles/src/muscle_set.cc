@@ -13,6 +13,9 @@ namespace {
 using nlohmann::json;
 
 constexpr double kPi = 3.14159265358979323846;
+// deg, MuscleParams::validate()'s bound on pennation_at_optimal_rad (1.2 rad), in the unit the
+// parameter files use.
+constexpr double kMaxPennationAtOptimal_deg = 1.2 * 180 / kPi;
 
 std::vector<int> ancestors_and_self(const mjModel& m, int body) {
   std::vector<int> chain;
@@ -68,9 +71,16 @@ void set_field(MuscleParams* p, const std::string& where, const std::string& key
     p->optimal_fiber_length_m = number();
   else if (key == "tendon_slack_length_m")
     p->tendon_slack_length_m = number();
-  else if (key == "pennation_at_optimal_deg")
-    p->pennation_at_optimal_rad = number() * kPi / 180;
-  else if (key == "max_contraction_velocity_lopt_per_s")
+  else if (key == "pennation_at_optimal_deg") {
+    // Checked here in the file's unit: validate() would name the radians, not what was written.
+    const double deg = number();
+    if (!(deg >= 0 && deg <= kMaxPennationAtOptimal_deg)) {
+      throw sim::InvalidArgument(where + "." + key + ": must be in [0, " +
+                                 std::to_string(kMaxPennationAtOptimal_deg) + "] deg, got " +
+                                 v.dump());
+    }
+    p->pennation_at_optimal_rad = deg * kPi / 180;
+  } else if (key == "max_contraction_velocity_lopt_per_s")
     p->max_contraction_velocity_lopt_per_s = number();
   else if (key == "activation_time_constant_s")
     p->activation_time_constant_s = number();
