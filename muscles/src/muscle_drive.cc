@@ -93,6 +93,7 @@ MuscleDrive::MuscleDrive(const mjModel& m, MuscleSet set, const std::vector<doub
   fiber_slope_.setZero(n);
   MuscleDriveState& s = state_;
   s.qp_bounds.assign(static_cast<std::size_t>(n), 0);
+  s.fiber_slope_m.assign(static_cast<std::size_t>(n), 0.0);
   for (auto* v :
        {&s.activation, &s.excitation, &s.fiber_length_m, &s.fiber_velocity_m_s, &s.tension_N})
     v->assign(static_cast<std::size_t>(n), 0.0);
@@ -222,16 +223,22 @@ void MuscleDrive::compute(const mjModel& m, const mjData& d, const double* tau_w
       pending_.fiber_length_m[ii] = kin.fiber_length_m;
       pending_.fiber_velocity_m_s[ii] = kin.fiber_velocity_m_s;
     } else {
-      // The backward-Euler fibre step at the present activation and its tangent in the
-      // activation: the tendon force this step can give (CMC's one-step look-ahead).
+      // The backward-Euler fibre step at both ends of the reachable activations, interpolated:
+      // the tendon force this step can give (CMC's one-step look-ahead).
       const double l_next = set_.length(d, i) + dt * set_.velocity(d, i);
-      const double a0 = state_.activation[ii];
-      const MuscleKinematics kin =
-          compliant_tendon_step(p, a0, state_.fiber_length_m[ii], l_next, dt);
-      A_(i) = kin.force_per_activation_N;
-      P_(i) = kin.tendon_force_N - A_(i) * a0;
-      fiber_guess_(i) = kin.fiber_length_m - kin.fiber_length_per_activation_m * a0;
-      fiber_slope_(i) = kin.fiber_length_per_activation_m;
+      // Both solves start where the last step's secant says the fibre goes at that activation.
+      const double x_prev = state_.fiber_length_m[ii], slope = state_.fiber_slope_m[ii];
+      const double a_prev = state_.activation[ii];
+      const MuscleKinematics at_lo = compliant_tendon_step(p, reach.lo, x_prev, l_next, dt,
+                                                           x_prev + slope * (reach.lo - a_prev));
+      const MuscleKinematics at_hi = compliant_tendon_step(p, reach.hi, x_prev, l_next, dt,
+                                                           x_prev + slope * (reach.hi - a_prev));
+      const double span = reach.hi - reach.lo;
+      A_(i) = span > 0 ? (at_hi.tendon_force_N - at_lo.tendon_force_N) / span : 0.0;
+      P_(i) = at_lo.tendon_force_N - A_(i) * reach.lo;
+      fiber_slope_(i) = span > 0 ? (at_hi.fiber_length_m - at_lo.fiber_length_m) / span : 0.0;
+      fiber_guess_(i) = at_lo.fiber_length_m - fiber_slope_(i) * reach.lo;
+      pending_.fiber_slope_m[ii] = fiber_slope_(i);
     }
   }
   share(tau_wanted_Nm, lo_, hi_);

@@ -26,7 +26,6 @@ struct FiberBalance {
 
   struct Value {
     double g, slope;
-    double d_tendon;  // d(tendon force / F_max) / dx
     MuscleKinematics k;
   };
 
@@ -49,7 +48,6 @@ struct FiberBalance {
     k.tendon_force_N = tendon * p.max_isometric_force_N;
     out.g = tendon - k.cos_pennation * fibre;
     const double d_tendon = -tendon_force_strain_slope(strain, c) / (k.cos_pennation * l_slack);
-    out.d_tendon = d_tendon;
     const double d_cos = h * h / (x * x * x) / k.cos_pennation;
     const double d_fibre =
         activation * (active_force_length_slope(l_norm, c) / l_opt * k.fv +
@@ -94,12 +92,6 @@ MuscleKinematics solve_fiber(const FiberBalance& balance, double x_start) {
   v.k.iterations = it;
   v.k.converged =
       std::abs(v.g) <= kFiberForceTolerance || hi - lo <= 1e-12 * p.optimal_fiber_length_m;
-  // Implicit-function tangent: g(x(a), a) = 0 -> dx/da = cos(alpha) f_L f_V / slope.
-  if (v.slope < 0.0) {
-    const double dx_da = v.k.cos_pennation * v.k.active_fl * v.k.fv / v.slope;
-    v.k.force_per_activation_N = p.max_isometric_force_N * v.d_tendon * dx_da;
-    v.k.fiber_length_per_activation_m = dx_da;
-  }
   return v.k;
 }
 

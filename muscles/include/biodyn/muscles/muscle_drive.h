@@ -53,10 +53,13 @@ struct MuscleDriveState {
   std::vector<double> excitation;          ///< per muscle, the last step's
   std::vector<double> fiber_length_m;      ///< per muscle (compliant: the state; rigid: kinematic)
   std::vector<double> fiber_velocity_m_s;  ///< per muscle, m/s, the last step's
-  std::vector<double> tension_N;           ///< per muscle, the last step's force along the path
-  std::vector<double> muscle_torque_Nm;    ///< per covered DOF, the last step's
-  std::vector<double> backup_torque_Nm;    ///< per covered DOF, the last step's
-  std::vector<double> wanted_torque_Nm;    ///< per covered DOF, the last step's
+  /// Per muscle (compliant), m per unit activation: the last step's secant of the fibre length
+  /// in the activation (where the next step's solves start).
+  std::vector<double> fiber_slope_m;
+  std::vector<double> tension_N;         ///< per muscle, the last step's force along the path
+  std::vector<double> muscle_torque_Nm;  ///< per covered DOF, the last step's
+  std::vector<double> backup_torque_Nm;  ///< per covered DOF, the last step's
+  std::vector<double> wanted_torque_Nm;  ///< per covered DOF, the last step's
   /// Per covered DOF: integrals over the run of |muscle torque|, |backup torque| and the
   /// torque wanted but given by neither (N m s).
   std::vector<double> muscle_impulse_Nms, backup_impulse_Nms, missing_impulse_Nms;
@@ -117,7 +120,7 @@ class MuscleDrive {
   // Per-step workspace (sized once).
   Eigen::MatrixXd R_;
   Eigen::VectorXd A_, P_, lo_, hi_, x_, tension_;
-  Eigen::VectorXd fiber_guess_, fiber_slope_;  // compliant: l_M(a) ~ guess + slope * a
+  Eigen::VectorXd fiber_guess_, fiber_slope_;  // compliant: l_M(a) ~ guess + slope * a (secant)
 };
 
 }  // namespace biodyn::muscles

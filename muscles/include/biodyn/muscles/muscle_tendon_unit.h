@@ -72,12 +72,8 @@ struct MuscleKinematics {
   double fv = 1;              ///< f_V(v~)
   double passive_fl = 0;      ///< f_PE(l~)
   double tendon_force_N = 0;  ///< tension along the path (>= 0)
-  /// Compliant step: dF/da, N per unit activation, of the tendon force at the end of the step
-  /// (implicit-function tangent of the fibre balance; 0 at the fibre's minimum length).
-  double force_per_activation_N = 0;
-  double fiber_length_per_activation_m = 0;  ///< compliant step: dl_M/da, m per unit activation
-  int iterations = 0;                        ///< compliant solve: Newton/bisection iterations
-  bool converged = true;                     ///< compliant solve: met its tolerance
+  int iterations = 0;         ///< compliant solve: Newton/bisection iterations
+  bool converged = true;      ///< compliant solve: met its tolerance
 };
 
 /// Exact step of first-order activation dynamics da/dt = (u - a) / tau, tau = the activation
