@@ -103,6 +103,9 @@ SideMap side_map(const Character& c, const json& model, const std::string& side)
   const double along = toe_here.x() / toe_joint.x(), up = toe_here.z() / toe_joint.y();
   const Vector3d talus_world = tibia_world + ankle;
   m.bodies["calcn"] = {"foot_" + side, -subtalar, {along, along, up}, talus_world + subtalar};
+  // The toes' origin is the MTP joint in both models.
+  m.bodies["toes"] = {
+      "toes_" + side, Vector3d::Zero(), {along, along, up}, talus_world + subtalar + mtp};
   return m;
 }
 

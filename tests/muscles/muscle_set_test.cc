@@ -52,7 +52,7 @@ std::string refusal(const std::string& json, std::vector<MuscleParams> params) {
 TEST_CASE("muscle parameter files: a good one applies, side-less names to both sides",
           "[muscles]") {
   const models::Character c = muscled_character();
-  REQUIRE(c.muscles.size() == 28);  // 14 per leg
+  REQUIRE(c.muscles.size() == 32);  // 16 per leg
   const std::vector<MuscleParams> before = muscle_params(c.muscles, TendonChoice::kPerMuscle);
   std::vector<MuscleParams> params = before;
   apply_muscle_overrides(R"({"muscles": {
@@ -148,7 +148,7 @@ TEST_CASE_METHOD(biodyn::testing::SimulationTest,
   const sim::Model model = sim::Model::from_string(models::to_mjcf(c));
   const mjModel& m = *model;
   const MuscleSet set(m, muscle_params(c.muscles, TendonChoice::kPerMuscle));
-  REQUIRE(set.size() == 28);
+  REQUIRE(set.size() == 32);
   const auto dof_names = [&](int i) {
     std::vector<std::string> names;
     for (std::size_t k = 0; k < set.covered_dofs().size(); ++k) {
@@ -174,8 +174,10 @@ TEST_CASE_METHOD(biodyn::testing::SimulationTest,
   CHECK(dof_names(index("rect_fem_r")) == V{"hip_r_x", "hip_r_y", "hip_r_z", "knee_flexion_r"});
   CHECK(dof_names(index("gastroc_l")) ==
         V{"knee_flexion_l", "ankle_dorsiflexion_l", "ankle_inversion_l"});
-  // 2 legs x (hip 3 + knee 1 + ankle 2): no root, no toes, no trunk.
-  CHECK(set.covered_dofs().size() == 12);
+  CHECK(dof_names(index("ext_dig_r")) ==
+        V{"ankle_dorsiflexion_r", "ankle_inversion_r", "toe_dorsiflexion_r"});
+  // 2 legs x (hip 3 + knee 1 + ankle 2 + toes 1, by the toe extensor): no root, no trunk.
+  CHECK(set.covered_dofs().size() == 14);
   // A model generated without muscles has no tendons to bind.
   models::CharacterSpec bare;
   bare.detail = models::Detail::kGait;

@@ -1,8 +1,10 @@
 #pragma once
 /// The character's muscles as anatomy: Hill muscle-tendon units' parameters and paths (origin,
 /// via points, insertion, wrapping cylinders) on the generated segments, per leg:
-/// gluteus maximus, gluteus medius, iliopsoas, rectus femoris, vasti, hamstrings, biceps femoris
-/// short head, gastrocnemius, soleus, tibialis anterior, adductors, tibialis posterior, peroneus.
+/// gluteus maximus, gluteus medius (anterior and posterior parts), iliopsoas, rectus femoris,
+/// vasti, hamstrings, biceps femoris short head, gastrocnemius, soleus, tibialis anterior,
+/// extensor digitorum longus, adductor longus and brevis, adductor magnus, tibialis posterior,
+/// peroneus (16 per leg). Each spans the joints its path crosses (ext_dig the toes too).
 ///
 /// Source: Rajagopal et al. 2016 (models/data/muscles_rajagopal2016.json names the file and
 /// every number's muscle compartment). Scaling to the generated body (README, "Muscles"):
