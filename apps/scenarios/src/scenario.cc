@@ -41,8 +41,14 @@ std::optional<MuscleRunReport> muscle_report(const controllers::ControlPipeline&
     (p.tendon == muscles::TendonModel::kCompliant ? r.compliant_tendons : r.rigid_tendons) += 1;
   }
   const std::vector<int>& dofs = drive.set().covered_dofs();
+  // Per anatomical joint (the rig's joint groups: the ankle's two hinges together).
+  const auto joint_of = [&](int dof) {
+    for (const models::JointGroup& g : pipeline.rig().groups())
+      if (dof >= g.dof_begin && dof < g.dof_begin + g.dof_count) return g.name;
+    return std::string(mj_id2name(&m, mjOBJ_JOINT, m.dof_jntid[dof]));
+  };
   for (std::size_t k = 0; k < dofs.size(); ++k) {
-    const std::string name = mj_id2name(&m, mjOBJ_JOINT, m.dof_jntid[dofs[k]]);
+    const std::string name = joint_of(dofs[k]);
     if (r.joints.empty() || r.joints.back().joint != name) r.joints.push_back({name});
     MuscleJointShare& j = r.joints.back();
     j.muscle_Nms += s.muscle_impulse_Nms[k];

@@ -86,7 +86,8 @@ struct MuscleConfig {
   muscles::MuscleDriveParams drive;
 };
 
-/// What a run's muscles did, per joint (a ball joint's three DOFs together): integrals over the
+/// What a run's muscles did, per joint (the rig's joint groups: a hip's three DOFs together, an
+/// ankle's two hinges together): integrals over the
 /// run of the torque magnitudes the muscles gave, the backups gave, and the controller wanted
 /// but neither gave (beyond the backups' range), N m s.
 struct MuscleJointShare {
