@@ -364,8 +364,10 @@ SoInputs so_inputs(const SoOptions& o, const IdGround& ground, const mjModel& mo
   in.run = run_motion_id(model, all, o.settings, ground, "mocap so: inverse dynamics", notes);
   in.tau = in.run.id.generalized_force;
   in.ground = o.settings.grf;
-  in.torques_from = "inverse dynamics run here (ground " + o.settings.grf + ", low-pass " +
-                    std::to_string(o.settings.cutoff_hz) + " Hz)";
+  std::ostringstream from;
+  from << "inverse dynamics run here (ground " << o.settings.grf << ", low-pass "
+       << o.settings.cutoff_hz << " Hz)";
+  in.torques_from = from.str();
   return in;
 }
 
