@@ -65,9 +65,12 @@ const std::vector<EmgReference>& emg_references() {
   return table;
 }
 
+/// The reference of a muscle, or of the muscle it is a part of ("glut_med_ant": "glut_med").
 const EmgReference* emg_reference(const std::string& base) {
-  for (const EmgReference& r : emg_references())
-    if (base == r.muscle) return &r;
+  for (const EmgReference& r : emg_references()) {
+    const std::string name = r.muscle;
+    if (base == name || base.rfind(name + "_", 0) == 0) return &r;
+  }
   return nullptr;
 }
 

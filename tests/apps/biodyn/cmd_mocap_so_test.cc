@@ -85,6 +85,8 @@ TEST_CASE("mocap so on walking5 writes activations, forces, reserves, a summary 
   const json& soleus = s["muscles"]["soleus_r"];
   CHECK(soleus["cycle_mean_peak_percent"].get<double>() >= 0);
   CHECK(soleus["reference_emg_on_percent"] == json::array({json::array({10.0, 50.0})}));
+  // A muscle in parts takes the whole muscle's on-times (gluteus medius: 95-35%).
+  CHECK(s["muscles"]["glut_med_ant_r"]["reference_emg_on_percent"].size() == 2);
   // The right leg's heel strike on plate 2 starts the averaged cycle.
   const json& right = s["gait_cycle"]["right"];
   CHECK(right["heel_strikes"][0]["source"] == "force plate 2 onset");
