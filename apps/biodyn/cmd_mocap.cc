@@ -201,12 +201,14 @@ Command add_mocap_info_command(CLI::App* mocap) {
 Command add_mocap_command(CLI::App* app) {
   CLI::App* mocap = app->add_subcommand(
       "mocap",
-      "Motion capture in: C3D, TRC and BVH files, marker IK, retargeting, inverse dynamics");
+      "Motion capture in: C3D, TRC and BVH files, marker IK, retargeting, inverse dynamics, "
+      "static optimisation");
   mocap->require_subcommand(1);
   // Registered in the order --help lists them.
   const std::vector<Command> subcommands = {
-      add_mocap_info_command(mocap), add_mocap_convert_command(mocap), add_mocap_ik_command(mocap),
-      add_mocap_id_command(mocap), add_mocap_retarget_command(mocap)};
+      add_mocap_info_command(mocap), add_mocap_convert_command(mocap),
+      add_mocap_ik_command(mocap),   add_mocap_id_command(mocap),
+      add_mocap_so_command(mocap),   add_mocap_retarget_command(mocap)};
   return {mocap, [subcommands]() {
             for (const Command& c : subcommands) {
               if (c.cli->parsed()) return c.run();

@@ -7,6 +7,7 @@
 #include <iostream>
 #include <memory>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <sstream>
 
 #include "biodyn/mocap_io/bvh.h"
@@ -26,9 +27,9 @@ namespace {
 using nlohmann::json;
 
 struct IdOptions {
-  std::string motion, grf = "none", c3d, output, lab_up = "z";
+  std::string motion, output;
+  IdSettings settings;
   CharacterOptions character;
-  double cutoff_hz = 6.0;
 };
 
 /// Rotates force plates into biodyn's world (z up) when the lab's vertical is y.
@@ -143,31 +144,6 @@ void plot_torques(const std::string& dir, const mocap_io::InverseDynamicsResult&
                     dir + "/torques.png");
 }
 
-/// The ground forces --grf asks for; from-c3d: the force plates of --c3d (z up, `plates`) and
-/// their sample rate (`plate_rate_hz`).
-mocap_io::GroundForces ground_forces(const IdOptions& o, std::vector<mocap_io::ForcePlate>* plates,
-                                     double* plate_rate_hz) {
-  if (o.grf == "none") return mocap_io::GroundForces::kNone;
-  if (o.grf == "contact") return mocap_io::GroundForces::kContact;
-  if (o.grf != "from-c3d") {
-    throw sim::InvalidArgument("--grf: expected none, from-c3d or contact, got '" + o.grf + "'");
-  }
-  if (o.c3d.empty()) {
-    throw sim::InvalidArgument("--grf from-c3d: give the capture with --c3d FILE");
-  }
-  const mocap_io::C3dFile c3d = mocap_io::read_c3d(o.c3d);
-  if (c3d.force_plates.empty()) {
-    throw sim::InvalidArgument("--c3d " + o.c3d + ": has no force plates");
-  }
-  if (o.lab_up != "z" && o.lab_up != "y") {
-    throw sim::InvalidArgument("--lab-up: expected z or y, got '" + o.lab_up + "'");
-  }
-  *plates = c3d.force_plates;
-  to_z_up(plates, o.lab_up);
-  *plate_rate_hz = c3d.analog.rate_hz;
-  return mocap_io::GroundForces::kForcePlates;
-}
-
 /// torques.csv: time and the generalised force of every DOF, per frame.
 std::string torques_csv(const mocap_io::InverseDynamicsResult& id) {
   std::ostringstream torques;
@@ -279,17 +255,17 @@ json id_summary(const IdOptions& o, const mocap_io::InverseDynamicsResult& id, i
           {"first_frame_used", first_used},
           {"time_span_s", {id.times_s.front(), id.times_s.back()}},
           {"character", character_json(spec)},
-          {"ground", o.grf},
+          {"ground", o.settings.grf},
           {"ground_caveat",
-           o.grf == "contact"
+           o.settings.grf == "contact"
                ? "MuJoCo's soft contact inverted on kinematic data: forces swing strongly "
                  "with sub-millimetre penetration; an estimate only"
-           : o.grf == "none" ? "no ground force: the root residual is the whole "
-                               "ground reaction"
-                             : "measured force plates"},
+           : o.settings.grf == "none" ? "no ground force: the root residual is the whole "
+                                        "ground reaction"
+                                      : "measured force plates"},
           {"filter",
            {{"type", "Butterworth 2nd order, forward-backward (zero lag)"},
-            {"cutoff_hz", o.cutoff_hz}}},
+            {"cutoff_hz", o.settings.cutoff_hz}}},
           {"armature_and_damping", "left out (simulation stabilisers, not body properties)"},
           {"residual_force_peak_N", fn.maxCoeff()},
           {"residual_force_rms_N", std::sqrt(fn.squaredNorm() / static_cast<double>(fn.size()))},
@@ -306,9 +282,9 @@ void print_id(const IdOptions& o, const mocap_io::InverseDynamicsResult& id,
               double body_weight_N) {
   const Eigen::VectorXd fn = row_norms(id.residual_force_N), mn = row_norms(id.residual_moment_Nm);
   std::cout << "mocap id: " << id.times_s.size() << " frames on " << spec.height_m << " m / "
-            << spec.mass_kg << " kg, ground " << o.grf << ": residual force peak " << fn.maxCoeff()
-            << " N (body weight " << body_weight_N << " N), moment peak " << mn.maxCoeff()
-            << " N m\n";
+            << spec.mass_kg << " kg, ground " << o.settings.grf << ": residual force peak "
+            << fn.maxCoeff() << " N (body weight " << body_weight_N << " N), moment peak "
+            << mn.maxCoeff() << " N m\n";
   if (ground == mocap_io::GroundForces::kNone) {
     std::cout << "  --grf none: the residual is the whole ground reaction the motion "
                  "needs, not a modelling error\n";
@@ -330,45 +306,25 @@ void print_id(const IdOptions& o, const mocap_io::InverseDynamicsResult& id,
 }
 
 int run_id(const IdOptions& o) {
-  check_outputs({{"-o", o.output, true}}, {o.motion, o.c3d});
-  mocap_io::InverseDynamicsOptions options;
-  options.filter.cutoff_hz = o.cutoff_hz;
-  std::vector<mocap_io::ForcePlate> plates;
-  double plate_rate = 0.0;
-  options.ground = ground_forces(o, &plates, &plate_rate);
+  check_outputs({{"-o", o.output, true}}, {o.motion, o.settings.c3d});
+  const IdGround ground = id_ground(o.settings);
   const mocap_io::Motion all = mocap_io::read_motion_csv(o.motion);
   std::vector<std::string> notes;
   const models::CharacterSpec spec = o.character.spec_for_motion(o.motion, &notes);
   const models::Character character = models::generate_character(spec);
   const sim::Model model = sim::Model::from_string(models::to_mjcf(character), "character");
   mocap_io::check_motion_matches(all, *model, o.motion);
-  int first = 0;
-  const mocap_io::Motion motion = longest_solved_span(all, &first);
-  int solved = 0;
-  for (int f = 0; f < all.frame_count(); ++f) solved += all.qpos.row(f).allFinite() ? 1 : 0;
-  if (solved > motion.frame_count()) {
-    // Finite differences need a contiguous run: the longest one is used, and that is said.
-    notes.push_back(std::to_string(solved - motion.frame_count()) +
-                    " solved frames outside the longest run without gaps (frames " +
-                    std::to_string(first) + "-" + std::to_string(first + motion.frame_count() - 1) +
-                    ") are not used");
-  }
-  if (!o.c3d.empty() && options.ground != mocap_io::GroundForces::kForcePlates) {
-    notes.push_back("--c3d is only read with --grf from-c3d: its force plates are not used");
-  }
-  ProgressBar bar("mocap id: " + std::to_string(motion.frame_count()) + " frames");
-  const mocap_io::InverseDynamicsResult id =
-      mocap_io::inverse_dynamics(*model, motion, options, plates, plate_rate);
-  bar.finish();
+  const MotionId run = run_motion_id(*model, all, o.settings, ground, "mocap id", &notes);
+  const mocap_io::InverseDynamicsResult& id = run.id;
   const std::vector<double> strikes =
-      foot_strikes(*model, motion, models::Rig(*model).leg(models::kLeft).foot);
+      foot_strikes(*model, run.motion, models::Rig(*model).leg(models::kLeft).foot);
   const double body_weight_N = character.total_mass_kg() * 9.81;
-  json summary = id_summary(o, id, first + options.trim_frames, spec, body_weight_N, strikes);
+  json summary = id_summary(o, id, run.first_frame + run.trim_frames, spec, body_weight_N, strikes);
   summary["notes"] = notes;
   summary["body_source"] =
       mocap_io::motion_body(all, o.motion) ? "the motion's header" : "the command line";
   int unassigned = 0;
-  const bool plates_used = options.ground == mocap_io::GroundForces::kForcePlates;
+  const bool plates_used = ground.ground == mocap_io::GroundForces::kForcePlates;
   if (plates_used) {
     summary["plates"] = plate_summary(id, &unassigned);
     summary["plate_assignment"] =
@@ -387,7 +343,7 @@ int run_id(const IdOptions& o) {
   write_file_atomically(o.output + "/residuals.csv", residuals);
   if (plates_used) write_file_atomically(o.output + "/plates.csv", plates_text);
   write_file_atomically(o.output + "/summary.json", summary_text);
-  print_id(o, id, options.ground, spec, body_weight_N);
+  print_id(o, id, ground.ground, spec, body_weight_N);
   for (const std::string& n : notes) std::cout << "  note: " << n << "\n";
   if (unassigned > 0) {
     std::cerr << "WARNING: " << unassigned
@@ -399,6 +355,64 @@ int run_id(const IdOptions& o) {
 
 }  // namespace
 
+IdGround id_ground(const IdSettings& s) {
+  IdGround out;
+  if (s.grf == "none") return out;
+  if (s.grf == "contact") {
+    out.ground = mocap_io::GroundForces::kContact;
+    return out;
+  }
+  if (s.grf != "from-c3d") {
+    throw sim::InvalidArgument("--grf: expected none, from-c3d or contact, got '" + s.grf + "'");
+  }
+  if (s.c3d.empty()) {
+    throw sim::InvalidArgument("--grf from-c3d: give the capture with --c3d FILE");
+  }
+  const mocap_io::C3dFile c3d = mocap_io::read_c3d(s.c3d);
+  if (c3d.force_plates.empty()) {
+    throw sim::InvalidArgument("--c3d " + s.c3d + ": has no force plates");
+  }
+  if (s.lab_up != "z" && s.lab_up != "y") {
+    throw sim::InvalidArgument("--lab-up: expected z or y, got '" + s.lab_up + "'");
+  }
+  out.ground = mocap_io::GroundForces::kForcePlates;
+  out.plates = c3d.force_plates;
+  to_z_up(&out.plates, s.lab_up);
+  out.plate_rate_hz = c3d.analog.rate_hz;
+  return out;
+}
+
+MotionId run_motion_id(const mjModel& model, const mocap_io::Motion& all, const IdSettings& s,
+                       const IdGround& ground, const std::string& command,
+                       std::vector<std::string>* notes) {
+  mocap_io::InverseDynamicsOptions options;
+  options.filter.cutoff_hz = s.cutoff_hz;
+  options.ground = ground.ground;
+  MotionId out;
+  out.motion = longest_solved_span(all, &out.first_frame);
+  int solved = 0;
+  for (int f = 0; f < all.frame_count(); ++f) solved += all.qpos.row(f).allFinite() ? 1 : 0;
+  if (solved > out.motion.frame_count()) {
+    // Finite differences need a contiguous run: the longest one is used, and that is said.
+    notes->push_back(std::to_string(solved - out.motion.frame_count()) +
+                     " solved frames outside the longest run without gaps (frames " +
+                     std::to_string(out.first_frame) + "-" +
+                     std::to_string(out.first_frame + out.motion.frame_count() - 1) +
+                     ") are not used");
+  }
+  if (!s.c3d.empty() && options.ground != mocap_io::GroundForces::kForcePlates) {
+    notes->push_back("--c3d is only read with --grf from-c3d: its force plates are not used");
+  }
+  std::optional<ProgressBar> bar;
+  if (!command.empty())
+    bar.emplace(command + ": " + std::to_string(out.motion.frame_count()) + " frames");
+  out.id =
+      mocap_io::inverse_dynamics(model, out.motion, options, ground.plates, ground.plate_rate_hz);
+  if (bar) bar->finish();
+  out.trim_frames = options.trim_frames;
+  return out;
+}
+
 Command add_mocap_id_command(CLI::App* mocap) {
   auto idopt = std::make_shared<IdOptions>();
   CLI::App* id_cmd = mocap->add_subcommand(
@@ -407,16 +421,16 @@ Command add_mocap_id_command(CLI::App* mocap) {
       ->required();
   idopt->character.add_to(id_cmd);
   id_cmd
-      ->add_option("--grf", idopt->grf,
+      ->add_option("--grf", idopt->settings.grf,
                    "ground reaction: none (all in the root residual), from-c3d (the "
                    "capture's force plates; needs --c3d), contact (MuJoCo's floor contact)")
       ->capture_default_str();
-  id_cmd->add_option("--c3d", idopt->c3d, "the C3D the motion came from (force plates)");
+  id_cmd->add_option("--c3d", idopt->settings.c3d, "the C3D the motion came from (force plates)");
   id_cmd
-      ->add_option("--lab-up", idopt->lab_up,
+      ->add_option("--lab-up", idopt->settings.lab_up,
                    "vertical axis of the capture lab (as given to mocap ik): z or y")
       ->capture_default_str();
-  id_cmd->add_option("--cutoff", idopt->cutoff_hz, "low-pass cut-off, Hz (0: no filter)")
+  id_cmd->add_option("--cutoff", idopt->settings.cutoff_hz, "low-pass cut-off, Hz (0: no filter)")
       ->capture_default_str();
   id_cmd->add_option("-o,--output", idopt->output, "output directory")->required();
   return {id_cmd, [idopt]() { return run_id(*idopt); }};

@@ -279,6 +279,7 @@ InverseDynamicsResult inverse_dynamics(const mjModel& model, const Motion& motio
   const int out_frames = frames - 2 * trim;
   InverseDynamicsResult r;
   r.dof_names = dof_names(*m);
+  r.qpos = q.middleRows(trim, out_frames);
   r.qvel.resize(out_frames, nv);
   r.qacc.resize(out_frames, nv);
   r.generalized_force.resize(out_frames, nv);

@@ -60,7 +60,9 @@ inline constexpr int kPlateUnassigned = 2;
 struct InverseDynamicsResult {
   std::vector<double> times_s;
   std::vector<std::string> dof_names;  ///< nv names: root dofs, then each joint's
-  Eigen::MatrixXd qvel, qacc;          ///< frames x nv
+  /// frames x nq: the low-passed positions the velocities, accelerations and forces are for.
+  Eigen::MatrixXd qpos;
+  Eigen::MatrixXd qvel, qacc;  ///< frames x nv
   /// frames x nv: N (root translation) or N m (rotations) each DOF needs (root entries: the
   /// residual, in MuJoCo's free-joint frames).
   Eigen::MatrixXd generalized_force;
