@@ -112,21 +112,29 @@ struct History {
   std::vector<long> step;
   std::vector<double> time;
   std::vector<std::vector<double>> qpos;
+  std::vector<std::vector<float>> activation;  // the muscles' (empty without muscles)
   int head = 0, count = 0;
   double entry_s = 0.01;  // simulated seconds between entries
-  void init(int capacity, int nq, double timestep_s) {
+  void init(int capacity, int nq, int muscles, double timestep_s) {
     entry_s = kEvery * timestep_s;
     step.assign(static_cast<std::size_t>(capacity), 0);
     time.assign(static_cast<std::size_t>(capacity), 0);
     qpos.assign(static_cast<std::size_t>(capacity),
                 std::vector<double>(static_cast<std::size_t>(nq)));
+    activation.assign(static_cast<std::size_t>(capacity),
+                      std::vector<float>(static_cast<std::size_t>(muscles)));
   }
   int capacity() const { return static_cast<int>(step.size()); }
-  void add(long s, double t, const double* q) {
+  void add(long s, double t, const double* q, const muscles::MuscleDrive* drive) {
     const std::size_t i = static_cast<std::size_t>(head);
     step[i] = s;
     time[i] = t;
     std::copy(q, q + qpos[i].size(), qpos[i].begin());
+    if (drive != nullptr) {
+      const std::vector<double>& a = drive->state().activation;
+      std::transform(a.begin(), a.begin() + static_cast<long>(activation[i].size()),
+                     activation[i].begin(), [](double v) { return static_cast<float>(v); });
+    }
     head = (head + 1) % capacity();
     count = std::min(count + 1, capacity());
   }
@@ -282,7 +290,7 @@ void physics_loop(Shared& sh) {
           s.step();
           ++sh.steps_run;
           if (s.step_index() % History::kEvery == 0) {
-            sh.history.add(s.step_index(), s.time_s(), s.simulation().data().qpos);
+            sh.history.add(s.step_index(), s.time_s(), s.simulation().data().qpos, s.muscles());
           }
           if (s.step_index() % Plots::kEvery == 0) sample_plots(sh);
         };
@@ -450,6 +458,11 @@ void simulation_panel(Shared& sh, UiState& ui, double fps, double sim_rate) {
   ImGui::Checkbox("pushes", &ui.overlays.pushes);
   ImGui::SameLine();
   ImGui::Checkbox("welds", &ui.overlays.welds);
+  if (s.muscles() != nullptr) {
+    ImGui::Checkbox("muscles (by activation)", &ui.overlays.muscles);
+    ImGui::SameLine();
+    ImGui::Checkbox("wrapping cylinders", &ui.overlays.wrap_cylinders);
+  }
   if (s.tracker() != nullptr) {
     // Tracked playback: how far the body is from the motion (motion_tracker.h).
     const controllers::MotionTracker::Error e = s.tracking_error();
@@ -737,8 +750,9 @@ class Session {
     sh_.paused = options.start_paused;
     // 12 s of history (at 2 ms steps: an entry every 10 ms).
     const mjModel& m = scenario.simulation().model();
+    const int muscles = scenario.muscles() ? scenario.muscles()->set().size() : 0;
     sh_.history.init(static_cast<int>(std::ceil(12.0 / (History::kEvery * m.opt.timestep))), m.nq,
-                     m.opt.timestep);
+                     muscles, m.opt.timestep);
     const auto& groups = scenario.rig().groups();
     for (const char* g : {"hip_l", "knee_l", "ankle_l", "hip_r", "knee_r", "ankle_r", "lumbar"}) {
       for (std::size_t i = 0; i < groups.size(); ++i) {
@@ -818,7 +832,8 @@ class Session {
       rates();
       status_line(height);
     }
-    // Render without the lock.
+    // Render without the lock: the muscles' colours, copied under it, go onto the scene first.
+    color_muscles(tendon_rgba_, &renderer_);
     renderer_.render_to_window(width, height);
     outputs(width, height, take_screenshot, screenshot_path);
     ImGui::Render();
@@ -928,7 +943,12 @@ class Session {
       std::copy(q.begin(), q.end(), display_->qpos);
       mj_forward(&simulation.model(), display_.get());
       overlays_.clear();
+      muscle_scene_options(*sh_.scenario, ui_.overlays, &renderer_.options());
       renderer_.update_scene(simulation.model(), *display_, overlays_);
+      // The muscles as they were then.
+      tendon_colors(*sh_.scenario,
+                    sh_.history.activation[static_cast<std::size_t>(sh_.history.at(back))],
+                    &tendon_rgba_);
       return;
     }
     build_overlays(*sh_.scenario, ui_.overlays, &sh_.overlay_buffers, &overlays_);
@@ -942,7 +962,10 @@ class Session {
       std::copy(yellow, yellow + 4, g.rgba);
       overlays_.push_back(g);
     }
+    muscle_scene_options(*sh_.scenario, ui_.overlays, &renderer_.options());
     renderer_.update_scene(simulation.model(), simulation.data(), overlays_);
+    muscle_activations(*sh_.scenario, &activation_);
+    tendon_colors(*sh_.scenario, activation_, &tendon_rgba_);
   }
 
   // Frame and physics rates, once a second.
@@ -1007,6 +1030,7 @@ class Session {
     stats_.stones_plan_m = s.config().steps_m;
     stats_.stones = s.stones();
     stats_.tracking = s.tracking_report();
+    stats_.muscles = s.muscle_report();
     stats_.physics_steps_per_s =
         sh_.running_wall_s > 0 ? static_cast<double>(sh_.steps_run) / sh_.running_wall_s : 0;
     stats_.realtime_factor = sh_.running_wall_s > 0 ? sh_.running_sim_s / sh_.running_wall_s : 0;
@@ -1021,6 +1045,7 @@ class Session {
   Drag drag_;
   ViewerStats stats_;
   std::vector<sim::OverlayGeom> overlays_;
+  std::vector<float> activation_, tendon_rgba_;  // copied under the lock, drawn without it
   std::vector<std::uint8_t> rgb_;
   std::optional<VideoWriter> video_;
   int shot_counter_ = 0;
