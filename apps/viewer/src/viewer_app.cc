@@ -30,6 +30,7 @@
 #include "biodyn/viewer/headless_gl.h"
 #include "biodyn/viewer/image_output.h"
 #include "biodyn/viewer/overlays.h"
+#include "muscle_plots.h"
 
 namespace biodyn::viewer {
 namespace {
@@ -186,6 +187,7 @@ struct Shared {
   std::string message;  // one line shown in the status bar
   History history;
   Plots plots;
+  MusclePlots muscle_plots;        // --muscles on: activations and the muscles' torque shares
   OverlayBuffers overlay_buffers;  // the render thread's (under the lock)
   OverlayBuffers plot_buffers;     // the physics thread's plot samples
   std::vector<float> ratio_scratch;
@@ -238,6 +240,7 @@ void sample_plots(Shared& sh) {
   }
   sh.plots.push(outside, tol, static_cast<float>(com.velocity_W.head<2>().norm()),
                 on[0] ? 1.0f : 0.0f, on[1] ? 1.0f : 0.0f, sh.ratio_scratch);
+  sh.muscle_plots.sample(s);
 }
 
 void run_command(Shared& sh, const ScriptCommand& c, const std::string& script);
@@ -415,6 +418,7 @@ struct UiState {
   char controller_path[256] = "controller_params.json";
   bool follow = true;
   OverlayOptions overlays;
+  int muscle_leg = models::kLeft;  // whose muscles the plots show
 };
 
 void simulation_panel(Shared& sh, UiState& ui, double fps, double sim_rate) {
@@ -663,11 +667,7 @@ void control_panel(Shared& sh, UiState& ui) {
   ImGui::End();
 }
 
-void plot_panel(Shared& sh, int window_width) {
-  ImGui::SetNextWindowPos(ImVec2(static_cast<float>(window_width) - 430, 10),
-                          ImGuiCond_FirstUseEver);
-  ImGui::SetNextWindowSize(ImVec2(420, 640), ImGuiCond_FirstUseEver);
-  ImGui::Begin("Plots (last 10 s)");
+void balance_plots(Shared& sh) {
   const Plots& p = sh.plots;
   const ImVec2 size(0, 50);
   ImGui::PlotLines("CoM outside support (m)", p.com_outside.data(), Plots::kSamples, p.head,
@@ -686,6 +686,31 @@ void plot_panel(Shared& sh, int window_width) {
     const std::string label = "|tau| / tau_max " + p.groups[g];
     ImGui::PlotLines(label.c_str(), p.torque_ratio[g].data(), Plots::kSamples, p.head, "limit = 1",
                      0.0f, 1.05f, ImVec2(0, 36));
+  }
+}
+
+// The live plots; with muscles on, the muscles' own (opened first) and the balance plots in tabs.
+void plot_panel(Shared& sh, UiState& ui, int window_width) {
+  ImGui::SetNextWindowPos(ImVec2(static_cast<float>(window_width) - 430, 10),
+                          ImGuiCond_FirstUseEver);
+  ImGui::SetNextWindowSize(ImVec2(420, 640), ImGuiCond_FirstUseEver);
+  if (sh.muscle_plots.empty()) {
+    ImGui::Begin("Plots (last 10 s)");
+    balance_plots(sh);
+    ImGui::End();
+    return;
+  }
+  ImGui::Begin("Plots");
+  if (ImGui::BeginTabBar("plots")) {
+    if (ImGui::BeginTabItem("Muscles (last 5 s)")) {
+      sh.muscle_plots.draw(&ui.muscle_leg);
+      ImGui::EndTabItem();
+    }
+    if (ImGui::BeginTabItem("Balance, torques (last 10 s)")) {
+      balance_plots(sh);
+      ImGui::EndTabItem();
+    }
+    ImGui::EndTabBar();
   }
   ImGui::End();
 }
@@ -753,6 +778,7 @@ class Session {
     const int muscles = scenario.muscles() ? scenario.muscles()->set().size() : 0;
     sh_.history.init(static_cast<int>(std::ceil(12.0 / (History::kEvery * m.opt.timestep))), m.nq,
                      muscles, m.opt.timestep);
+    sh_.muscle_plots.init(scenario);
     const auto& groups = scenario.rig().groups();
     for (const char* g : {"hip_l", "knee_l", "ankle_l", "hip_r", "knee_r", "ankle_r", "lumbar"}) {
       for (std::size_t i = 0; i < groups.size(); ++i) {
@@ -827,7 +853,7 @@ class Session {
       // Panels read and edit the scenario under the lock (edits are only logged here).
       simulation_panel(sh_, ui_, fps_, sim_rate_);
       control_panel(sh_, ui_);
-      plot_panel(sh_, width);
+      plot_panel(sh_, ui_, width);
       update_scene();
       rates();
       status_line(height);
