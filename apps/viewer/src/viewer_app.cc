@@ -267,10 +267,12 @@ void physics_loop(Shared& sh) {
       const auto now = Clock::now();
       const double wall_dt = std::chrono::duration<double>(now - last).count();
       last = now;
-      // Script commands due at this step; false while a screenshot is waiting to be taken.
+      // Script commands due at this step; false while a screenshot is waiting to be taken (the
+      // commands after it wait too: a quit at the screenshot's time comes after it).
       const auto run_script = [&] {
         while (sh.script != nullptr && sh.next_command < sh.script->size() &&
-               s.time_s() >= (*sh.script)[sh.next_command].t - 1e-9 && !sh.quit) {
+               s.time_s() >= (*sh.script)[sh.next_command].t - 1e-9 && !sh.quit &&
+               !sh.screenshot_requested) {
           try {
             run_command(sh, (*sh.script)[sh.next_command++], sh.script_path);
           } catch (const std::exception& e) {
