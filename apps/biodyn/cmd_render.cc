@@ -76,6 +76,8 @@ Command add_render_command(CLI::App* app) {
               summary["stones"] = stones_json(scenario.config().steps_m, scenario.stones());
             if (scenario.tracker() != nullptr)
               summary["tracking"] = tracking_json(scenario.tracking_report());
+            if (scenario.muscles() != nullptr)
+              summary["muscles"] = muscles_json(scenario.muscle_report());
             if (!o->summary_path.empty()) {
               write_file_atomically(o->summary_path, summary.dump(1) + "\n");
             }
@@ -89,6 +91,7 @@ Command add_render_command(CLI::App* app) {
             if (!stones.empty()) std::cout << "  " << stones << "\n";
             const std::string tracking = tracking_line(scenario.tracking_report());
             if (!tracking.empty()) std::cout << "  " << tracking << "\n";
+            print_muscles(scenario.muscle_report(), std::cout);
             if (!o->render.video_path.empty())
               std::cout << "  video: " << o->render.video_path << "\n";
             if (!o->render.png_path.empty()) std::cout << "  frame: " << o->render.png_path << "\n";

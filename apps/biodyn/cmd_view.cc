@@ -57,6 +57,7 @@ Command add_view_command(CLI::App* app) {
             if (!stones.empty()) std::cout << "  " << stones << "\n";
             const std::string tracking = tracking_line(st.tracking);
             if (!tracking.empty()) std::cout << "  " << tracking << "\n";
+            print_muscles(st.muscles, std::cout);
             if (!o->summary_path.empty()) {
               nlohmann::json j = {{"scenario", o->view.scenario},
                                   {"frames", st.frames},
@@ -74,6 +75,7 @@ Command add_view_command(CLI::App* app) {
               if (o->view.scenario == "stones")
                 j["stones"] = stones_json(st.stones_plan_m, st.stones);
               if (st.tracking.tracked) j["tracking"] = tracking_json(st.tracking);
+              if (st.muscles) j["muscles"] = muscles_json(st.muscles);
               write_file_atomically(o->summary_path, j.dump(1) + "\n");
             }
             return kExitOk;

@@ -63,6 +63,7 @@ void ViewOptions::add_to(CLI::App* cmd) {
       cmd->add_option("--steps-start", steps_start_s,
                       "scenario stones: when the stones begin (steady walking first), s")
           ->capture_default_str());
+  muscles.add_to(cmd);
 }
 
 scenarios::ScenarioConfig ViewOptions::to_config(std::vector<std::string>* notes) const {
@@ -112,6 +113,7 @@ scenarios::ScenarioConfig ViewOptions::to_config(std::vector<std::string>* notes
     c.controller_json = read_file(controller_params_path);
     c.controller_source = controller_params_path;
   }
+  c.muscles = muscles.to_config();
   return c;
 }
 
@@ -126,21 +128,29 @@ std::string ViewOptions::assumption() const {
       o << "the end)";
     part = o.str();
   }
-  if (scenario == "mocap" && track) {
-    return "motion " + motion_path + part +
-           " tracked by the joint controllers: physics, joint torques within tau_max, the root "
-           "moved only by "
-           "muscles and contacts (" +
-           std::string(track_open_loop ? "open loop, no balance feedback"
-                                       : "balance feedback through the hips and ankles' targets") +
-           "; a motion this body cannot balance falls); foot contact " + weld_assumption(weld);
-  }
-  if (scenario == "mocap") {
+  if (scenario == "mocap" && !track) {
     return "kinematic playback of " + motion_path + part +
            ": joint angles as captured, no physics and no controllers (biodyn mocap id gives the "
            "forces it needs)";
   }
-  return weld_assumption(weld);
+  std::string a;
+  if (scenario == "mocap") {
+    a = "motion " + motion_path + part +
+        " tracked by the joint controllers: physics, joint torques within tau_max, the root "
+        "moved only by "
+        "muscles and contacts (" +
+        std::string(track_open_loop ? "open loop, no balance feedback"
+                                    : "balance feedback through the hips and ankles' targets") +
+        "; a motion this body cannot balance falls); foot contact " + weld_assumption(weld);
+  } else {
+    a = weld_assumption(weld);
+  }
+  if (muscles.muscles == "on") {
+    a += "; the legs' joint torques given by Hill muscles (tendons " + muscles.tendons +
+         (muscles.params_path.empty() ? "" : ", parameters " + muscles.params_path) +
+         "), backups within their range";
+  }
+  return a;
 }
 
 nlohmann::json stones_json(const std::vector<double>& plan_m,

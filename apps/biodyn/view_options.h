@@ -27,20 +27,21 @@ struct ViewOptions {
   bool track_open_loop = false;
   std::string steps;  ///< scenario stones: lengths, m, comma-separated
   double steps_start_s = 5.0;
+  MuscleOptions muscles;                ///< --muscles on|off, --tendons, --muscle-params
   CLI::Option* speed_option = nullptr;  ///< to tell a given --speed from the default
   std::vector<CLI::Option*> only_with_stones, only_with_track,
       only_with_mocap;  ///< refused outside their scenario
 
   /// Adds --scenario, the character options, --speed, --heading-rate, --weld, --params,
   /// --controller-params, --motion, --motion-from, --motion-to, --track (and its options), --steps,
-  /// --steps-start.
+  /// --steps-start, --muscles, --tendons, --muscle-params.
   void add_to(CLI::App* cmd);
   /// Reads the files; throws sim::InvalidArgument naming the option or file.
   /// `notes` (optional) receives what the user should know about the body chosen (a motion
   /// CSV is played on the body of its header).
   scenarios::ScenarioConfig to_config(std::vector<std::string>* notes = nullptr) const;
   /// What the results depend on, said in every output: the foot-contact mode, or for the mocap
-  /// scenario that it is a kinematic playback.
+  /// scenario that it is a kinematic playback; and the legs' muscles when they are on.
   std::string assumption() const;
 };
 

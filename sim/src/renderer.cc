@@ -10,6 +10,21 @@
 
 namespace biodyn::sim {
 
+void recolor_objects(mjtObj objtype, const std::vector<float>& rgba, mjvScene* scene,
+                     float width_scale) {
+  const int objects = static_cast<int>(rgba.size() / 4);
+  for (int i = 0; i < scene->ngeom; ++i) {
+    mjvGeom& g = scene->geoms[i];
+    if (g.objtype != objtype || g.category == mjCAT_DECOR || g.objid < 0 || g.objid >= objects)
+      continue;
+    const float* c = rgba.data() + 4 * static_cast<std::size_t>(g.objid);
+    if (c[3] < 0) continue;
+    std::copy(c, c + 4, g.rgba);
+    g.size[0] *= width_scale;
+    g.size[1] *= width_scale;
+  }
+}
+
 SceneRenderer::SceneRenderer(mjModel& model, int offscreen_width, int offscreen_height,
                              int max_geoms) {
   if (offscreen_width < 1 || offscreen_height < 1) {

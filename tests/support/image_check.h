@@ -48,4 +48,20 @@ inline int count_green_stone_pixels(const std::string& png) {
   return n;
 }
 
+/// Pixels of an active muscle's red (viewer/overlays.h, activation_rgba: about 0.5 and above,
+/// as lit and seen through the see-through body), -1 if unreadable. Nothing else in a frame
+/// without pushes or glued welds in tension is this red.
+inline int count_active_muscle_pixels(const std::string& png) {
+  int width = 0, height = 0, channels = 0;
+  unsigned char* img = stbi_load(png.c_str(), &width, &height, &channels, 3);
+  if (img == nullptr) return -1;
+  int n = 0;
+  for (int i = 0; i < width * height; ++i) {
+    const unsigned char* p = img + 3 * i;
+    if (p[0] > 140 && p[1] < 90 && p[2] < 90 && p[0] > 2 * p[1]) ++n;
+  }
+  stbi_image_free(img);
+  return n;
+}
+
 }  // namespace biodyn::testing

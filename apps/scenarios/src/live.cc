@@ -14,7 +14,9 @@ namespace biodyn::scenarios {
 
 LiveScenario::LiveScenario(ScenarioConfig config) {
   config.validate();
-  const models::Character character = models::generate_character(config.character);
+  // The model's body with the muscles' tendons when the muscles are on (the pipeline binds to
+  // them).
+  const models::Character character = models::generate_character(config.model_spec());
   sim_ = std::make_unique<sim::Simulation>(
       sim::Model::from_string(models::to_mjcf(character), "generated character"));
   scenario_ = make_scenario(sim_.get(), config);

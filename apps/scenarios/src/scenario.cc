@@ -131,6 +131,9 @@ void ScenarioConfig::validate() const {
   }
   // Motion.
   if (track && !mocap) throw sim::InvalidArgument("track: only the mocap scenario tracks a motion");
+  refuse_unless(!muscles.on || !mocap || track,
+                "muscles: a kinematic playback has no controllers for them to drive (mocap "
+                "with --track has)");
   tracker.validate();
   if (mocap != !motion_path.empty()) {
     throw sim::InvalidArgument(

@@ -1,9 +1,11 @@
 // Overlays of the live scenario (overlays.h).
 #include "biodyn/viewer/overlays.h"
 
+#include <algorithm>
 #include <cmath>
 
 #include "biodyn/controllers/support_polygon.h"
+#include "biodyn/muscles/muscle_drive.h"
 #include "biodyn/sim/queries.h"
 
 namespace biodyn::viewer {
@@ -11,6 +13,11 @@ namespace {
 
 /// m above the floor: polygons drawn just over it so the floor does not hide them.
 constexpr double kLift_m = 0.004;
+/// A muscle's colour relaxed and fully active (activation_rgba).
+constexpr std::array<float, 4> kRelaxed = {0.42f, 0.5f, 0.62f, 1.0f};
+constexpr std::array<float, 4> kActive = {1.0f, 0.1f, 0.05f, 1.0f};
+/// The models' wrapping cylinders' geom group (models/src/mjcf.cc: hidden unless shown).
+constexpr int kWrapGeomGroup = 3;
 
 void polygon(const std::vector<Eigen::Vector2d>& p, const float rgba[4], double width,
              std::vector<sim::OverlayGeom>* out) {
@@ -132,6 +139,53 @@ void build_overlays(const scenarios::LiveScenario& s, const OverlayOptions& o, O
       out->push_back(g);
     }
   }
+}
+
+std::array<float, 4> activation_rgba(double a) {
+  const float t = static_cast<float>(std::clamp(std::isfinite(a) ? a : 0.0, 0.0, 1.0));
+  std::array<float, 4> c{};
+  for (std::size_t k = 0; k < 4; ++k) c[k] = kRelaxed[k] + t * (kActive[k] - kRelaxed[k]);
+  return c;
+}
+
+void muscle_activations(const scenarios::LiveScenario& s, std::vector<float>* out) {
+  const muscles::MuscleDrive* drive = s.muscles();
+  if (drive == nullptr) {
+    out->clear();
+    return;
+  }
+  const std::vector<double>& a = drive->state().activation;
+  out->resize(a.size());
+  std::transform(a.begin(), a.end(), out->begin(), [](double v) { return static_cast<float>(v); });
+}
+
+void tendon_colors(const scenarios::LiveScenario& s, const std::vector<float>& activation,
+                   std::vector<float>* out) {
+  const muscles::MuscleDrive* drive = s.muscles();
+  if (drive == nullptr || activation.empty()) {
+    out->clear();
+    return;
+  }
+  const muscles::MuscleSet& set = drive->set();
+  out->assign(4 * static_cast<std::size_t>(s.simulation().model().ntendon), -1.0f);
+  const int n = std::min(set.size(), static_cast<int>(activation.size()));
+  for (int i = 0; i < n; ++i) {
+    const std::array<float, 4> c = activation_rgba(activation[static_cast<std::size_t>(i)]);
+    std::copy(c.begin(), c.end(), out->begin() + 4 * static_cast<std::ptrdiff_t>(set.tendon(i)));
+  }
+}
+
+void color_muscles(const std::vector<float>& tendon_rgba, sim::SceneRenderer* renderer) {
+  renderer->recolor(mjOBJ_TENDON, tendon_rgba, kMusclePathWidthScale);
+}
+
+void muscle_scene_options(const scenarios::LiveScenario& s, const OverlayOptions& o,
+                          mjvOption* options) {
+  if (s.muscles() != nullptr) {
+    options->flags[mjVIS_TENDON] = o.muscles ? 1 : 0;
+    options->flags[mjVIS_TRANSPARENT] = o.muscles ? 1 : 0;
+  }
+  options->geomgroup[kWrapGeomGroup] = o.wrap_cylinders ? 1 : 0;
 }
 
 }  // namespace biodyn::viewer

@@ -50,12 +50,14 @@ RenderStats render_scenario(scenarios::LiveScenario* s, const RenderOptions& o,
   renderer.view().elevation_deg = o.elevation_deg;
   renderer.view().distance_m = o.distance_m;
   renderer.view().lookat_W.z() = 0.9;
+  muscle_scene_options(*s, o.overlays, &renderer.options());
   std::optional<VideoWriter> video;
   if (!o.video_path.empty()) video.emplace(o.video_path, o.width, o.height, o.fps);
 
   OverlayBuffers buffers;
   std::vector<sim::OverlayGeom> overlays;
   std::vector<std::uint8_t> rgb, png_rgb;
+  std::vector<float> activation, tendon_rgba;
   const double t0 = s->time_s();
   const int frames = static_cast<int>(std::floor(o.duration_s * o.fps + 1e-9)) + 1;
   const double png_at = o.png_time_s < 0 ? t0 + o.duration_s : o.png_time_s;
@@ -73,6 +75,9 @@ RenderStats render_scenario(scenarios::LiveScenario* s, const RenderOptions& o,
     phase = Clock::now();
     build_overlays(*s, o.overlays, &buffers, &overlays);
     renderer.update_scene(simulation.model(), simulation.data(), overlays);
+    muscle_activations(*s, &activation);
+    tendon_colors(*s, activation, &tendon_rgba);
+    color_muscles(tendon_rgba, &renderer);
     renderer.render_offscreen(o.width, o.height, &rgb);
     st.render_s += seconds_since(phase);
     if (png_frame) {

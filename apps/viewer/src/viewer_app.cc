@@ -30,6 +30,7 @@
 #include "biodyn/viewer/headless_gl.h"
 #include "biodyn/viewer/image_output.h"
 #include "biodyn/viewer/overlays.h"
+#include "muscle_plots.h"
 
 namespace biodyn::viewer {
 namespace {
@@ -112,21 +113,29 @@ struct History {
   std::vector<long> step;
   std::vector<double> time;
   std::vector<std::vector<double>> qpos;
+  std::vector<std::vector<float>> activation;  // the muscles' (empty without muscles)
   int head = 0, count = 0;
   double entry_s = 0.01;  // simulated seconds between entries
-  void init(int capacity, int nq, double timestep_s) {
+  void init(int capacity, int nq, int muscles, double timestep_s) {
     entry_s = kEvery * timestep_s;
     step.assign(static_cast<std::size_t>(capacity), 0);
     time.assign(static_cast<std::size_t>(capacity), 0);
     qpos.assign(static_cast<std::size_t>(capacity),
                 std::vector<double>(static_cast<std::size_t>(nq)));
+    activation.assign(static_cast<std::size_t>(capacity),
+                      std::vector<float>(static_cast<std::size_t>(muscles)));
   }
   int capacity() const { return static_cast<int>(step.size()); }
-  void add(long s, double t, const double* q) {
+  void add(long s, double t, const double* q, const muscles::MuscleDrive* drive) {
     const std::size_t i = static_cast<std::size_t>(head);
     step[i] = s;
     time[i] = t;
     std::copy(q, q + qpos[i].size(), qpos[i].begin());
+    if (drive != nullptr) {
+      const std::vector<double>& a = drive->state().activation;
+      std::transform(a.begin(), a.begin() + static_cast<long>(activation[i].size()),
+                     activation[i].begin(), [](double v) { return static_cast<float>(v); });
+    }
     head = (head + 1) % capacity();
     count = std::min(count + 1, capacity());
   }
@@ -178,6 +187,7 @@ struct Shared {
   std::string message;  // one line shown in the status bar
   History history;
   Plots plots;
+  MusclePlots muscle_plots;        // --muscles on: activations and the muscles' torque shares
   OverlayBuffers overlay_buffers;  // the render thread's (under the lock)
   OverlayBuffers plot_buffers;     // the physics thread's plot samples
   std::vector<float> ratio_scratch;
@@ -230,6 +240,7 @@ void sample_plots(Shared& sh) {
   }
   sh.plots.push(outside, tol, static_cast<float>(com.velocity_W.head<2>().norm()),
                 on[0] ? 1.0f : 0.0f, on[1] ? 1.0f : 0.0f, sh.ratio_scratch);
+  sh.muscle_plots.sample(s);
 }
 
 void run_command(Shared& sh, const ScriptCommand& c, const std::string& script);
@@ -256,10 +267,12 @@ void physics_loop(Shared& sh) {
       const auto now = Clock::now();
       const double wall_dt = std::chrono::duration<double>(now - last).count();
       last = now;
-      // Script commands due at this step; false while a screenshot is waiting to be taken.
+      // Script commands due at this step; false while a screenshot is waiting to be taken (the
+      // commands after it wait too: a quit at the screenshot's time comes after it).
       const auto run_script = [&] {
         while (sh.script != nullptr && sh.next_command < sh.script->size() &&
-               s.time_s() >= (*sh.script)[sh.next_command].t - 1e-9 && !sh.quit) {
+               s.time_s() >= (*sh.script)[sh.next_command].t - 1e-9 && !sh.quit &&
+               !sh.screenshot_requested) {
           try {
             run_command(sh, (*sh.script)[sh.next_command++], sh.script_path);
           } catch (const std::exception& e) {
@@ -282,7 +295,7 @@ void physics_loop(Shared& sh) {
           s.step();
           ++sh.steps_run;
           if (s.step_index() % History::kEvery == 0) {
-            sh.history.add(s.step_index(), s.time_s(), s.simulation().data().qpos);
+            sh.history.add(s.step_index(), s.time_s(), s.simulation().data().qpos, s.muscles());
           }
           if (s.step_index() % Plots::kEvery == 0) sample_plots(sh);
         };
@@ -407,6 +420,7 @@ struct UiState {
   char controller_path[256] = "controller_params.json";
   bool follow = true;
   OverlayOptions overlays;
+  int muscle_leg = models::kLeft;  // whose muscles the plots show
 };
 
 void simulation_panel(Shared& sh, UiState& ui, double fps, double sim_rate) {
@@ -450,6 +464,11 @@ void simulation_panel(Shared& sh, UiState& ui, double fps, double sim_rate) {
   ImGui::Checkbox("pushes", &ui.overlays.pushes);
   ImGui::SameLine();
   ImGui::Checkbox("welds", &ui.overlays.welds);
+  if (s.muscles() != nullptr) {
+    ImGui::Checkbox("muscles (by activation)", &ui.overlays.muscles);
+    ImGui::SameLine();
+    ImGui::Checkbox("wrapping cylinders", &ui.overlays.wrap_cylinders);
+  }
   if (s.tracker() != nullptr) {
     // Tracked playback: how far the body is from the motion (motion_tracker.h).
     const controllers::MotionTracker::Error e = s.tracking_error();
@@ -650,11 +669,7 @@ void control_panel(Shared& sh, UiState& ui) {
   ImGui::End();
 }
 
-void plot_panel(Shared& sh, int window_width) {
-  ImGui::SetNextWindowPos(ImVec2(static_cast<float>(window_width) - 430, 10),
-                          ImGuiCond_FirstUseEver);
-  ImGui::SetNextWindowSize(ImVec2(420, 640), ImGuiCond_FirstUseEver);
-  ImGui::Begin("Plots (last 10 s)");
+void balance_plots(Shared& sh) {
   const Plots& p = sh.plots;
   const ImVec2 size(0, 50);
   ImGui::PlotLines("CoM outside support (m)", p.com_outside.data(), Plots::kSamples, p.head,
@@ -673,6 +688,31 @@ void plot_panel(Shared& sh, int window_width) {
     const std::string label = "|tau| / tau_max " + p.groups[g];
     ImGui::PlotLines(label.c_str(), p.torque_ratio[g].data(), Plots::kSamples, p.head, "limit = 1",
                      0.0f, 1.05f, ImVec2(0, 36));
+  }
+}
+
+// The live plots; with muscles on, the muscles' own (opened first) and the balance plots in tabs.
+void plot_panel(Shared& sh, UiState& ui, int window_width) {
+  ImGui::SetNextWindowPos(ImVec2(static_cast<float>(window_width) - 430, 10),
+                          ImGuiCond_FirstUseEver);
+  ImGui::SetNextWindowSize(ImVec2(420, 640), ImGuiCond_FirstUseEver);
+  if (sh.muscle_plots.empty()) {
+    ImGui::Begin("Plots (last 10 s)");
+    balance_plots(sh);
+    ImGui::End();
+    return;
+  }
+  ImGui::Begin("Plots");
+  if (ImGui::BeginTabBar("plots")) {
+    if (ImGui::BeginTabItem("Muscles (last 5 s)")) {
+      sh.muscle_plots.draw(&ui.muscle_leg);
+      ImGui::EndTabItem();
+    }
+    if (ImGui::BeginTabItem("Balance, torques (last 10 s)")) {
+      balance_plots(sh);
+      ImGui::EndTabItem();
+    }
+    ImGui::EndTabBar();
   }
   ImGui::End();
 }
@@ -737,8 +777,10 @@ class Session {
     sh_.paused = options.start_paused;
     // 12 s of history (at 2 ms steps: an entry every 10 ms).
     const mjModel& m = scenario.simulation().model();
+    const int muscles = scenario.muscles() ? scenario.muscles()->set().size() : 0;
     sh_.history.init(static_cast<int>(std::ceil(12.0 / (History::kEvery * m.opt.timestep))), m.nq,
-                     m.opt.timestep);
+                     muscles, m.opt.timestep);
+    sh_.muscle_plots.init(scenario);
     const auto& groups = scenario.rig().groups();
     for (const char* g : {"hip_l", "knee_l", "ankle_l", "hip_r", "knee_r", "ankle_r", "lumbar"}) {
       for (std::size_t i = 0; i < groups.size(); ++i) {
@@ -813,12 +855,13 @@ class Session {
       // Panels read and edit the scenario under the lock (edits are only logged here).
       simulation_panel(sh_, ui_, fps_, sim_rate_);
       control_panel(sh_, ui_);
-      plot_panel(sh_, width);
+      plot_panel(sh_, ui_, width);
       update_scene();
       rates();
       status_line(height);
     }
-    // Render without the lock.
+    // Render without the lock: the muscles' colours, copied under it, go onto the scene first.
+    color_muscles(tendon_rgba_, &renderer_);
     renderer_.render_to_window(width, height);
     outputs(width, height, take_screenshot, screenshot_path);
     ImGui::Render();
@@ -928,7 +971,12 @@ class Session {
       std::copy(q.begin(), q.end(), display_->qpos);
       mj_forward(&simulation.model(), display_.get());
       overlays_.clear();
+      muscle_scene_options(*sh_.scenario, ui_.overlays, &renderer_.options());
       renderer_.update_scene(simulation.model(), *display_, overlays_);
+      // The muscles as they were then.
+      tendon_colors(*sh_.scenario,
+                    sh_.history.activation[static_cast<std::size_t>(sh_.history.at(back))],
+                    &tendon_rgba_);
       return;
     }
     build_overlays(*sh_.scenario, ui_.overlays, &sh_.overlay_buffers, &overlays_);
@@ -942,7 +990,10 @@ class Session {
       std::copy(yellow, yellow + 4, g.rgba);
       overlays_.push_back(g);
     }
+    muscle_scene_options(*sh_.scenario, ui_.overlays, &renderer_.options());
     renderer_.update_scene(simulation.model(), simulation.data(), overlays_);
+    muscle_activations(*sh_.scenario, &activation_);
+    tendon_colors(*sh_.scenario, activation_, &tendon_rgba_);
   }
 
   // Frame and physics rates, once a second.
@@ -1007,6 +1058,7 @@ class Session {
     stats_.stones_plan_m = s.config().steps_m;
     stats_.stones = s.stones();
     stats_.tracking = s.tracking_report();
+    stats_.muscles = s.muscle_report();
     stats_.physics_steps_per_s =
         sh_.running_wall_s > 0 ? static_cast<double>(sh_.steps_run) / sh_.running_wall_s : 0;
     stats_.realtime_factor = sh_.running_wall_s > 0 ? sh_.running_sim_s / sh_.running_wall_s : 0;
@@ -1021,6 +1073,7 @@ class Session {
   Drag drag_;
   ViewerStats stats_;
   std::vector<sim::OverlayGeom> overlays_;
+  std::vector<float> activation_, tendon_rgba_;  // copied under the lock, drawn without it
   std::vector<std::uint8_t> rgb_;
   std::optional<VideoWriter> video_;
   int shot_counter_ = 0;

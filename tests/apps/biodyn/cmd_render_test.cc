@@ -144,6 +144,45 @@ TEST_CASE(
   CHECK_FALSE(fs::exists(dir / "x.png"));
 }
 
+TEST_CASE("biodyn render --muscles on draws the muscles' paths coloured by activation",
+          "[apps][render][muscles]") {
+  const fs::path dir = biodyn::testing::fresh_dir("render_test", "muscles");
+  // 0.6 s into the walk, early in the first step, several muscles are near full activation
+  // (red); a close camera makes the paths a few pixels wide.
+  const std::string frame = "--scenario walk --duration 0.6 --size 640x480 --distance 2.0 ";
+  const auto on =
+      run_biodyn("render " + frame + "--muscles on --png on.png --summary on.json", dir);
+  INFO(on.out << on.err);
+  REQUIRE(on.exit_code == 0);
+  CHECK(on.out.find("Hill muscles") != std::string::npos);
+  CHECK(on.out.find("muscles:  28") != std::string::npos);
+  const nlohmann::json s = nlohmann::json::parse(slurp(dir / "on.json"));
+  REQUIRE(s.contains("muscles"));
+  CHECK(s["muscles"]["muscles"].size() == 28);
+  CHECK(s["muscles"]["per_joint"].contains("hip_l"));
+  const auto off = run_biodyn("render " + frame + "--png off.png", dir);
+  REQUIRE(off.exit_code == 0);
+  const int red = biodyn::testing::count_active_muscle_pixels((dir / "on.png").string());
+  const int red_off = biodyn::testing::count_active_muscle_pixels((dir / "off.png").string());
+  WARN("active-muscle red pixels: " << red << " with muscles, " << red_off << " without");
+  // Measured 929 at 640x480; without muscles nothing in the frame is that red.
+  CHECK(red > 200);
+  CHECK(red_off == 0);
+
+  // The muscle options are checked before any work; a kinematic playback has no muscles.
+  const std::string bvh =
+      biodyn::testing::source_dir() + "/../shared/data/mocap/bvh/cmu_131_01_start_walk_stop.bvh";
+  for (const std::string& args :
+       {std::string("render --muscles on --tendons springy --png x.png"),
+        std::string("render --tendons rigid --png x.png"),
+        "render --scenario mocap --motion " + bvh + " --muscles on --png x.png"}) {
+    const auto bad = run_biodyn(args, dir);
+    INFO(args << ": " << bad.err);
+    CHECK(bad.exit_code == 2);
+    CHECK_FALSE(fs::exists(dir / "x.png"));
+  }
+}
+
 TEST_CASE("biodyn render refuses bad options and writes nothing", "[apps][render]") {
   const fs::path dir = biodyn::testing::fresh_dir("render_test", "bad");
   for (const char* args :

@@ -20,11 +20,13 @@ using nlohmann::json;
 
 namespace {
 
-biodyn::testing::CliRun run_view(const std::string& script, const fs::path& dir) {
+biodyn::testing::CliRun run_view(const std::string& script, const fs::path& dir,
+                                 const std::string& options = "") {
   std::ofstream(dir / "script.txt") << script;
   const std::string exe = biodyn::testing::binary_dir() + "/apps/biodyn";
   return run_shell(biodyn::testing::under_xvfb() + "'" + exe +
-                       "' view --size 1280x720 --script script.txt --summary summary.json",
+                       "' view --size 1280x720 --script script.txt --summary summary.json " +
+                       options,
                    dir);
 }
 
@@ -131,4 +133,35 @@ TEST_CASE("biodyn view refuses a bad script in one line naming the file and line
   CHECK(r.exit_code == 2);
   CHECK(r.err.find("script.txt:1") != std::string::npos);
   CHECK(r.err.find("no_such_field") != std::string::npos);
+}
+
+TEST_CASE(
+    "biodyn view --muscles on: the muscles' paths coloured by activation, bad options refused",
+    "[apps][view][muscles]") {
+  const fs::path dir = biodyn::testing::fresh_dir("view_test", "muscles");
+  // 0.6 s into the walk several muscles are near full activation (render_test measures the same
+  // frame headless).
+  auto r = run_view("at 0.6 screenshot shot.png\nat 0.6 quit\n", dir, "--muscles on");
+  INFO(r.out << r.err);
+  REQUIRE(r.exit_code == 0);
+  CHECK(r.out.find("muscles:  28") != std::string::npos);
+  const json s = json::parse(slurp(dir / "summary.json"));
+  CHECK(s["simulated_s"].get<double>() == Approx(0.6).margin(1e-9));
+  REQUIRE(s.contains("muscles"));
+  CHECK(s["muscles"]["per_joint"].contains("knee_flexion_r"));
+  const int red = biodyn::testing::count_active_muscle_pixels((dir / "shot.png").string());
+  WARN("active-muscle red pixels in the viewer's screenshot: " << red);
+  CHECK(red > 100);  // measured 709 at 1280x720 (the default camera, 4 m away)
+
+  // Refused before a window opens, exit 2 and one line naming the option.
+  for (const char* args : {"view --muscles on --tendons springy", "view --muscles maybe",
+                           "view --tendons rigid", "view --muscle-params p.json"}) {
+    const auto bad = run_biodyn(args, dir);
+    INFO(args << ": " << bad.err);
+    CHECK(bad.exit_code == 2);
+    CHECK(bad.err.find("--") != std::string::npos);
+  }
+  const auto tendons = run_biodyn("view --muscles on --tendons springy", dir);
+  CHECK(tendons.err.find("--tendons") != std::string::npos);
+  CHECK(tendons.err.find("springy") != std::string::npos);
 }

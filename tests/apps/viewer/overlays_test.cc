@@ -1,6 +1,10 @@
 // What the viewer and `biodyn render` draw over the character (viewer/overlays.h): the weld
-// markers (green when on, red for a weld in tension), the stones, the support polygon.
+// markers (green when on, red for a weld in tension), the stones, the support polygon, the
+// muscles coloured by activation.
 #include "biodyn/viewer/overlays.h"
+
+#include <algorithm>
+#include <numeric>
 #include "biodyn/scenarios/live.h"
 #include "test_support.h"
 
@@ -97,4 +101,94 @@ TEST_CASE_METHOD(biodyn::testing::SimulationTest,
   none.stones = false;
   viewer::build_overlays(s, none, &buffers, &out);
   for (const sim::OverlayGeom& g : out) CHECK(g.kind != sim::OverlayGeom::Kind::kBox);
+}
+
+TEST_CASE_METHOD(biodyn::testing::SimulationTest,
+                 "Overlays: each muscle's path is drawn in its activation's colour, the wrapping "
+                 "cylinders hidden",
+                 "[apps][overlays][muscles]") {
+  // The colour scale: grey-blue relaxed, red fully active, redder as the activation grows.
+  const std::array<float, 4> relaxed = viewer::activation_rgba(0.0);
+  const std::array<float, 4> active = viewer::activation_rgba(1.0);
+  CHECK(relaxed[2] > relaxed[0]);
+  CHECK((active[0] > 0.9f && active[1] < 0.2f && active[2] < 0.2f));
+  CHECK(viewer::activation_rgba(-1.0) == relaxed);  // clamped
+  CHECK(viewer::activation_rgba(2.0) == active);
+  for (double a = 0.1; a <= 1.0; a += 0.1)
+    CHECK(viewer::activation_rgba(a)[0] > viewer::activation_rgba(a - 0.1)[0]);
+
+  scenarios::ScenarioConfig config;
+  config.scenario = "walk";
+  config.muscles.on = true;
+  scenarios::LiveScenario s(config);
+  REQUIRE(s.muscles() != nullptr);
+  s.run_until(0.6);  // early in the first step: some muscles near full activation, some off
+  std::vector<float> activation, rgba;
+  viewer::muscle_activations(s, &activation);
+  const muscles::MuscleSet& set = s.muscles()->set();
+  REQUIRE(static_cast<int>(activation.size()) == set.size());
+  CHECK(*std::max_element(activation.begin(), activation.end()) > 0.5f);
+  CHECK(*std::min_element(activation.begin(), activation.end()) < 0.1f);
+  viewer::tendon_colors(s, activation, &rgba);
+  const mjModel& m = s.simulation().model();
+  REQUIRE(rgba.size() == 4 * static_cast<std::size_t>(m.ntendon));
+
+  // The scene MuJoCo makes (no GL needed), as the viewer and `biodyn render` set it up.
+  mjvScene scene;
+  mjv_defaultScene(&scene);
+  mjv_makeScene(&m, &scene, 4000);
+  mjvOption options;
+  mjv_defaultOption(&options);
+  options.flags[mjVIS_TENDON] = 0;
+  options.geomgroup[3] = 1;
+  viewer::muscle_scene_options(s, viewer::OverlayOptions{}, &options);
+  CHECK(options.flags[mjVIS_TENDON] == 1);
+  CHECK(options.geomgroup[3] == 0);
+  mjvCamera camera;
+  mjv_defaultCamera(&camera);
+  const auto drawn = [&](const mjvOption& o, std::vector<int>* segments, int* wraps) {
+    mjv_updateScene(&m, &s.simulation().data(), &o, nullptr, &camera, mjCAT_ALL, &scene);
+    sim::recolor_objects(mjOBJ_TENDON, rgba, &scene, viewer::kMusclePathWidthScale);
+    segments->assign(static_cast<std::size_t>(m.ntendon), 0);
+    *wraps = 0;
+    for (int i = 0; i < scene.ngeom; ++i) {
+      const mjvGeom& g = scene.geoms[i];
+      if (g.objtype == mjOBJ_GEOM && m.geom_group[g.objid] == 3) ++*wraps;
+      if (g.objtype != mjOBJ_TENDON) continue;
+      ++(*segments)[static_cast<std::size_t>(g.objid)];
+      const float* want = rgba.data() + 4 * g.objid;
+      CHECK(std::equal(want, want + 4, g.rgba));
+      // MuJoCo draws a segment inside a wrapping object half as wide.
+      const double width = viewer::kMusclePathWidthScale * m.tendon_width[g.objid];
+      CHECK((g.size[0] == Approx(width).epsilon(1e-6) ||
+             g.size[0] == Approx(0.5 * width).epsilon(1e-6)));
+    }
+  };
+  std::vector<int> segments;
+  int wraps = 0;
+  drawn(options, &segments, &wraps);
+  CHECK(wraps == 0);
+  for (int i = 0; i < set.size(); ++i) {
+    INFO(set.params(i).name);
+    CHECK(segments[static_cast<std::size_t>(set.tendon(i))] >= 1);  // every muscle's path drawn
+    const std::array<float, 4> want =
+        viewer::activation_rgba(activation[static_cast<std::size_t>(i)]);
+    CHECK(std::equal(want.begin(), want.end(), rgba.begin() + 4 * set.tendon(i)));
+  }
+  // Shown on request; the muscles off in the panel hide the paths.
+  viewer::OverlayOptions shown;
+  shown.wrap_cylinders = true;
+  shown.muscles = false;
+  viewer::muscle_scene_options(s, shown, &options);
+  drawn(options, &segments, &wraps);
+  CHECK(wraps > 0);
+  CHECK(std::accumulate(segments.begin(), segments.end(), 0) == 0);
+  mjv_freeScene(&scene);
+
+  // Without muscles: nothing to colour.
+  scenarios::LiveScenario plain{scenarios::ScenarioConfig{}};
+  viewer::muscle_activations(plain, &activation);
+  CHECK(activation.empty());
+  viewer::tendon_colors(plain, activation, &rgba);
+  CHECK(rgba.empty());
 }

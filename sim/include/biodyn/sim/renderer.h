@@ -28,6 +28,14 @@ struct OverlayGeom {
   float rgba[4] = {1, 1, 1, 1};
 };
 
+/// Recolours the geoms mjv_updateScene made in `scene` for objects of type `objtype` (e.g.
+/// mjOBJ_TENDON: each segment of a spatial tendon's path): the geoms of object i get
+/// rgba[4i .. 4i+3] and their radius (size[0], size[1]) times `width_scale`; an object beyond
+/// rgba.size() / 4, or given a negative alpha, is left as it is. Extra geoms (OverlayGeom) are
+/// left alone. Reads and writes the scene only (no GL).
+void recolor_objects(mjtObj objtype, const std::vector<float>& rgba, mjvScene* scene,
+                     float width_scale = 1.0f);
+
 /// How the camera frames the scene.
 struct CameraView {
   double azimuth_deg = 135;  ///< MuJoCo's free camera angles
@@ -54,6 +62,10 @@ class SceneRenderer {
   /// Copies the drawable state of `data` into the scene (mjv_updateScene) and adds the
   /// overlays. Reads `data` only; call it under the physics lock, then render without it.
   void update_scene(const mjModel& model, mjData& data, const std::vector<OverlayGeom>& overlays);
+  /// recolor_objects on the scene update_scene made (before rendering it).
+  void recolor(mjtObj objtype, const std::vector<float>& rgba, float width_scale = 1.0f) {
+    recolor_objects(objtype, rgba, &scene_, width_scale);
+  }
 
   /// Renders the scene into the window's back buffer (viewport width x height).
   void render_to_window(int width, int height);

@@ -1,7 +1,8 @@
 #pragma once
 /// Any scenario stepped from outside, one physics step at a time, with its parameters edited
 /// while it runs: what the viewer (`biodyn view`) and `biodyn render` drive. It owns the
-/// character's simulation (generated from the config's character) and wraps the registry's
+/// character's simulation (generated from the config's model_spec(): the character,
+/// with the muscles' tendons when they are on) and wraps the registry's
 /// scenario (registry.h) with two things of its own: an edit log and a ring of checkpoints.
 ///
 /// Rewind is exact: every edit (parameters, speed, heading, weld mode, a push) is logged with the
@@ -17,6 +18,7 @@
 #include <Eigen/Core>
 #include <functional>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -91,6 +93,14 @@ class LiveScenario {
   const models::Rig& rig() const { return scenario_->rig(); }
   /// The control pipeline (nullptr for a kinematic playback).
   const controllers::ControlPipeline* controller() const { return scenario_->pipeline(); }
+  /// The legs' Hill muscles (ScenarioConfig::muscles on), or nullptr.
+  const muscles::MuscleDrive* muscles() const {
+    return scenario_->pipeline() ? scenario_->pipeline()->muscles() : nullptr;
+  }
+  /// What the muscles did so far (scenario.h), or nullopt without muscles.
+  std::optional<MuscleRunReport> muscle_report() const {
+    return scenario_->pipeline() ? scenarios::muscle_report(*scenario_->pipeline()) : std::nullopt;
+  }
   const controllers::ControllerParams* controller_params() const {
     return scenario_->controller_params();
   }

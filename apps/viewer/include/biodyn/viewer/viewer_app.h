@@ -16,7 +16,9 @@
 ///   at <t> rewind <seconds back>
 ///   at <t> quit
 /// `#` starts a comment. Errors name the file, the line and the rule.
+#include <optional>
 #include <string>
+#include <vector>
 
 #include "biodyn/scenarios/live.h"
 
@@ -46,9 +48,10 @@ struct ViewerStats {
   double com_x_m = 0, com_y_m = 0;
   bool fallen = false;
   int pushes = 0;
-  std::vector<double> stones_plan_m;     ///< scenario stones: the plan
-  std::vector<scenarios::Stone> stones;  ///< and the stones stepped so far
-  scenarios::TrackingReport tracking;    ///< scenario mocap --track
+  std::vector<double> stones_plan_m;                  ///< scenario stones: the plan
+  std::vector<scenarios::Stone> stones;               ///< and the stones stepped so far
+  scenarios::TrackingReport tracking;                 ///< scenario mocap --track
+  std::optional<scenarios::MuscleRunReport> muscles;  ///< --muscles on: the shares so far
 };
 
 /// Opens the window and runs until it is closed (or a script says quit). Throws
