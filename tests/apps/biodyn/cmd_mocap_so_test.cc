@@ -74,14 +74,14 @@ TEST_CASE("mocap so on walking5 writes activations, forces, reserves, a summary 
   CHECK(s["ground"] == "from-c3d");
   CHECK(s["solve"]["frames_per_second"].get<double>() > 0);
   CHECK(s["solve"]["qp_failures"] == 0);
-  CHECK(s["dofs"].size() == 12);  // hips (3), knees, ankles (2) of both legs
+  CHECK(s["dofs"].size() == 14);  // hips (3), knees, ankles (2), toes (the toe extensor), both legs
   for (const auto& [dof, d] : s["dofs"].items()) {
     INFO(dof);
     CHECK(d.contains("peak_abs_id_torque_Nm"));
     CHECK(d.contains("peak_abs_reserve_Nm"));
     CHECK(d.contains("reserve_to_peak_ratio"));
   }
-  CHECK(s["muscles"].size() >= 26);  // 13-14 per leg
+  CHECK(s["muscles"].size() == 32);  // 16 per leg
   const json& soleus = s["muscles"]["soleus_r"];
   CHECK(soleus["cycle_mean_peak_percent"].get<double>() >= 0);
   CHECK(soleus["reference_emg_on_percent"] == json::array({json::array({10.0, 50.0})}));

@@ -144,11 +144,11 @@ TEST_CASE(
   auto r = run_view("at 0.6 screenshot shot.png\nat 0.6 quit\n", dir, "--muscles on");
   INFO(r.out << r.err);
   REQUIRE(r.exit_code == 0);
-  CHECK(r.out.find("muscles:  28") != std::string::npos);
+  CHECK(r.out.find("muscles:  32") != std::string::npos);
   const json s = json::parse(slurp(dir / "summary.json"));
   CHECK(s["simulated_s"].get<double>() == Approx(0.6).margin(1e-9));
   REQUIRE(s.contains("muscles"));
-  CHECK(s["muscles"]["per_joint"].contains("knee_flexion_r"));
+  CHECK(s["muscles"]["per_joint"].contains("knee_r"));
   const int red = biodyn::testing::count_active_muscle_pixels((dir / "shot.png").string());
   WARN("active-muscle red pixels in the viewer's screenshot: " << red);
   CHECK(red > 100);  // measured 709 at 1280x720 (the default camera, 4 m away)
