@@ -50,7 +50,8 @@ std::vector<int> spanned_dofs(const mjModel& m, int tendon) {
   return {dofs.begin(), dofs.end()};
 }
 
-void set_field(MuscleParams* p, const std::string& where, const std::string& key, const json& v) {
+void set_field(MuscleParams* p, const MuscleParams& table, const std::string& where,
+               const std::string& key, const json& v) {
   const auto number = [&]() {
     if (!v.is_number()) {
       throw sim::InvalidArgument(where + "." + key + ": must be a number, got " + v.dump());
@@ -66,7 +67,7 @@ void set_field(MuscleParams* p, const std::string& where, const std::string& key
     if (!(s > 0 && s <= 10)) {
       throw sim::InvalidArgument(where + "." + key + ": must be in (0, 10], got " + v.dump());
     }
-    p->max_isometric_force_N *= s;
+    p->max_isometric_force_N = table.max_isometric_force_N * s;  // of the table's, not compounded
   } else if (key == "optimal_fiber_length_m")
     p->optimal_fiber_length_m = number();
   else if (key == "tendon_slack_length_m")
@@ -157,27 +158,41 @@ void apply_muscle_overrides(const std::string& json_text, const std::string& sou
   if (!doc.is_object() || !doc.contains("muscles") || !doc["muscles"].is_object()) {
     throw sim::InvalidArgument(source + ": expected {\"muscles\": {\"<muscle>\": {...}}}");
   }
-  for (const auto& [name, fields] : doc["muscles"].items()) {
-    const std::string where = source + ": muscles." + name;
-    if (!fields.is_object()) throw sim::InvalidArgument(where + ": must be an object");
-    bool matched = false;
-    for (MuscleParams& p : *params) {
-      if (p.name != name && p.name != name + "_l" && p.name != name + "_r") continue;
-      matched = true;
-      for (const auto& [key, value] : fields.items()) set_field(&p, where, key, value);
-      try {
-        p.validate();
-      } catch (const sim::InvalidArgument& e) {
-        throw sim::InvalidArgument(source + ": " + e.what());
+  // Side-less names first, then side-specific ones (which win), on a copy: a file refused
+  // halfway changes nothing.
+  std::vector<MuscleParams> out = *params;
+  const auto side_specific = [&](const std::string& name) {
+    for (const MuscleParams& p : out)
+      if (p.name == name) return true;
+    return false;
+  };
+  for (const bool specific : {false, true}) {
+    for (const auto& [name, fields] : doc["muscles"].items()) {
+      if (side_specific(name) != specific) continue;
+      const std::string where = source + ": muscles." + name;
+      if (!fields.is_object()) throw sim::InvalidArgument(where + ": must be an object");
+      bool matched = false;
+      for (std::size_t i = 0; i < out.size(); ++i) {
+        MuscleParams& p = out[i];
+        if (p.name != name && p.name != name + "_l" && p.name != name + "_r") continue;
+        matched = true;
+        for (const auto& [key, value] : fields.items())
+          set_field(&p, (*params)[i], where, key, value);
+        try {
+          p.validate();
+        } catch (const sim::InvalidArgument& e) {
+          throw sim::InvalidArgument(source + ": " + e.what());
+        }
+      }
+      if (!matched) {
+        std::string names;
+        for (const MuscleParams& p : out) names += (names.empty() ? "" : ", ") + p.name;
+        throw sim::InvalidArgument(where + ": no muscle named '" + name + "' (muscles: " + names +
+                                   "; a name without _l/_r applies to both sides)");
       }
     }
-    if (!matched) {
-      std::string names;
-      for (const MuscleParams& p : *params) names += (names.empty() ? "" : ", ") + p.name;
-      throw sim::InvalidArgument(where + ": no muscle named '" + name + "' (muscles: " + names +
-                                 "; a name without _l/_r applies to both sides)");
-    }
   }
+  *params = std::move(out);
 }
 
 MuscleSet::MuscleSet(const mjModel& m, std::vector<MuscleParams> params)

@@ -241,3 +241,36 @@ TEST_CASE_METHOD(biodyn::testing::SimulationTest,
 }
 
 }  // namespace biodyn::muscles::muscle_set_test
+
+namespace biodyn::muscles::muscle_set_test {
+
+TEST_CASE(
+    "muscle parameter files: side-specific entries win, scales do not compound, a refused "
+    "file changes nothing",
+    "[muscles]") {
+  const models::Character c = muscled_character();
+  const std::vector<MuscleParams> table = muscle_params(c.muscles, TendonChoice::kPerMuscle);
+  const auto find = [](const std::vector<MuscleParams>& ps, const std::string& name) {
+    for (const MuscleParams& p : ps)
+      if (p.name == name) return p;
+    FAIL("no muscle " << name);
+    return MuscleParams{};
+  };
+  std::vector<MuscleParams> params = table;
+  // Keys in the order nlohmann would not sort them into: the side-specific one first.
+  apply_muscle_overrides(R"({"muscles": {"soleus_l": {"scale_max_isometric_force": 3},
+                                         "soleus": {"scale_max_isometric_force": 2}}})",
+                         "m.json", &params);
+  CHECK(find(params, "soleus_l").max_isometric_force_N ==
+        Approx(3 * find(table, "soleus_l").max_isometric_force_N));
+  CHECK(find(params, "soleus_r").max_isometric_force_N ==
+        Approx(2 * find(table, "soleus_r").max_isometric_force_N));
+  std::vector<MuscleParams> refused = table;
+  CHECK_THROWS(apply_muscle_overrides(
+      R"({"muscles": {"soleus": {"max_isometric_force_N": 100}, "vasti": {"tendon": "springy"}}})",
+      "m.json", &refused));
+  CHECK(find(refused, "soleus_l").max_isometric_force_N ==
+        find(table, "soleus_l").max_isometric_force_N);
+}
+
+}  // namespace biodyn::muscles::muscle_set_test

@@ -37,7 +37,9 @@ std::vector<MuscleParams> muscle_params(const std::vector<models::MuscleDefiniti
 /// name or by name without side (both sides); fields: max_isometric_force_N,
 /// optimal_fiber_length_m, tendon_slack_length_m, pennation_at_optimal_deg,
 /// max_contraction_velocity_lopt_per_s, activation_time_constant_s, deactivation_time_constant_s,
-/// min_activation, fiber_damping, tendon, and "scale_max_isometric_force" (a factor). Throws
+/// min_activation, fiber_damping, tendon, and "scale_max_isometric_force" (a factor on the
+/// table's F_max). A side-specific entry wins over a side-less one; a refused file changes
+/// nothing. Throws
 /// sim::InvalidArgument naming `source`, the muscle, the field, the rule and the value (unknown
 /// names and fields too).
 void apply_muscle_overrides(const std::string& json_text, const std::string& source,
