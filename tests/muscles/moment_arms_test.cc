@@ -514,4 +514,40 @@ TEST_CASE_METHOD(biodyn::testing::SimulationTest, "moment arm report", "[.][repo
   }
 }
 
+TEST_CASE_METHOD(biodyn::testing::SimulationTest,
+                 "gastrocnemius stays a knee flexor a little past the knee's extension limit",
+                 "[muscles]") {
+  // A standing knee sits on its 0 deg limit, and the limit's soft constraint lets it go a few
+  // degrees past: the path must stay behind the knee axis there (the side site's job).
+  constexpr double kPastLimit_deg = -5.0;
+  constexpr double kMinFlexorArm_m = 0.015;
+  models::CharacterSpec spec;
+  spec.detail = models::Detail::kGait;
+  spec.muscles = true;
+  const models::Character c = models::generate_character(spec);
+  const sim::Model model = sim::Model::from_string(models::to_mjcf(c));
+  const mjModel& m = *model;
+  sim::Data data(m);
+  const MuscleSet set(m, muscle_params(c.muscles, TendonChoice::kPerMuscle));
+  for (const char* side : {"l", "r"}) {
+    const int knee = mj_name2id(&m, mjOBJ_JOINT, (std::string("knee_flexion_") + side).c_str());
+    REQUIRE(knee >= 0);
+    mj_resetData(&m, data.get());
+    data->qpos[m.jnt_qposadr[knee]] = kPastLimit_deg * kDegree;
+    mj_forward(&m, data.get());
+    Eigen::MatrixXd R(static_cast<int>(set.covered_dofs().size()), set.size());
+    set.moment_arms(m, *data, &R);
+    const auto row =
+        std::find(set.covered_dofs().begin(), set.covered_dofs().end(), m.jnt_dofadr[knee]) -
+        set.covered_dofs().begin();
+    int gastroc = -1;
+    for (int i = 0; i < set.size(); ++i)
+      if (set.params(i).name == std::string("gastroc_") + side) gastroc = i;
+    REQUIRE(gastroc >= 0);
+    INFO("gastroc_" << side << " knee moment arm at " << kPastLimit_deg
+                    << " deg: " << R(static_cast<int>(row), gastroc) << " m");
+    CHECK(R(static_cast<int>(row), gastroc) > kMinFlexorArm_m);
+  }
+}
+
 }  // namespace biodyn::muscles::moment_arms_test
