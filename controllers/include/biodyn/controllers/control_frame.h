@@ -7,11 +7,13 @@
 ///   2. the driver (standing controller, walker or motion tracker) sets the joints' targets,
 ///      per-DOF commands and the feet's stance wishes;
 ///   3. the foot-weld logic takes the stance wishes; the swing-twist limits add their torques to
-///      the extra forces (a muscle layer adds its tendon forces the same way);
+///      the extra forces;
 ///   4. the joint controllers reach the targets under the commands (paper §3.2: velocity wish
 ///      w = theta v / t, or what a command says instead) within the muscle limits, with every
 ///      extra force (and the pushes) acting in the whole-body solve;
-///   5. qfrc_applied = extra forces + joint torques: sources add up, none overwrites another.
+///   5. with muscles (control_pipeline.h) the legs' joint torques are what the muscles are asked
+///      for: they and the backups give them;
+///   6. qfrc_applied = extra forces + joint torques: sources add up, none overwrites another.
 ///
 /// The targets persist from step to step (a target state holds until another is set, paper
 /// §3); everything else lasts one step. The frame is part of the pipeline's copyable state.
@@ -51,7 +53,7 @@ enum class DofMode : std::uint8_t {
   /// the ground (SIMBICON's stance leg is a spring for the same reason, Yin et al. 2007).
   kSpring,
   /// No muscle torque at all (tau = 0, outside the rate limit too): the DOF is left to other
-  /// force sources (a muscle layer's tendons) and the solve.
+  /// force sources and the solve.
   kFree,
 };
 
