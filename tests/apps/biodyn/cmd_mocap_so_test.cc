@@ -1,6 +1,7 @@
 // `biodyn mocap so` as a user runs it on walking5 (IK first, then static optimisation with the
 // capture's force plates, or on the torques `mocap id` wrote): the files it writes and what they
 // hold, and bad input refused in one line naming the file, field and value, with nothing written.
+#include <unistd.h>
 #include <algorithm>
 #include <filesystem>
 #include <nlohmann/json.hpp>
@@ -40,7 +41,10 @@ std::vector<std::string> csv_lines(const std::string& text) {
 /// A directory with walking5's IK motion (motion.csv) and its inverse dynamics (id/), made once.
 const fs::path& so_workdir() {
   static const fs::path dir = [] {
-    const fs::path d = biodyn::testing::fresh_dir("mocap_so_cli_test", "walking5");
+    // One directory per process: ctest runs this file's cases in parallel processes, and each
+    // makes the shared IK and ID once.
+    const fs::path d =
+        biodyn::testing::fresh_dir("mocap_so_cli_test", "walking5_" + std::to_string(getpid()));
     const SoRun ik = run_biodyn("mocap ik --c3d '" + so_c3d() + "' -o motion.csv", d);
     INFO(ik.out << ik.err);
     REQUIRE(ik.exit_code == 0);
