@@ -90,7 +90,6 @@ MuscleDrive::MuscleDrive(const mjModel& m, MuscleSet set, const std::vector<doub
   x_.setZero(n);
   tension_.setZero(n);
   fiber_guess_.setZero(n);
-  fiber_slope_.setZero(n);
   MuscleDriveState& s = state_;
   s.qp_bounds.assign(static_cast<std::size_t>(n), 0);
   s.fiber_slope_m.assign(static_cast<std::size_t>(n), 0.0);
@@ -236,9 +235,9 @@ void MuscleDrive::compute(const mjModel& m, const mjData& d, const double* tau_w
       const double span = reach.hi - reach.lo;
       A_(i) = span > 0 ? (at_hi.tendon_force_N - at_lo.tendon_force_N) / span : 0.0;
       P_(i) = at_lo.tendon_force_N - A_(i) * reach.lo;
-      fiber_slope_(i) = span > 0 ? (at_hi.fiber_length_m - at_lo.fiber_length_m) / span : 0.0;
-      fiber_guess_(i) = at_lo.fiber_length_m - fiber_slope_(i) * reach.lo;
-      pending_.fiber_slope_m[ii] = fiber_slope_(i);
+      const double secant = span > 0 ? (at_hi.fiber_length_m - at_lo.fiber_length_m) / span : 0.0;
+      pending_.fiber_slope_m[ii] = secant;
+      fiber_guess_(i) = at_lo.fiber_length_m - secant * reach.lo;
     }
   }
   share(tau_wanted_Nm, lo_, hi_);
@@ -255,8 +254,9 @@ void MuscleDrive::compute(const mjModel& m, const mjData& d, const double* tau_w
       // Backward Euler to the path's length at the end of the step (l + dt v), from the
       // tangent's prediction.
       const double l_next = set_.length(d, i) + dt * set_.velocity(d, i);
-      const MuscleKinematics kin = compliant_tendon_step(p, a, state_.fiber_length_m[ii], l_next,
-                                                         dt, fiber_guess_(i) + fiber_slope_(i) * a);
+      const MuscleKinematics kin =
+          compliant_tendon_step(p, a, state_.fiber_length_m[ii], l_next, dt,
+                                fiber_guess_(i) + pending_.fiber_slope_m[ii] * a);
       if (!kin.converged) ++pending_.fiber_failures;
       tension_(i) = kin.tendon_force_N;
       pending_.fiber_length_m[ii] = kin.fiber_length_m;

@@ -120,7 +120,8 @@ class MuscleDrive {
   // Per-step workspace (sized once).
   Eigen::MatrixXd R_;
   Eigen::VectorXd A_, P_, lo_, hi_, x_, tension_;
-  Eigen::VectorXd fiber_guess_, fiber_slope_;  // compliant: l_M(a) ~ guess + slope * a (secant)
+  // Compliant: l_M(a) ~ fiber_guess_ + pending_.fiber_slope_m * a (the step's secant).
+  Eigen::VectorXd fiber_guess_;
 };
 
 }  // namespace biodyn::muscles
