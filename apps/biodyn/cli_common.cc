@@ -145,7 +145,7 @@ models::CharacterSpec CharacterOptions::to_spec() const {
 
 void MuscleOptions::add_to(CLI::App* cmd) {
   cmd->add_option("--muscles", muscles,
-                  "on: the legs' Hill muscles (16 per leg, Rajagopal 2016) give the joint "
+                  "on: the legs' Hill muscles (18 per leg, Rajagopal 2016) give the joint "
                   "controllers' torques, with backups where they cannot; off: joint torques")
       ->capture_default_str();
   cmd->add_option("--tendons", tendons,

@@ -608,11 +608,14 @@ std::string profile_data(const SideCycles& main, const SideCycles& other) {
 void plot_activations(const std::string& dir, const SideCycles& main, const SideCycles& other,
                       const muscles::MuscleSet& set, const std::vector<std::string>& descriptions) {
   write_file_atomically(dir + "/activations_plot.dat", profile_data(main, other));
+  // Three panels per row, as many rows as the muscles need (one leg's set).
+  const int rows = static_cast<int>((main.muscles.size() + 2) / 3);
   std::ostringstream gp;
-  gp << "set terminal pngcairo size 1500,1650 font 'sans,10' noenhanced\n"
+  gp << "set terminal pngcairo size 1500," << 330 * rows << " font 'sans,10' noenhanced\n"
      << "set output '" << dir << "/activations.png.tmp'\n"
-     << "set multiplot layout 5,3 title \"Static optimisation: activations over the gait cycle ("
-     << side_name(main.side) << " leg solid, from its heel strike; " << side_name(other.side)
+     << "set multiplot layout " << rows
+     << ",3 title \"Static optimisation: activations over the gait cycle (" << side_name(main.side)
+     << " leg solid, from its heel strike; " << side_name(other.side)
      << " leg dashed, from its own)\\ngrey bars: textbook EMG on-times (Winter 2009; Perry & "
         "Burnfield 2010; references.md); dotted: toe off on the plate; rigid tendons\"\n"
      << "set xrange [0:100]\nset xtics 0,20,100\nset grid\nset xlabel '% gait cycle'\n"

@@ -119,16 +119,31 @@ Eigen::MatrixXd filtered_positions(const mjModel& m, const Eigen::MatrixXd& qpos
   return q;
 }
 
+/// The body of `side`'s foot that a plate's load at `cop` acts on: the toes when the centre of
+/// pressure is ahead of the toe joint (along the foot's forward axis; push-off, when the load is
+/// under the toes), else the foot. The ankle and every joint above it get the same torque
+/// either way; the toe joint gets (cop - joint) x F, which is zero where the two meet.
+int loaded_foot_body(const mjModel& m, const mjData& d, const models::Rig& rig, int side,
+                     const Eigen::Vector3d& cop) {
+  const models::RigLeg& leg = rig.leg(side);
+  if (leg.toes < 0 || m.body_jntnum[leg.toes] < 1) return leg.foot;
+  const mjtNum* joint = d.xanchor + 3 * m.body_jntadr[leg.toes];
+  const mjtNum* foot = d.xmat + 9 * leg.foot;  // column 0: the foot's forward axis
+  const double ahead = (cop.x() - joint[0]) * foot[0] + (cop.y() - joint[1]) * foot[3] +
+                       (cop.z() - joint[2]) * foot[6];
+  return ahead > 0 ? leg.toes : leg.foot;
+}
+
 /// The force plates' ground reaction at time `t_s` on the pose in `d` (kinematics done): each
 /// loaded plate's force and free moment, applied at its centre of pressure to the foot standing
-/// on it (plate_assignment.h), is added to `qfrc_ground` (nv); `plate_foot` (one per plate)
-/// gets the side, kPlateUnloaded or kPlateUnassigned. Returns the sum of the forces applied, N,
-/// world.
+/// on it (plate_assignment.h; to its toes when the centre of pressure is ahead of the toe joint),
+/// is added to `qfrc_ground` (nv); `plate_foot` (one per plate) gets the side, kPlateUnloaded or
+/// kPlateUnassigned. Returns the sum of the forces applied, N, world.
 Eigen::Vector3d apply_force_plates(const mjModel& m, mjData* d,
                                    const std::vector<ForcePlate>& plates, double plate_rate_hz,
                                    double t_s, const plate_internal::PlateFeet& feet,
-                                   const std::array<int, 2>& foot_bodies,
-                                   std::vector<mjtNum>* qfrc_ground, int* plate_foot) {
+                                   const models::Rig& rig, std::vector<mjtNum>* qfrc_ground,
+                                   int* plate_foot) {
   Eigen::Vector3d total = Eigen::Vector3d::Zero();
   for (size_t i = 0; i < plates.size(); ++i) {
     const ForcePlate& p = plates[i];
@@ -152,7 +167,7 @@ Eigen::Vector3d apply_force_plates(const mjModel& m, mjData* d,
     mjtNum force[3] = {grf.x(), grf.y(), grf.z()};
     mjtNum torque[3] = {free_moment.x(), free_moment.y(), free_moment.z()};
     mjtNum point[3] = {cop.x(), cop.y(), cop.z()};
-    mj_applyFT(&m, d, force, torque, point, foot_bodies[static_cast<size_t>(side)],
+    mj_applyFT(&m, d, force, torque, point, loaded_foot_body(m, *d, rig, side, cop),
                qfrc_ground->data());
     total += grf;
   }
@@ -314,7 +329,7 @@ InverseDynamicsResult inverse_dynamics(const mjModel& model, const Motion& motio
     if (options.ground == GroundForces::kForcePlates) {
       r.ground_force_N.row(i) =
           apply_force_plates(*m, d, plates, plate_rate_hz, motion.times_s[static_cast<size_t>(f)],
-                             plate_feet, foot_bodies, &qfrc_ground, plate_foot.data())
+                             plate_feet, rig, &qfrc_ground, plate_foot.data())
               .transpose();
       for (size_t p = 0; p < plates.size(); ++p) {
         r.plate_foot(i, static_cast<Eigen::Index>(p)) = plate_foot[p];

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <iterator>
 #include <string>
 
 #include "biodyn/sim/errors.h"
@@ -20,18 +21,42 @@ void MuscleDriveParams::validate() const {
   }
 }
 
-MuscleDrive::Group::Group(std::vector<int> muscle_ids, std::vector<int> row_ids)
+MuscleDrive::Group::Group(const MuscleSet& set, std::vector<int> muscle_ids,
+                          std::vector<int> row_ids)
     : muscles(std::move(muscle_ids)),
       rows(std::move(row_ids)),
+      rows_of_muscle(muscles.size()),
       qp(static_cast<int>(muscles.size())),
       B(Eigen::MatrixXd::Zero(static_cast<int>(rows.size()), static_cast<int>(muscles.size()))),
-      H(Eigen::MatrixXd::Zero(static_cast<int>(muscles.size()), static_cast<int>(muscles.size()))),
+      H(Eigen::MatrixXd::Identity(static_cast<int>(muscles.size()),
+                                  static_cast<int>(muscles.size()))),
       g(Eigen::VectorXd::Zero(static_cast<int>(muscles.size()))),
       c(Eigen::VectorXd::Zero(static_cast<int>(rows.size()))),
       x(Eigen::VectorXd::Zero(static_cast<int>(muscles.size()))),
       lo(Eigen::VectorXd::Zero(static_cast<int>(muscles.size()))),
       hi(Eigen::VectorXd::Zero(static_cast<int>(muscles.size()))),
-      bounds(muscles.size(), 0) {}
+      bounds(muscles.size(), 0) {
+  for (std::size_t r = 0; r < rows.size(); ++r) {
+    const std::vector<int>& on_row = set.muscles_of_dof()[static_cast<std::size_t>(rows[r])];
+    for (std::size_t a = 0; a < muscles.size(); ++a) {
+      if (std::find(on_row.begin(), on_row.end(), muscles[a]) != on_row.end())
+        rows_of_muscle[a].push_back(static_cast<int>(r));
+    }
+  }
+  for (std::size_t a = 0; a < muscles.size(); ++a) {
+    for (std::size_t b = 0; b <= a; ++b) {
+      const std::size_t begin = pair_rows.size();
+      std::set_intersection(rows_of_muscle[a].begin(), rows_of_muscle[a].end(),
+                            rows_of_muscle[b].begin(), rows_of_muscle[b].end(),
+                            std::back_inserter(pair_rows));
+      if (pair_rows.size() == begin) continue;
+      pair_a.push_back(static_cast<int>(a));
+      pair_b.push_back(static_cast<int>(b));
+      pair_rows_begin.push_back(static_cast<int>(begin));
+    }
+  }
+  pair_rows_begin.push_back(static_cast<int>(pair_rows.size()));
+}
 
 namespace {
 
@@ -81,7 +106,7 @@ MuscleDrive::MuscleDrive(const mjModel& m, MuscleSet set, const std::vector<doub
   params_.validate();
   const int n = set_.size(), k = static_cast<int>(set_.covered_dofs().size());
   for (auto& [muscle_ids, row_ids] : independent_groups(set_))
-    groups_.emplace_back(std::move(muscle_ids), std::move(row_ids));
+    groups_.emplace_back(set_, std::move(muscle_ids), std::move(row_ids));
   R_.setZero(k, n);
   A_.setZero(n);
   P_.setZero(n);
@@ -132,23 +157,29 @@ void MuscleDrive::share(const double* tau_wanted_Nm, const Eigen::VectorXd& lo,
     const int n = static_cast<int>(grp.muscles.size()), k = static_cast<int>(grp.rows.size());
     for (int r = 0; r < k; ++r) {
       const int row = grp.rows[static_cast<std::size_t>(r)];
-      double c = tau_wanted_Nm[set_.covered_dofs()[static_cast<std::size_t>(row)]];
-      for (int a = 0; a < n; ++a) {
-        const int i = grp.muscles[static_cast<std::size_t>(a)];
-        c -= R_(row, i) * P_(i);
+      grp.c(r) = tau_wanted_Nm[set_.covered_dofs()[static_cast<std::size_t>(row)]];
+    }
+    for (int a = 0; a < n; ++a) {
+      const int i = grp.muscles[static_cast<std::size_t>(a)];
+      for (int r : grp.rows_of_muscle[static_cast<std::size_t>(a)]) {
+        const int row = grp.rows[static_cast<std::size_t>(r)];
+        grp.c(r) -= R_(row, i) * P_(i);
         grp.B(r, a) = R_(row, i) * A_(i);
       }
-      grp.c(r) = c;
     }
-    // H = I + w B'B, g = -w B'c, written out for these small sizes.
-    for (int a = 0; a < n; ++a) {
-      for (int b = 0; b <= a; ++b) {
-        double sum = 0;
-        for (int r = 0; r < k; ++r) sum += grp.B(r, a) * grp.B(r, b);
-        grp.H(a, b) = grp.H(b, a) = w * sum + (a == b ? 1.0 : 0.0);
-      }
+    // H = I + w B'B, g = -w B'c over B's structure (the other entries are exact zeros).
+    for (std::size_t p = 0; p + 1 < grp.pair_rows_begin.size(); ++p) {
+      const int a = grp.pair_a[p], b = grp.pair_b[p];
       double sum = 0;
-      for (int r = 0; r < k; ++r) sum += grp.B(r, a) * grp.c(r);
+      for (int q = grp.pair_rows_begin[p]; q < grp.pair_rows_begin[p + 1]; ++q) {
+        const int r = grp.pair_rows[static_cast<std::size_t>(q)];
+        sum += grp.B(r, a) * grp.B(r, b);
+      }
+      grp.H(a, b) = grp.H(b, a) = w * sum + (a == b ? 1.0 : 0.0);
+    }
+    for (int a = 0; a < n; ++a) {
+      double sum = 0;
+      for (int r : grp.rows_of_muscle[static_cast<std::size_t>(a)]) sum += grp.B(r, a) * grp.c(r);
       grp.g(a) = -w * sum;
     }
     for (int a = 0; a < n; ++a) {

@@ -52,7 +52,7 @@ std::string refusal(const std::string& json, std::vector<MuscleParams> params) {
 TEST_CASE("muscle parameter files: a good one applies, side-less names to both sides",
           "[muscles]") {
   const models::Character c = muscled_character();
-  REQUIRE(c.muscles.size() == 32);  // 16 per leg
+  REQUIRE(c.muscles.size() == 36);  // 18 per leg
   const std::vector<MuscleParams> before = muscle_params(c.muscles, TendonChoice::kPerMuscle);
   std::vector<MuscleParams> params = before;
   apply_muscle_overrides(R"({"muscles": {
@@ -148,7 +148,7 @@ TEST_CASE_METHOD(biodyn::testing::SimulationTest,
   const sim::Model model = sim::Model::from_string(models::to_mjcf(c));
   const mjModel& m = *model;
   const MuscleSet set(m, muscle_params(c.muscles, TendonChoice::kPerMuscle));
-  REQUIRE(set.size() == 32);
+  REQUIRE(set.size() == 36);
   const auto dof_names = [&](int i) {
     std::vector<std::string> names;
     for (std::size_t k = 0; k < set.covered_dofs().size(); ++k) {

@@ -85,7 +85,7 @@ TEST_CASE("mocap so on walking5 writes activations, forces, reserves, a summary 
     CHECK(d.contains("peak_abs_reserve_Nm"));
     CHECK(d.contains("reserve_to_peak_ratio"));
   }
-  CHECK(s["muscles"].size() == 32);  // 16 per leg
+  CHECK(s["muscles"].size() == 36);  // 18 per leg
   const json& soleus = s["muscles"]["soleus_r"];
   CHECK(soleus["cycle_mean_peak_percent"].get<double>() >= 0);
   CHECK(soleus["reference_emg_on_percent"] == json::array({json::array({10.0, 50.0})}));

@@ -155,10 +155,10 @@ TEST_CASE("biodyn render --muscles on draws the muscles' paths coloured by activ
   INFO(on.out << on.err);
   REQUIRE(on.exit_code == 0);
   CHECK(on.out.find("Hill muscles") != std::string::npos);
-  CHECK(on.out.find("muscles:  32") != std::string::npos);
+  CHECK(on.out.find("muscles:  36") != std::string::npos);
   const nlohmann::json s = nlohmann::json::parse(slurp(dir / "on.json"));
   REQUIRE(s.contains("muscles"));
-  CHECK(s["muscles"]["muscles"].size() == 32);  // 16 per leg
+  CHECK(s["muscles"]["muscles"].size() == 36);  // 18 per leg
   CHECK(s["muscles"]["per_joint"].contains("hip_l"));
   const auto off = run_biodyn("render " + frame + "--png off.png", dir);
   REQUIRE(off.exit_code == 0);

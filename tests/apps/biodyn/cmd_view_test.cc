@@ -144,7 +144,7 @@ TEST_CASE(
   auto r = run_view("at 0.6 screenshot shot.png\nat 0.6 quit\n", dir, "--muscles on");
   INFO(r.out << r.err);
   REQUIRE(r.exit_code == 0);
-  CHECK(r.out.find("muscles:  32") != std::string::npos);
+  CHECK(r.out.find("muscles:  36") != std::string::npos);
   const json s = json::parse(slurp(dir / "summary.json"));
   CHECK(s["simulated_s"].get<double>() == Approx(0.6).margin(1e-9));
   REQUIRE(s.contains("muscles"));

@@ -32,7 +32,8 @@ void low_pass(Eigen::MatrixXd* samples, double rate_hz, const LowPassFilter& fil
 enum class GroundForces {
   kNone,  ///< none applied: the root residual is the whole ground reaction the motion needs
   /// measured force plates, each applied at its centre of pressure to the foot standing on it
-  /// (its sole on the plate and the centre of pressure under it; mocap_io/src/plate_assignment.h)
+  /// (its sole on the plate and the centre of pressure under it; mocap_io/src/plate_assignment.h),
+  /// to its toes when the centre of pressure is ahead of the toe joint
   kForcePlates,
   /// MuJoCo's soft contact with the floor, inverted (forces from penetration and its rate):
   /// swings strongly with sub-millimetre penetration (mujoco-2.2.2.md), so an estimate only

@@ -4,7 +4,8 @@
 /// gluteus maximus, gluteus medius (anterior and posterior parts), iliopsoas, rectus femoris,
 /// vasti, hamstrings, biceps femoris short head, gastrocnemius, soleus, tibialis anterior,
 /// extensor digitorum longus, adductor longus and brevis, adductor magnus, tibialis posterior,
-/// peroneus (16 per leg). Each spans the joints its path crosses (ext_dig the toes too).
+/// peroneus, flexor digitorum longus, flexor hallucis longus (18 per leg). Each spans the joints
+/// its path crosses (ext_dig and the two long toe flexors the toes too).
 ///
 /// Source: Rajagopal et al. 2016 (models/data/muscles_rajagopal2016.json names the file and
 /// every number's muscle compartment). Scaling to the generated body (README, "Muscles"):

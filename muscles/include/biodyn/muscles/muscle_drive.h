@@ -104,8 +104,13 @@ class MuscleDrive {
 
   /// Muscles that share no DOF (the two legs) are shared out by separate QPs.
   struct Group {
-    explicit Group(std::vector<int> muscle_ids, std::vector<int> row_ids);
+    Group(const MuscleSet& set, std::vector<int> muscle_ids, std::vector<int> row_ids);
     std::vector<int> muscles, rows;  // indices into the set's muscles and covered DOFs
+    // The structure of B = R diag(A) (fixed by the anatomy): per muscle (local index) the local
+    // rows it spans, and the muscle pairs (a >= b) sharing a row with those rows; H's other
+    // off-diagonal entries stay 0, so sums skip only exact zeros.
+    std::vector<std::vector<int>> rows_of_muscle;
+    std::vector<int> pair_a, pair_b, pair_rows_begin, pair_rows;
     BoxQp qp;
     Eigen::MatrixXd B, H;
     Eigen::VectorXd g, c, x, lo, hi;
