@@ -266,13 +266,13 @@ TEST_CASE("walking5 SO: soleus peaks in late stance (30-50% of the cycle)",
           "[muscles][so][slow][!mayfail]") {
   // Not met: the soleus peaks at 53% (right; left 49%), in push-off, with its force (52%); over
   // 30-50% its mean is 0.020 (its passive force gives 250-400 N) and the gastrocnemius (0.30)
-  // takes the plantarflexion: late stance needs up to 96 N m of hip flexion, the iliopsoas
-  // saturates, the rectus femoris joins and over-extends the knee, and the gastrocnemius's knee
-  // flexion balances it while it plantarflexes. Not the inversion hinge: with the triceps surae
+  // takes the plantarflexion (the gastrocnemius also spans the knee, where late stance's rectus
+  // femoris, recruited with the saturated iliopsoas for up to 96 N m of hip flexion, acts). Not
+  // the inversion hinge: with the triceps surae
   // made invertors (+0.5 or +1 cm about it, a diagnostic) the soleus still peaks at 52-55%, its
-  // 30-50% mean 0.004-0.016. With a rigid tendon push-off's shortening is all fibre shortening
-  // (f_V 0.3-0.7 over 50-56%), and SO has no electromechanical delay, by which EMG leads force by
-  // 5-10% of the cycle.
+  // 30-50% mean 0.004-0.016; nor a cubic cost (sum a^3: 53%). With a rigid tendon push-off's
+  // shortening is all fibre shortening (f_V 0.3-0.7 over 50-56%), and SO has no electromechanical
+  // delay, by which EMG leads force by 5-10% of the cycle.
   const double at = peak_percent(right_cycle(), "soleus");
   report("soleus", "soleus", kPlantarflexorPeakFrom, kPlantarflexorPeakTo);
   CHECK(at >= kPlantarflexorPeakFrom);
