@@ -119,24 +119,23 @@ Eigen::MatrixXd filtered_positions(const mjModel& m, const Eigen::MatrixXd& qpos
   return q;
 }
 
-/// The body of `side`'s foot that a plate's load at `cop` acts on: the toes when the centre of
-/// pressure is ahead of the toe joint (along the foot's forward axis; push-off, when the load is
-/// under the toes), else the foot. The ankle and every joint above it get the same torque
-/// either way; the toe joint gets (cop - joint) x F, which is zero where the two meet.
+/// The body of `side`'s foot that a plate's force `grf` at `cop` acts on: the toes when its line
+/// of action would turn them up about their joint (push-off: the load is under the toes), else
+/// the foot. The floor can only push the toes up, so the toe joint's torque is then a flexion
+/// demand, and it is zero where the rule switches (the line passes through the joint's axis):
+/// continuous. The ankle and every joint above it get the same torque either way.
 int loaded_foot_body(const mjModel& m, const mjData& d, const models::Rig& rig, int side,
-                     const Eigen::Vector3d& cop) {
+                     const Eigen::Vector3d& cop, const Eigen::Vector3d& grf) {
   const models::RigLeg& leg = rig.leg(side);
   if (leg.toes < 0 || m.body_jntnum[leg.toes] < 1) return leg.foot;
-  const mjtNum* joint = d.xanchor + 3 * m.body_jntadr[leg.toes];
-  const mjtNum* foot = d.xmat + 9 * leg.foot;  // column 0: the foot's forward axis
-  const double ahead = (cop.x() - joint[0]) * foot[0] + (cop.y() - joint[1]) * foot[3] +
-                       (cop.z() - joint[2]) * foot[6];
-  return ahead > 0 ? leg.toes : leg.foot;
+  const int joint = m.body_jntadr[leg.toes];  // the toes' one hinge (positive: dorsiflexion)
+  const Eigen::Vector3d anchor(d.xanchor + 3 * joint), axis(d.xaxis + 3 * joint);
+  return axis.dot((cop - anchor).cross(grf)) > 0 ? leg.toes : leg.foot;
 }
 
 /// The force plates' ground reaction at time `t_s` on the pose in `d` (kinematics done): each
 /// loaded plate's force and free moment, applied at its centre of pressure to the foot standing
-/// on it (plate_assignment.h; to its toes when the centre of pressure is ahead of the toe joint),
+/// on it (plate_assignment.h; to its toes when the force's line would turn them up),
 /// is added to `qfrc_ground` (nv); `plate_foot` (one per plate) gets the side, kPlateUnloaded or
 /// kPlateUnassigned. Returns the sum of the forces applied, N, world.
 Eigen::Vector3d apply_force_plates(const mjModel& m, mjData* d,
@@ -167,7 +166,7 @@ Eigen::Vector3d apply_force_plates(const mjModel& m, mjData* d,
     mjtNum force[3] = {grf.x(), grf.y(), grf.z()};
     mjtNum torque[3] = {free_moment.x(), free_moment.y(), free_moment.z()};
     mjtNum point[3] = {cop.x(), cop.y(), cop.z()};
-    mj_applyFT(&m, d, force, torque, point, loaded_foot_body(m, *d, rig, side, cop),
+    mj_applyFT(&m, d, force, torque, point, loaded_foot_body(m, *d, rig, side, cop, grf),
                qfrc_ground->data());
     total += grf;
   }

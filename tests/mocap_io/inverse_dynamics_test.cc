@@ -344,3 +344,65 @@ TEST_CASE_METHOD(biodyn::testing::SimulationTest,
     CHECK((id.plate_foot.array() == mocap_io::kPlateUnassigned).all());
   }
 }
+
+// Issue 25 (review): a plate's load goes to the toes when its line of action would turn them up
+// about their joint. With the foot's own forward axis as the test, a heel-up foot sent the load to
+// the toes while the centre of pressure was still behind the joint, and the toe torque jumped to
+// an extension demand (+5-6 N m on walking5) that a floor pushing up cannot cause.
+TEST_CASE_METHOD(biodyn::testing::SimulationTest,
+                 "Force plate loads under the toes: the toe joint only needs flexion, continuously",
+                 "[mocap_io][id]") {
+  const sim::Model model = testing::generated_character();
+  const mjModel& m = *model;
+  const models::Rig rig(m);
+  const int foot_l = rig.leg(models::kLeft).foot;
+  const int ankle = mj_name2id(&m, mjOBJ_JOINT, "ankle_dorsiflexion_l");
+  const int toe = mj_name2id(&m, mjOBJ_JOINT, "toe_dorsiflexion_l");
+  REQUIRE(ankle >= 0);
+  REQUIRE(toe >= 0);
+  const int toe_dof = m.jnt_dofadr[toe];
+  mocap_io::InverseDynamicsOptions with_plates, no_ground;
+  with_plates.ground = mocap_io::GroundForces::kForcePlates;
+  constexpr double kStep_m = 0.0005;         // centre of pressure sweep step
+  constexpr double kPropulsion = 0.2;        // forward force / vertical force (push-off)
+  constexpr double kMaxStepChange = 0.5;     // N m: the sweep's slope is F_z x step = 0.35 N m
+  for (const double heel_up : {0.0, 0.4}) {  // rad: ankle plantarflexed, toes turned up as much
+    Eigen::VectorXd q = Eigen::Map<const Eigen::VectorXd>(m.qpos0, m.nq);
+    q(m.jnt_qposadr[ankle]) = -heel_up;
+    q(m.jnt_qposadr[toe]) = heel_up;
+    q(2) -= lowest_sole(m, q, foot_l);
+    sim::Data d(m);
+    for (int k = 0; k < m.nq; ++k) d->qpos[k] = q(k);
+    mj_kinematics(&m, d.get());
+    const Eigen::Vector3d joint(d->xanchor + 3 * toe);
+    Eigen::Vector3d forward(d->xmat[9 * foot_l], d->xmat[9 * foot_l + 3], 0.0);
+    forward.normalize();
+    const mocap_io::Motion motion = held_pose(m, q);
+    const double tau_free =
+        mocap_io::inverse_dynamics(m, motion, no_ground).generalized_force(5, toe_dof);
+    double previous = 0, largest_step = 0, most_flexion = 0, most_extension = -1e9;
+    bool first = true;
+    for (double s = -0.06; s <= 0.04 + 1e-12; s += kStep_m) {
+      Eigen::Vector3d cop = joint + s * forward;
+      cop.z() = 0.0;
+      mocap_io::ForcePlate plate = loaded_plate(cop, cop);
+      const Eigen::Vector3d f = kPlateLoad_N * (kPropulsion * forward + Eigen::Vector3d::UnitZ());
+      plate.force_N = f.transpose().replicate(kPlateFrames, 1);
+      const mocap_io::InverseDynamicsResult id =
+          mocap_io::inverse_dynamics(m, motion, with_plates, {plate}, kPlateRate_hz);
+      REQUIRE((id.plate_foot.array() == models::kLeft).all());
+      const double tau = id.generalized_force(5, toe_dof) - tau_free;  // the load's share
+      if (!first) largest_step = std::max(largest_step, std::abs(tau - previous));
+      first = false;
+      previous = tau;
+      most_flexion = std::min(most_flexion, tau);
+      most_extension = std::max(most_extension, tau);
+    }
+    INFO("heel up " << heel_up << " rad: toe torque from the load " << most_flexion << " to "
+                    << most_extension << " N m, largest change per " << kStep_m * 1000
+                    << " mm of the centre of pressure " << largest_step << " N m");
+    CHECK(most_extension <= 1e-9);         // never an extension demand
+    CHECK(most_flexion < -5.0);            // the toes carry the load ahead of their joint
+    CHECK(largest_step < kMaxStepChange);  // no jump where the load moves to the toes
+  }
+}

@@ -33,7 +33,7 @@ enum class GroundForces {
   kNone,  ///< none applied: the root residual is the whole ground reaction the motion needs
   /// measured force plates, each applied at its centre of pressure to the foot standing on it
   /// (its sole on the plate and the centre of pressure under it; mocap_io/src/plate_assignment.h),
-  /// to its toes when the centre of pressure is ahead of the toe joint
+  /// to its toes when the force's line of action would turn them up about their joint (push-off)
   kForcePlates,
   /// MuJoCo's soft contact with the floor, inverted (forces from penetration and its rate):
   /// swings strongly with sub-millimetre penetration (mujoco-2.2.2.md), so an estimate only
