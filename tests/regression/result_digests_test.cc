@@ -169,6 +169,8 @@ TEST_CASE("Result digests: biodyn walk", "[regression][digests][slow]") {
        "walk --weld glue --reaction-time 0.1 --heading-rate 10 --duration 12 --json r.json --csv "
        "r.csv",
        kWalkOutputs},
+      // The legs' Hill muscles (issue 25): drive, activation and fibre states, backups.
+      {"walk_muscles", "walk --muscles on --duration 6 --json r.json --csv r.csv", kWalkOutputs},
   });
 }
 
