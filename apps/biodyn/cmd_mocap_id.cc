@@ -329,8 +329,10 @@ int run_id(const IdOptions& o) {
     summary["plates"] = plate_summary(id, &unassigned);
     summary["plate_assignment"] =
         "a plate's load goes to the foot whose sole is on the plate (within 3 cm of its surface) "
-        "with the centre of pressure under it (within 4 cm); unassigned loads (both feet or "
-        "neither) are not applied and stay in the root residual";
+        "with the centre of pressure under it (within 4 cm), applied at the centre of pressure to "
+        "the foot, or to its toes when the force's line would turn them up about their joint "
+        "(push-off); unassigned loads (both feet or neither) are not applied and stay in the root "
+        "residual";
   }
   // Every output's text first, then the plot (gnuplot may fail), then the files: a failure
   // leaves none of torques.csv, residuals.csv, plates.csv, summary.json.
