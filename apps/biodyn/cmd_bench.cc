@@ -11,7 +11,10 @@
 #include "biodyn/controllers/control_pipeline.h"
 #include "biodyn/models/mjcf.h"
 #include "biodyn/models/rig.h"
+#include "biodyn/muscles/muscle_set.h"
+#include "biodyn/muscles/static_optimization.h"
 #include "biodyn/scenarios/walk.h"
+#include "biodyn/scenarios/walk_scenario.h"
 #include "biodyn/sim/errors.h"
 #include "biodyn/sim/model.h"
 #include "biodyn/sim/snapshot.h"
@@ -35,8 +38,46 @@ double walk_wall_per_sim_s(const models::CharacterSpec& spec, bool muscles, doub
   return r.wall_s / r.simulated_s;
 }
 
+// Static optimisation's per-frame loop (kinematics, moment arms, Hill forces, QP; what `mocap so`
+// runs) on every step of the torque-only walk at 1 m/s: its states and the joint torques that
+// drove it, on the same body with the legs' muscles (rigid tendons, as `mocap so`). Returns
+// frames per second on this thread; `frames` gets the count.
+double so_frames_per_s(const models::CharacterSpec& spec, double duration_s, long* frames) {
+  scenarios::ScenarioConfig config;
+  config.scenario = "walk";
+  config.character = spec;
+  sim::Simulation sim(sim::Model::from_string(
+      models::to_mjcf(models::generate_character(config.model_spec())), "<character>"));
+  scenarios::WalkScenario walk(&sim, config);
+  const mjModel& m = sim.model();
+  const long steps = std::lround(duration_s / m.opt.timestep);
+  walk.set_max_steps(steps);
+  Eigen::MatrixXd qpos(steps, m.nq), qvel(steps, m.nv), tau(steps, m.nv);
+  long f = 0;
+  for (; f < steps && !walk.run_over(); ++f) {
+    const mjData& d = sim.data();
+    qpos.row(f) = Eigen::Map<const Eigen::RowVectorXd>(d.qpos, m.nq);
+    qvel.row(f) = Eigen::Map<const Eigen::RowVectorXd>(d.qvel, m.nv);
+    walk.step();
+    tau.row(f) = Eigen::Map<const Eigen::RowVectorXd>(sim.data().qfrc_applied, m.nv);
+  }
+  if (walk.fallen()) throw sim::Error("bench --muscles: the walk fell; no speed figure");
+  models::CharacterSpec muscled = config.model_spec();
+  muscled.muscles = true;
+  const models::Character c = models::generate_character(muscled);
+  const sim::Model model = sim::Model::from_string(models::to_mjcf(c), "<character, muscles>");
+  if (model->nq != m.nq || model->nv != m.nv)
+    throw sim::Error("bench --muscles: the muscled body's joints differ from the walk's");
+  muscles::StaticOptimization so(muscles::MuscleSet(
+      *model, muscles::muscle_params(c.muscles, muscles::TendonChoice::kAllRigid)));
+  const muscles::StaticOptimizationResult r =
+      muscles::static_optimization(*model, &so, qpos.topRows(f), qvel.topRows(f), tau.topRows(f));
+  *frames = f;
+  return static_cast<double>(f) / r.solve_time_s;
+}
+
 // bench --muscles: the same walk without and with muscles, alternated `repeats` times (the
-// median of each: other load on the machine hits both alike).
+// median of each: other load on the machine hits both alike); then static optimisation's speed.
 int bench_muscles(const models::CharacterSpec& spec, double duration_s, int repeats,
                   const std::string& json_path) {
   std::vector<double> off, on;
@@ -49,6 +90,8 @@ int bench_muscles(const models::CharacterSpec& spec, double duration_s, int repe
       bar.update((2.0 * k + 2) / (2.0 * repeats));
     }
   }
+  long so_frames = 0;
+  const double so_fps = so_frames_per_s(spec, duration_s, &so_frames);
   const auto median = [](std::vector<double> v) {
     std::sort(v.begin(), v.end());
     return v[v.size() / 2];
@@ -59,7 +102,10 @@ int bench_muscles(const models::CharacterSpec& spec, double duration_s, int repe
             << " alternated runs\n"
             << "  without muscles: " << 1.0 / t_off << "x real time\n"
             << "  with muscles:    " << 1.0 / t_on << "x real time\n"
-            << "  speed ratio:     " << t_off / t_on << " (goal >= 0.75)\n";
+            << "  speed ratio:     " << t_off / t_on << " (goal >= 0.75)\n"
+            << std::setprecision(0) << "  static optimisation: " << so_fps
+            << " frames/s on one thread (goal >= 2000): the per-frame loop of `mocap so` over "
+            << so_frames << " states and joint torques of the torque-only walk\n";
   if (!json_path.empty()) {
     const nlohmann::json j = {{"detail", to_string(spec.detail)},
                               {"duration_s", duration_s},
@@ -67,6 +113,8 @@ int bench_muscles(const models::CharacterSpec& spec, double duration_s, int repe
                               {"realtime_factor_without_muscles", 1.0 / t_off},
                               {"realtime_factor_with_muscles", 1.0 / t_on},
                               {"speed_ratio", t_off / t_on},
+                              {"static_optimization_frames_per_s", so_fps},
+                              {"static_optimization_frames", so_frames},
                               {"wall_per_sim_s_without", off},
                               {"wall_per_sim_s_with", on}};
     write_file_atomically(json_path, j.dump(2) + "\n");

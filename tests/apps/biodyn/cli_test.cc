@@ -175,6 +175,18 @@ TEST_CASE("biodyn pose, stand-push and bench write the fields the issue names",
     CHECK(j["ratio"].get<double>() == Approx(j["controlled_steps_per_second"].get<double>() /
                                              j["bare_steps_per_second"].get<double>()));
   }
+  {
+    // Issue 25: both speed figures from one benchmark command.
+    const Run r = run_biodyn("bench --muscles --duration 1 --repeats 1 --json bm.json", dir);
+    INFO(r.out << r.err);
+    REQUIRE(r.exit_code == 0);
+    CHECK(r.out.find("speed ratio:") != std::string::npos);
+    CHECK(r.out.find("static optimisation:") != std::string::npos);
+    const auto j = nlohmann::json::parse(slurp(dir / "bm.json"));
+    CHECK(j["speed_ratio"].get<double>() > 0);
+    CHECK(j["static_optimization_frames"].get<int>() == 500);  // every 2 ms step of 1 s
+    CHECK(j["static_optimization_frames_per_s"].get<double>() > 0);
+  }
 }
 
 TEST_CASE("Bad pose options exit 2 with one line naming the value, nothing written",
