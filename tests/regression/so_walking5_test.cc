@@ -239,9 +239,8 @@ TEST_CASE("walking5 SO: reserves under 10% of each joint's peak torque over its 
   // the passive windlass that carries much of the toe joint's moment then (Hicks 1954, J Anat
   // 88:25), and walking5 has no toe markers: IK holds the toes at 0 deg through push-off (real
   // toes dorsiflex 30-50 deg), so the flexors' lengths there are unknown. Every hip, knee and
-  // ankle DOF is under 10%:
-  // knee_flexion_l 5.4%, hip_l_x 3.2%, ankle_inversion_r 1.8% (12.7% before the long toe flexors,
-  // the foot's other invertors, were added).
+  // ankle DOF is under 10%: knee_flexion_l 5.4%, hip_l_x 3.2%, ankle_inversion_r 1.8% (12.7%
+  // before the long toe flexors, the foot's other invertors, were added).
   const SoWalking5& run = so_walking5();
   for (std::size_t k = 0; k < run.dof_names.size(); ++k) {
     const int side = run.dof_side[k];
