@@ -17,6 +17,7 @@
 #include "biodyn/muscles/muscle_set.h"
 #include "biodyn/sim/model.h"
 #include "biodyn/sim/units.h"
+#include "character.h"
 #include "test_support.h"
 
 namespace biodyn::muscles::moment_arms_test {
@@ -132,8 +133,7 @@ class MuscledBody {
     spec.mass_kg = b.mass_kg;
     spec.sex = b.sex;
     spec.detail = models::Detail::kGait;
-    spec.muscles = true;
-    return models::generate_character(spec);
+    return testing::muscled_character(spec);
   }
   models::Character character_;
   sim::Model model_;
@@ -192,12 +192,7 @@ TEST_CASE_METHOD(biodyn::testing::SimulationTest,
   REQUIRE(mj_isSparse(&m));
   const int root_dofs = 6;
   REQUIRE(m.jnt_type[m.dof_jntid[0]] == mjJNT_FREE);
-  sim::Model dense_model = sim::Model::from_string(models::to_mjcf([] {
-    models::CharacterSpec spec;
-    spec.detail = models::Detail::kGait;
-    spec.muscles = true;
-    return models::generate_character(spec);
-  }()));
+  sim::Model dense_model = sim::Model::from_string(models::to_mjcf(testing::muscled_character()));
   dense_model->opt.jacobian = mjJAC_DENSE;
   sim::Data dense_data(*dense_model);
   const MuscleSet& set = body.set();
@@ -521,10 +516,7 @@ TEST_CASE_METHOD(biodyn::testing::SimulationTest,
   // degrees past: the path must stay behind the knee axis there (the side site's job).
   constexpr double kPastLimit_deg = -5.0;
   constexpr double kMinFlexorArm_m = 0.015;
-  models::CharacterSpec spec;
-  spec.detail = models::Detail::kGait;
-  spec.muscles = true;
-  const models::Character c = models::generate_character(spec);
+  const models::Character c = testing::muscled_character();
   const sim::Model model = sim::Model::from_string(models::to_mjcf(c));
   const mjModel& m = *model;
   sim::Data data(m);

@@ -16,6 +16,7 @@
 #include "biodyn/sim/errors.h"
 #include "biodyn/sim/model.h"
 #include "biodyn/sim/units.h"
+#include "character.h"
 #include "test_support.h"
 
 namespace biodyn::muscles::muscle_set_test {
@@ -23,12 +24,7 @@ namespace {
 
 constexpr const char* kSource = "legs.json";
 
-models::Character muscled_character() {
-  models::CharacterSpec spec;
-  spec.detail = models::Detail::kGait;
-  spec.muscles = true;
-  return models::generate_character(spec);
-}
+using testing::muscled_character;
 
 const MuscleParams& find(const std::vector<MuscleParams>& params, const std::string& name) {
   for (const MuscleParams& p : params)

@@ -16,6 +16,7 @@
 #include "biodyn/muscles/muscle_tendon_unit.h"
 #include "biodyn/sim/model.h"
 #include "biodyn/sim/units.h"
+#include "character.h"
 #include "test_support.h"
 
 namespace biodyn::muscles::mtu_test {
@@ -303,10 +304,7 @@ TEST_CASE_METHOD(biodyn::testing::SimulationTest,
                  "isometric soleus across ankle angles matches an independent Thelen computation",
                  "[muscles]") {
   constexpr double kFdStep_rad = 1e-6;
-  models::CharacterSpec spec;
-  spec.detail = models::Detail::kGait;
-  spec.muscles = true;
-  const models::Character c = models::generate_character(spec);
+  const models::Character c = testing::muscled_character();
   const sim::Model model = sim::Model::from_string(models::to_mjcf(c));
   const mjModel& m = *model;
   sim::Data data(m);

@@ -35,6 +35,7 @@
 #include "biodyn/muscles/muscle_set.h"
 #include "biodyn/muscles/static_optimization.h"
 #include "biodyn/sim/model.h"
+#include "character.h"
 #include "test_support.h"
 
 using namespace biodyn;
@@ -125,10 +126,9 @@ bool plate_cycle(const SoWalking5& run, const muscles::MuscleSet& set, int side,
 SoWalking5 solve_so_walking5() {
   const mocap_io::C3dFile c3d = mocap_io::read_c3d(kSoWalking5);
   const models::MarkerSet set = models::builtin_marker_set("opensim_walking5");
-  models::CharacterSpec spec =
-      mocap_io::scale_from_static(models::CharacterSpec{}, false, set, c3d.markers).spec;
-  spec.muscles = true;  // the same body and joints, with the legs' muscle paths
-  const models::Character character = models::generate_character(spec);
+  // The scaled body with the legs' muscle paths (the same body and joints).
+  const models::Character character = testing::muscled_character(
+      mocap_io::scale_from_static(models::CharacterSpec{}, false, set, c3d.markers).spec);
   SoWalking5 run(sim::Model::from_string(models::to_mjcf(character), "walking5 subject"));
   const mjModel& m = *run.model;
   std::vector<double> weights;

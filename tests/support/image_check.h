@@ -34,34 +34,32 @@ inline CharacterPixels count_character_pixels(const std::string& png) {
   return c;
 }
 
-/// Pixels of the stones' green (the overlays' "stepped on within 2 cm"), -1 if unreadable.
-inline int count_green_stone_pixels(const std::string& png) {
+/// Pixels of `png` whose RGB `is_colour` accepts, -1 if unreadable.
+template <typename Predicate>
+int count_pixels(const std::string& png, Predicate is_colour) {
   int width = 0, height = 0, channels = 0;
   unsigned char* img = stbi_load(png.c_str(), &width, &height, &channels, 3);
   if (img == nullptr) return -1;
   int n = 0;
   for (int i = 0; i < width * height; ++i) {
     const unsigned char* p = img + 3 * i;
-    if (p[1] > 120 && p[1] > p[0] + 60 && p[1] > p[2] + 40) ++n;
+    if (is_colour(p[0], p[1], p[2])) ++n;
   }
   stbi_image_free(img);
   return n;
+}
+
+/// Pixels of the stones' green (the overlays' "stepped on within 2 cm"), -1 if unreadable.
+inline int count_green_stone_pixels(const std::string& png) {
+  return count_pixels(png, [](int r, int g, int b) { return g > 120 && g > r + 60 && g > b + 40; });
 }
 
 /// Pixels of an active muscle's red (viewer/overlays.h, activation_rgba: about 0.5 and above,
 /// as lit and seen through the see-through body), -1 if unreadable. Nothing else in a frame
 /// without pushes or glued welds in tension is this red.
 inline int count_active_muscle_pixels(const std::string& png) {
-  int width = 0, height = 0, channels = 0;
-  unsigned char* img = stbi_load(png.c_str(), &width, &height, &channels, 3);
-  if (img == nullptr) return -1;
-  int n = 0;
-  for (int i = 0; i < width * height; ++i) {
-    const unsigned char* p = img + 3 * i;
-    if (p[0] > 140 && p[1] < 90 && p[2] < 90 && p[0] > 2 * p[1]) ++n;
-  }
-  stbi_image_free(img);
-  return n;
+  return count_pixels(png,
+                      [](int r, int g, int b) { return r > 140 && g < 90 && b < 90 && r > 2 * g; });
 }
 
 }  // namespace biodyn::testing
