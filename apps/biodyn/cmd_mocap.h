@@ -29,17 +29,22 @@ std::vector<std::string> reader_notes(int transcoded_names, int zero_samples);
 /// How a command runs inverse dynamics (`mocap id`, and `mocap so` without --id): the options
 /// as typed.
 struct IdSettings {
-  std::string grf = "none";  ///< --grf: none | from-c3d | contact
+  std::string grf = "none";  ///< --grf: none | plates (from-c3d) | estimate (contact)
   std::string c3d;           ///< --c3d: the capture whose force plates from-c3d applies
   std::string lab_up = "z";  ///< --lab-up: the capture lab's vertical, z or y
   double cutoff_hz = 6.0;    ///< --cutoff: Hz, the positions' low-pass (0: none)
 };
 
+/// Whether --grf `grf` asks for the kinematic estimate ("contact" is its old name: the estimate
+/// replaced MuJoCo's floor contact inverted on kinematic data, which spiked to 10^4-10^5 N).
+inline bool is_estimate(const std::string& grf) { return grf == "estimate" || grf == "contact"; }
+
 /// The ground forces IdSettings ask for.
 struct IdGround {
   mocap_io::GroundForces ground = mocap_io::GroundForces::kNone;
-  std::vector<mocap_io::ForcePlate> plates;  ///< from-c3d: the plates, turned to z up
-  double plate_rate_hz = 0.0;                ///< Hz, the plates' sample rate
+  /// the plates, turned to z up: applied (plates), or checked against (estimate)
+  std::vector<mocap_io::ForcePlate> plates;
+  double plate_rate_hz = 0.0;  ///< Hz, the plates' sample rate
 };
 
 /// Reads the ground forces `s` asks for (the plates of --c3d for from-c3d). Throws

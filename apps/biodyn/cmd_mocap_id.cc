@@ -239,6 +239,17 @@ json plate_summary(const mocap_io::InverseDynamicsResult& id, int* unassigned_to
 /// Per frame, the norm of each row of `x` (N or N m).
 Eigen::VectorXd row_norms(const Eigen::MatrixXd& x) { return x.rowwise().norm(); }
 
+/// What the ground forces of --grf `grf` rest on, for the summary.
+std::string ground_caveat(const std::string& grf) {
+  if (grf == "none") return "no ground force: the root residual is the whole ground reaction";
+  if (is_estimate(grf)) {
+    return "estimated from the kinematics (sole points within 4 cm of the floor and under "
+           "0.8 m/s, friction pyramid mu 0.5, least root residual and leg torques; Fluit 2014, "
+           "Skals 2017): assumes a flat, level floor and that the body's mass is the subject's";
+  }
+  return "measured force plates";
+}
+
 /// summary.json: what was run on what, the residuals' peaks and RMS, the heel strikes and each
 /// DOF's peak torque.
 json id_summary(const IdOptions& o, const mocap_io::InverseDynamicsResult& id, int first_used,
@@ -256,13 +267,7 @@ json id_summary(const IdOptions& o, const mocap_io::InverseDynamicsResult& id, i
           {"time_span_s", {id.times_s.front(), id.times_s.back()}},
           {"character", character_json(spec)},
           {"ground", o.settings.grf},
-          {"ground_caveat",
-           o.settings.grf == "contact"
-               ? "MuJoCo's soft contact inverted on kinematic data: forces swing strongly "
-                 "with sub-millimetre penetration; an estimate only"
-           : o.settings.grf == "none" ? "no ground force: the root residual is the whole "
-                                        "ground reaction"
-                                      : "measured force plates"},
+          {"ground_caveat", ground_caveat(o.settings.grf)},
           {"filter",
            {{"type", "Butterworth 2nd order, forward-backward (zero lag)"},
             {"cutoff_hz", o.settings.cutoff_hz}}},
@@ -274,6 +279,87 @@ json id_summary(const IdOptions& o, const mocap_io::InverseDynamicsResult& id, i
           {"body_weight_N", body_weight_N},
           {"left_heel_strikes_s", strikes},
           {"peak_torques", peaks}};
+}
+
+/// ground.csv (--grf estimate): per frame, each foot's estimated force, centre of pressure and
+/// vertical free moment.
+std::string ground_csv(const mocap_io::InverseDynamicsResult& id) {
+  const mocap_io::GroundForceEstimate& e = id.ground_estimate;
+  std::ostringstream out;
+  out << "time";
+  for (const char* side : {"l", "r"}) {
+    for (const char* c : {"fx", "fy", "fz", "cop_x", "cop_y", "cop_z", "free_moment_z"}) {
+      out << "," << c << "_" << side;
+    }
+  }
+  out << "\n";
+  out.precision(9);
+  for (size_t f = 0; f < id.times_s.size(); ++f) {
+    const auto i = static_cast<Eigen::Index>(f);
+    out << id.times_s[f];
+    for (size_t side = 0; side < 2; ++side) {
+      for (int c = 0; c < 3; ++c) out << "," << e.force_N[side](i, c);
+      for (int c = 0; c < 3; ++c) {
+        const double v = e.cop_m[side](i, c);
+        out << ",";
+        if (std::isfinite(v)) out << v;  // empty: no load, no centre of pressure
+      }
+      out << "," << e.free_moment_Nm[side](i);
+    }
+    out << "\n";
+  }
+  return out.str();
+}
+
+/// summary.json's "ground_estimate_check": the estimate against the capture's plates.
+json plate_check_json(const mocap_io::PlateComparison& c, double mass_kg) {
+  const double bw = c.body_weight_N;
+  json j = {
+      {"frames", c.frames},
+      {"frames_rule", "a plate is loaded, its load is one foot's and it sees that whole foot"},
+      {"vertical_rms_N", c.vertical_rms_N},
+      {"vertical_rms_percent_bw", 100 * c.vertical_rms_N / bw},
+      {"fore_aft_rms_N", c.fore_aft_rms_N},
+      {"fore_aft_rms_percent_bw", 100 * c.fore_aft_rms_N / bw},
+      {"lateral_rms_N", c.lateral_rms_N},
+      {"lateral_rms_percent_bw", 100 * c.lateral_rms_N / bw},
+      {"vertical_peak_error_N", c.vertical_peak_error_N},
+      {"single_support_frames", c.single_support_frames}};
+  if (std::isfinite(c.single_support_ratio)) {
+    j["single_support_plate_over_estimate"] = c.single_support_ratio;
+    j["mass_the_plates_suggest_kg"] = c.single_support_ratio * mass_kg;
+  }
+  return j;
+}
+
+/// ground_check.csv: per compared frame, the foot and its estimated and measured force.
+std::string plate_check_csv(const mocap_io::PlateComparison& c) {
+  std::ostringstream out;
+  out << "time,foot,estimated_fx,estimated_fy,estimated_fz,plate_fx,plate_fy,plate_fz\n";
+  out.precision(9);
+  for (size_t i = 0; i < c.times_s.size(); ++i) {
+    out << c.times_s[i] << "," << (c.sides[i] == models::kLeft ? "left" : "right");
+    for (int k = 0; k < 3; ++k) out << "," << c.estimated_N[i](k);
+    for (int k = 0; k < 3; ++k) out << "," << c.measured_N[i](k);
+    out << "\n";
+  }
+  return out.str();
+}
+
+/// The console lines of the plate check; a WARNING when the plates suggest another mass.
+void print_plate_check(const mocap_io::PlateComparison& c, double mass_kg) {
+  const double bw = c.body_weight_N;
+  std::cout << "  estimate vs plates over " << c.frames << " frames (a plate sees one whole "
+            << "foot): vertical RMS " << c.vertical_rms_N << " N (" << 100 * c.vertical_rms_N / bw
+            << "% BW), fore-aft " << c.fore_aft_rms_N << " N (" << 100 * c.fore_aft_rms_N / bw
+            << "% BW), lateral " << c.lateral_rms_N << " N (" << 100 * c.lateral_rms_N / bw
+            << "% BW); per frame in ground_check.csv\n";
+  if (std::isfinite(c.single_support_ratio) && std::abs(c.single_support_ratio - 1) > 0.05) {
+    std::cerr << "WARNING: in single support the plates measure " << c.single_support_ratio
+              << " of the estimate's vertical force: the subject may weigh about "
+              << c.single_support_ratio * mass_kg << " kg, not " << mass_kg
+              << " kg (give --mass; the estimate scales with it)\n";
+  }
 }
 
 /// The console summary: residual peaks against the body weight, and what the ground model means.
@@ -289,19 +375,15 @@ void print_id(const IdOptions& o, const mocap_io::InverseDynamicsResult& id,
     std::cout << "  --grf none: the residual is the whole ground reaction the motion "
                  "needs, not a modelling error\n";
   }
-  if (ground == mocap_io::GroundForces::kContact) {
-    // Measured on the CMU walk retargeted to 2 m: peaks of 10^4-10^5 N where a
-    // kinematic foot or knee sits a fraction of a millimetre in the floor.
-    Eigen::Index peak = 0;
-    fn.maxCoeff(&peak);
-    std::cout << "  --grf contact: MuJoCo's soft contact inverted on kinematic data; its "
-                 "forces swing strongly with sub-millimetre penetration (peak at t = "
-              << id.times_s[static_cast<std::size_t>(peak)]
-              << " s): an estimate only; force plates (--grf from-c3d) are the "
-                 "measurement\n";
+  if (ground == mocap_io::GroundForces::kEstimated) {
+    const Eigen::VectorXd fz = id.ground_force_N.col(2);
+    std::cout << "  --grf estimate: ground forces from the kinematics (peak vertical "
+              << fz.maxCoeff() / body_weight_N
+              << " body weights); assumes a flat floor and the subject's mass\n";
   }
   std::cout << "wrote " << o.output << "/{torques.csv, residuals.csv, "
             << (ground == mocap_io::GroundForces::kForcePlates ? "plates.csv, " : "")
+            << (ground == mocap_io::GroundForces::kEstimated ? "ground.csv, " : "")
             << "summary.json, torques.png}\n";
 }
 
@@ -334,18 +416,29 @@ int run_id(const IdOptions& o) {
         "(push-off); unassigned loads (both feet or neither) are not applied and stay in the root "
         "residual";
   }
+  const bool estimated = ground.ground == mocap_io::GroundForces::kEstimated;
+  std::optional<mocap_io::PlateComparison> check;
+  if (estimated && !ground.plates.empty()) {
+    check = mocap_io::compare_with_plates(*model, id, ground.plates, ground.plate_rate_hz);
+    summary["ground_estimate_check"] = plate_check_json(*check, character.total_mass_kg());
+  }
   // Every output's text first, then the plot (gnuplot may fail), then the files: a failure
-  // leaves none of torques.csv, residuals.csv, plates.csv, summary.json.
+  // leaves none of torques.csv, residuals.csv, plates.csv, ground.csv, summary.json.
   const std::string torques = torques_csv(id), residuals = residuals_csv(id);
   const std::string plates_text = plates_used ? plates_csv(id) : std::string();
+  const std::string ground_text = estimated ? ground_csv(id) : std::string();
+  const std::string check_text = check ? plate_check_csv(*check) : std::string();
   const std::string summary_text = json_text(summary, 1) + "\n";
   std::filesystem::create_directories(o.output);
   plot_torques(o.output, id, strikes, spec.mass_kg);
   write_file_atomically(o.output + "/torques.csv", torques);
   write_file_atomically(o.output + "/residuals.csv", residuals);
   if (plates_used) write_file_atomically(o.output + "/plates.csv", plates_text);
+  if (estimated) write_file_atomically(o.output + "/ground.csv", ground_text);
+  if (check) write_file_atomically(o.output + "/ground_check.csv", check_text);
   write_file_atomically(o.output + "/summary.json", summary_text);
   print_id(o, id, ground.ground, spec, body_weight_N);
+  if (check) print_plate_check(*check, character.total_mass_kg());
   for (const std::string& n : notes) std::cout << "  note: " << n << "\n";
   if (unassigned > 0) {
     std::cerr << "WARNING: " << unassigned
@@ -360,24 +453,27 @@ int run_id(const IdOptions& o) {
 IdGround id_ground(const IdSettings& s) {
   IdGround out;
   if (s.grf == "none") return out;
-  if (s.grf == "contact") {
-    out.ground = mocap_io::GroundForces::kContact;
-    return out;
+  const bool estimate = is_estimate(s.grf);
+  if (!estimate && s.grf != "from-c3d" && s.grf != "plates") {
+    throw sim::InvalidArgument(
+        "--grf: expected none, plates (or from-c3d), estimate (or "
+        "contact), got '" +
+        s.grf + "'");
   }
-  if (s.grf != "from-c3d") {
-    throw sim::InvalidArgument("--grf: expected none, from-c3d or contact, got '" + s.grf + "'");
+  if (!estimate && s.c3d.empty()) {
+    throw sim::InvalidArgument("--grf " + s.grf + ": give the capture with --c3d FILE");
   }
-  if (s.c3d.empty()) {
-    throw sim::InvalidArgument("--grf from-c3d: give the capture with --c3d FILE");
-  }
+  if (estimate) out.ground = mocap_io::GroundForces::kEstimated;
+  if (s.c3d.empty()) return out;
   const mocap_io::C3dFile c3d = mocap_io::read_c3d(s.c3d);
   if (c3d.force_plates.empty()) {
+    if (estimate) return out;  // nothing to check the estimate against
     throw sim::InvalidArgument("--c3d " + s.c3d + ": has no force plates");
   }
   if (s.lab_up != "z" && s.lab_up != "y") {
     throw sim::InvalidArgument("--lab-up: expected z or y, got '" + s.lab_up + "'");
   }
-  out.ground = mocap_io::GroundForces::kForcePlates;
+  if (!estimate) out.ground = mocap_io::GroundForces::kForcePlates;
   out.plates = c3d.force_plates;
   to_z_up(&out.plates, s.lab_up);
   out.plate_rate_hz = c3d.analog.rate_hz;
@@ -402,8 +498,10 @@ MotionId run_motion_id(const mjModel& model, const mocap_io::Motion& all, const 
                      std::to_string(out.first_frame + out.motion.frame_count() - 1) +
                      ") are not used");
   }
-  if (!s.c3d.empty() && options.ground != mocap_io::GroundForces::kForcePlates) {
-    notes->push_back("--c3d is only read with --grf from-c3d: its force plates are not used");
+  if (!s.c3d.empty() && options.ground == mocap_io::GroundForces::kNone) {
+    notes->push_back(
+        "--c3d is only read with --grf plates or estimate: its force plates are not "
+        "used");
   }
   std::optional<ProgressBar> bar;
   if (!command.empty())
@@ -424,8 +522,10 @@ Command add_mocap_id_command(CLI::App* mocap) {
   idopt->character.add_to(id_cmd);
   id_cmd
       ->add_option("--grf", idopt->settings.grf,
-                   "ground reaction: none (all in the root residual), from-c3d (the "
-                   "capture's force plates; needs --c3d), contact (MuJoCo's floor contact)")
+                   "ground reaction: none (all in the root residual), plates (the capture's "
+                   "force plates; needs --c3d; also from-c3d), estimate (from the kinematics: "
+                   "sole points near the floor and slow; also contact; with --c3d's plates, "
+                   "checked against them)")
       ->capture_default_str();
   id_cmd->add_option("--c3d", idopt->settings.c3d, "the C3D the motion came from (force plates)");
   id_cmd

@@ -761,7 +761,9 @@ int run_so(SoOptions o) {
     throw sim::InvalidArgument("--id: '" + o.id_dir +
                                "' is not a directory (give the -o directory of mocap id)");
   }
-  o.settings.grf = o.settings.c3d.empty() ? "none" : "from-c3d";
+  // Without plates the ground forces are estimated from the kinematics: with none, every leg
+  // joint would carry the body as if it hung in the air.
+  o.settings.grf = o.settings.c3d.empty() ? "estimate" : "from-c3d";
   const IdGround ground = o.id_dir.empty() ? id_ground(o.settings) : IdGround{};
   const mocap_io::Motion all = mocap_io::read_motion_csv(o.motion);
   std::vector<std::string> notes;

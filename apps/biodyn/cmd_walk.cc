@@ -1,5 +1,8 @@
 // biodyn walk / biodyn push: walking headless under the torque walker, and one push during
 // steady walking (issue 4; references.md, push protocol).
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
 #include <fstream>
 #include <iomanip>
 #include <iostream>
@@ -8,7 +11,9 @@
 #include <sstream>
 
 #include "biodyn/controllers/torque_walker.h"
+#include "biodyn/mocap_io/motion_csv.h"
 #include "biodyn/models/mjcf.h"
+#include "biodyn/scenarios/motion_recorder.h"
 #include "biodyn/scenarios/walk.h"
 #include "biodyn/sim/errors.h"
 #include "biodyn/sim/model.h"
@@ -228,22 +233,61 @@ void write_walk_outputs(const scenarios::WalkRunResult& r, const nlohmann::json&
 }
 
 // Builds the character's simulation and runs the walk with a progress bar; the trace (if
-// `with_trace`) comes back in `trace`.
+// `with_trace`) comes back in `trace`, the motion (if `recording`, at `record_hz`) in it.
 scenarios::WalkRunResult run_walk_on(const models::CharacterSpec& spec,
                                      const models::PhysicsOptions& physics,
                                      scenarios::WalkRunParams p, bool with_trace,
-                                     const std::string& label, std::string* trace) {
+                                     const std::string& label, std::string* trace,
+                                     scenarios::RecordedMotion* recording = nullptr,
+                                     double record_hz = 100) {
   const models::Character character = models::generate_character(spec);
   sim::Simulation sim(sim::Model::from_string(models::to_mjcf(character, physics), "<character>"));
   std::ostringstream text;
   if (with_trace) p.trace = &text;
+  const double dt = sim.model().opt.timestep;
+  const int every = std::max(1, static_cast<int>(std::lround(1.0 / (record_hz * dt))));
+  scenarios::MotionRecorder recorder(sim.model(), every, std::lround(p.duration_s / dt) + 1);
+  if (recording) p.observers.push_back(&recorder);
   scenarios::WalkRunResult r;
   {
     ProgressBar bar(label);
     r = scenarios::run_walk(&sim, p, [&](double f) { bar.update(f); });
   }
   *trace = text.str();
+  if (recording) *recording = recorder.motion();
   return r;
+}
+
+// --motion-out: the walk as a motion CSV (qpos, the body in its header) and, beside it,
+// <stem>.grf.csv with each foot's ground force (weld plus contacts) from the simulation.
+void write_recorded_motion(const scenarios::RecordedMotion& rec, const models::CharacterSpec& spec,
+                           const models::PhysicsOptions& physics, const std::string& path) {
+  const models::Character character = models::generate_character(spec);
+  const sim::Model model =
+      sim::Model::from_string(models::to_mjcf(character, physics), "<character>");
+  mocap_io::Motion motion;
+  motion.columns = mocap_io::qpos_names(*model);
+  motion.times_s = rec.times_s;
+  motion.qpos = rec.qpos;
+  motion.comments.push_back(" simulated by biodyn walk (physics: foot welds and contacts only)");
+  mocap_io::set_motion_body(&motion, spec);
+  std::ostringstream grf;
+  grf << "time,fx_l,fy_l,fz_l,fx_r,fy_r,fz_r\n";
+  grf.precision(9);
+  for (int f = 0; f < rec.frame_count(); ++f) {
+    grf << rec.times_s[static_cast<size_t>(f)];
+    for (int side = 0; side < 2; ++side) {
+      for (int k = 0; k < 3; ++k) grf << "," << rec.ground_force_N[static_cast<size_t>(side)](f, k);
+    }
+    grf << "\n";
+  }
+  const std::string text = mocap_io::format_motion_csv(motion);
+  const std::filesystem::path p(path);
+  const std::string grf_path = (p.parent_path() / (p.stem().string() + ".grf.csv")).string();
+  write_file_atomically(path, text);
+  write_file_atomically(grf_path, grf.str());
+  std::cout << "  motion:   " << path << " (" << rec.frame_count() << " frames) and " << grf_path
+            << " (each foot's ground force in the simulation)\n";
 }
 
 }  // namespace
@@ -255,7 +299,8 @@ Command add_walk_command(CLI::App* app) {
     std::string steps;
     double steps_start_s = 5.0;
     double stop_at_s = -1;
-    std::string json, csv;
+    std::string json, csv, motion_out;
+    double motion_rate_hz = 100;
     bool print_params = false;
   };
   auto o = std::make_shared<Options>();
@@ -276,6 +321,12 @@ Command add_walk_command(CLI::App* app) {
                   "--duration");
   cmd->add_option("--json", o->json, "Write the results as JSON here");
   cmd->add_option("--csv", o->csv, "Write a per-step trace as CSV here");
+  cmd->add_option("--motion-out", o->motion_out,
+                  "Write the walk as a motion CSV here (qpos; the body in its header), and each "
+                  "foot's ground force beside it (<stem>.grf.csv)");
+  cmd->add_option("--motion-rate", o->motion_rate_hz, "Frame rate of --motion-out, Hz")
+      ->capture_default_str()
+      ->check(CLI::Range(1.0, 2000.0));
   cmd->add_flag("--print-params", o->print_params,
                 "Print the walker parameters (defaults + --params) as JSON and exit");
   return {cmd, [o]() {
@@ -304,12 +355,17 @@ Command add_walk_command(CLI::App* app) {
                       << " s, weld " << o->walk.weld << ", speed " << p.config.speed_m_s
                       << " m/s, heading rate " << p.config.heading_rate_deg_s << " deg/s, timestep "
                       << 1000 * o->walk.timestep_s << " ms\n";
+            if (!o->motion_out.empty()) check_outputs({{"--motion-out", o->motion_out, false}}, {});
             std::string trace;
+            scenarios::RecordedMotion recording;
             const scenarios::WalkRunResult r =
-                run_walk_on(spec, physics, p, !o->csv.empty(), "walk", &trace);
+                run_walk_on(spec, physics, p, !o->csv.empty(), "walk", &trace,
+                            o->motion_out.empty() ? nullptr : &recording, o->motion_rate_hz);
             nlohmann::json inputs = o->walk.inputs_json(spec);
             inputs["duration_s"] = p.duration_s;
             write_walk_outputs(r, inputs, trace, o->csv, o->json);
+            if (!o->motion_out.empty())
+              write_recorded_motion(recording, spec, physics, o->motion_out);
             return r.fallen ? kExitFailure : kExitOk;
           }};
 }

@@ -80,14 +80,12 @@ double checked_frame_step(const Motion& motion, int trim) {
   return dt;
 }
 
-/// The model ID runs on: no joint limits or welds, no contacts unless the ground comes from
-/// them (otherwise it is measured or left in the residual) and, unless asked, no armature or
-/// joint damping.
+/// The model ID runs on: no joint limits, welds or contacts (the ground is measured, estimated
+/// or left in the residual) and, unless asked, no armature or joint damping.
 std::unique_ptr<mjModel, sim::ModelDeleter> model_for_inverse_dynamics(
     const mjModel& model, const InverseDynamicsOptions& options) {
   std::unique_ptr<mjModel, sim::ModelDeleter> m(mj_copyModel(nullptr, &model));
-  m->opt.disableflags |= options.ground == GroundForces::kContact ? (mjDSBL_LIMIT | mjDSBL_EQUALITY)
-                                                                  : mjDSBL_CONSTRAINT;
+  m->opt.disableflags |= mjDSBL_CONSTRAINT;
   if (!options.include_armature_damping) {
     for (int v = 0; v < m->nv; ++v) {
       m->dof_armature[v] = 0.0;
@@ -147,18 +145,11 @@ Eigen::Vector3d apply_force_plates(const mjModel& m, mjData* d,
   for (size_t i = 0; i < plates.size(); ++i) {
     const ForcePlate& p = plates[i];
     plate_foot[i] = kPlateUnloaded;
-    const double s = t_s * plate_rate_hz;
-    const int s0 = std::clamp(static_cast<int>(std::floor(s)), 0, p.sample_count() - 1);
-    const int s1 = std::min(s0 + 1, p.sample_count() - 1);
-    const double w = std::clamp(s - s0, 0.0, 1.0);
     // ForcePlate holds the ground reaction: the force on the subject.
-    const Eigen::Vector3d grf =
-        (1 - w) * p.force_N.row(s0).transpose() + w * p.force_N.row(s1).transpose();
+    const plate_internal::PlateSample sample = plate_internal::plate_sample(p, plate_rate_hz, t_s);
+    const Eigen::Vector3d &grf = sample.force_N, &cop = sample.cop_m;
+    const Eigen::Vector3d& free_moment = sample.free_moment_Nm;
     if (std::abs(grf.z()) < kMinPlateLoad_N) continue;
-    const Eigen::Vector3d cop =
-        (1 - w) * p.cop_m.row(s0).transpose() + w * p.cop_m.row(s1).transpose();
-    const Eigen::Vector3d free_moment =
-        (1 - w) * p.free_moment_Nm.row(s0).transpose() + w * p.free_moment_Nm.row(s1).transpose();
     if (!cop.allFinite() || !free_moment.allFinite()) continue;
     const int side = feet.foot_for(*d, p, cop);
     plate_foot[i] = side < 0 ? kPlateUnassigned : side;
@@ -169,22 +160,6 @@ Eigen::Vector3d apply_force_plates(const mjModel& m, mjData* d,
     mj_applyFT(&m, d, force, torque, point, loaded_foot_body(m, *d, rig, side, cop, grf),
                qfrc_ground->data());
     total += grf;
-  }
-  return total;
-}
-
-/// N, world: the sum of the floor's contact forces on the body in `d` (mj_inverse leaves them
-/// out of qfrc_inverse; they are summed for the report).
-Eigen::Vector3d contact_ground_force(const mjModel& m, const mjData* d) {
-  Eigen::Vector3d total = Eigen::Vector3d::Zero();
-  for (int c = 0; c < d->ncon; ++c) {
-    mjtNum local[6];
-    mj_contactForce(&m, d, c, local);
-    const Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>> frame(d->contact[c].frame);
-    // frame rows are the contact axes (normal first) in the world; the force is on geom2.
-    Eigen::Vector3d f_W = frame.transpose() * Eigen::Vector3d(local[0], local[1], local[2]);
-    const int floor_first = m.geom_bodyid[d->contact[c].geom1] == 0;
-    total += floor_first ? f_W : Eigen::Vector3d(-f_W);
   }
   return total;
 }
@@ -204,6 +179,22 @@ void root_residual(const mjModel& m, const mjData* d, int root_joint, int i,
   } else {
     r->residual_force_N.row(i).setZero();
     r->residual_moment_Nm.row(i).setZero();
+  }
+}
+
+/// GroundForces::kEstimated: the ground forces estimated from the whole motion's kinematics and
+/// required forces (r's generalized_force, no ground yet) are taken off the generalised forces;
+/// the root residuals are what is left.
+void apply_estimate(const mjModel& m, mjData* d, int root_joint,
+                    const InverseDynamicsOptions& options, InverseDynamicsResult* r) {
+  r->ground_estimate =
+      estimate_ground_forces(m, r->qpos, r->qvel, r->generalized_force, options.estimate);
+  r->generalized_force -= r->ground_estimate.generalized_force;
+  r->ground_force_N = r->ground_estimate.force_N[0] + r->ground_estimate.force_N[1];
+  for (int i = 0; i < static_cast<int>(r->qpos.rows()); ++i) {
+    for (int k = 0; k < m.nq; ++k) d->qpos[k] = r->qpos(i, k);
+    mj_kinematics(&m, d);
+    root_residual(m, d, root_joint, i, r);
   }
 }
 
@@ -334,15 +325,13 @@ InverseDynamicsResult inverse_dynamics(const mjModel& model, const Motion& motio
         r.plate_foot(i, static_cast<Eigen::Index>(p)) = plate_foot[p];
       }
     }
-    if (options.ground == GroundForces::kContact) {
-      r.ground_force_N.row(i) = contact_ground_force(*m, d).transpose();
-    }
     for (int v = 0; v < nv; ++v) {
       r.generalized_force(i, v) = d->qfrc_inverse[v] - qfrc_ground[static_cast<size_t>(v)];
     }
     root_residual(*m, d, root_joint, i, &r);
     r.times_s.push_back(motion.times_s[static_cast<size_t>(f)]);
   }
+  if (options.ground == GroundForces::kEstimated) apply_estimate(*m, d, root_joint, options, &r);
   return r;
 }
 

@@ -43,6 +43,23 @@ double polygon_distance(const Vector2d& p, const std::array<Vector2d, N>& corner
 
 }  // namespace
 
+PlateSample plate_sample(const ForcePlate& p, double rate_hz, double t_s) {
+  const double s = t_s * rate_hz;
+  const int s0 = std::clamp(static_cast<int>(std::floor(s)), 0, p.sample_count() - 1);
+  const int s1 = std::min(s0 + 1, p.sample_count() - 1);
+  const double w = std::clamp(s - s0, 0.0, 1.0);
+  auto at = [&](const Eigen::MatrixXd& x) -> Vector3d {
+    return (1 - w) * x.row(s0).transpose() + w * x.row(s1).transpose();
+  };
+  return {at(p.force_N), at(p.cop_m), at(p.free_moment_Nm)};
+}
+
+bool over_plate(const ForcePlate& plate, const Vector2d& xy, double margin_m) {
+  std::array<Vector2d, 4> plate_xy;
+  for (int c = 0; c < 4; ++c) plate_xy[static_cast<size_t>(c)] = plate.corners_m.col(c).head<2>();
+  return polygon_distance<4>(xy, plate_xy) <= margin_m;
+}
+
 PlateFeet::PlateFeet(const mjModel& m, const std::array<int, 2>& foot_bodies) {
   for (size_t side = 0; side < 2; ++side) {
     const int foot = foot_bodies[side];
@@ -58,8 +75,6 @@ PlateFeet::PlateFeet(const mjModel& m, const std::array<int, 2>& foot_bodies) {
 }
 
 int PlateFeet::foot_for(const mjData& d, const ForcePlate& plate, const Vector3d& cop) const {
-  std::array<Vector2d, 4> plate_xy;
-  for (int c = 0; c < 4; ++c) plate_xy[static_cast<size_t>(c)] = plate.corners_m.col(c).head<2>();
   const double surface_z = plate.corners_m.row(2).mean();
   std::array<double, 2> cop_off = {std::numeric_limits<double>::infinity(),
                                    std::numeric_limits<double>::infinity()};
@@ -77,7 +92,7 @@ int PlateFeet::foot_for(const mjData& d, const ForcePlate& plate, const Vector3d
         const Vector3d p = centre + r * Vector3d(sx[c] * h.x(), sy[c] * h.y(), -h.z());
         footprint[static_cast<size_t>(c)] = p.head<2>();
         if (p.z() - surface_z < kSoleOnFloor_m &&
-            polygon_distance<4>(p.head<2>(), plate_xy) <= kOnPlateMargin_m) {
+            over_plate(plate, p.head<2>(), kOnPlateMargin_m)) {
           on_plate[side] = true;
         }
       }

@@ -32,6 +32,16 @@ inline constexpr double kCopOffFoot_m = 0.04;
 /// m: when both feet qualify, the centre of pressure must be this much nearer one footprint.
 inline constexpr double kCopPreference_m = 0.02;
 
+/// A plate's ground reaction at one time: linearly interpolated between its samples.
+struct PlateSample {
+  Eigen::Vector3d force_N, cop_m, free_moment_Nm;  ///< cop and free moment NaN when unloaded
+};
+/// `plate`'s reading at `t_s` (its clock: sample i at i / rate_hz), clamped to its samples.
+PlateSample plate_sample(const ForcePlate& plate, double rate_hz, double t_s);
+
+/// Whether the horizontal point `xy` lies over `plate`'s surface, give or take `margin_m`.
+bool over_plate(const ForcePlate& plate, const Eigen::Vector2d& xy, double margin_m);
+
 /// The box geoms (foot and toes) of each foot, resolved once per model.
 class PlateFeet {
  public:

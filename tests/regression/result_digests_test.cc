@@ -228,13 +228,15 @@ TEST_CASE("Result digests: biodyn mocap ik retarget and id", "[regression][diges
        "mocap retarget --bvh data/bvh/cmu_131_01_start_walk_stop.bvh --height 2.0 --mass 90 -o out "
        "&& '" +
            biodyn::testing::binary_dir() +
-           "/apps/biodyn' mocap id --motion out/motion.csv --height 2.0 --mass 90 --grf contact -o "
+           "/apps/biodyn' mocap id --motion out/motion.csv --height 2.0 --mass 90 --grf estimate "
+           "-o "
            "id",
        {{"out/motion.csv"},
         {"out/stats.json"},
         {"out/character.bvh"},
         {"id/torques.csv"},
         {"id/residuals.csv"},
+        {"id/ground.csv"},
         {"id/summary.json"}}},
   });
 }

@@ -461,6 +461,7 @@ WalkRunResult run_walk(sim::Simulation* sim, const WalkRunParams& params,
   WalkPushOutcome outcome;
   std::optional<PushJudge> judge;
   if (push) scenario.add_observer(&judge.emplace(scenario, &outcome));
+  for (StepObserver* o : params.observers) scenario.add_observer(o);
 
   const auto wall_start = std::chrono::steady_clock::now();
   while (!scenario.run_over()) {

@@ -302,12 +302,35 @@ TEST_CASE("mocap retarget puts the CMU walk on a 2 m body, its motion feeds moca
   CHECK(ij["frames"] == 994);
   CHECK(ij["joints"].size() >= 19);
 
-  // Inverse dynamics of the retargeted motion on the same body with floor contact.
+  // Inverse dynamics of the retargeted motion on the same body with the ground forces estimated
+  // from its kinematics (issue 26: `contact`, the old name, inverted MuJoCo's floor contact and
+  // spiked to 10^4-10^5 N); no frame above 3 body weights.
   const Run id = run_biodyn(
-      "mocap id --motion out/motion.csv --height 2.0 --mass 90 --grf contact -o id", dir);
+      "mocap id --motion out/motion.csv --height 2.0 --mass 90 --grf estimate -o id", dir);
   INFO(id.out << id.err);
   REQUIRE(id.exit_code == 0);
   CHECK(fs::exists(dir / "id" / "torques.csv"));
+  std::ifstream ground(dir / "id" / "ground.csv");
+  std::string line;
+  std::getline(ground, line);
+  CHECK(line.rfind("time,fx_l,fy_l,fz_l,", 0) == 0);
+  double peak = 0;
+  int rows = 0;
+  while (std::getline(ground, line)) {
+    std::vector<double> v;
+    std::stringstream ss(line);
+    for (std::string cell; std::getline(ss, cell, ',');)
+      v.push_back(cell.empty() ? 0 : std::stod(cell));
+    REQUIRE(v.size() == 15);
+    peak = std::max(peak, v[3] + v[10]);  // fz_l + fz_r
+    ++rows;
+  }
+  CHECK(rows > 900);
+  CHECK(peak > 90 * 9.81);      // it carries the body
+  CHECK(peak < 3 * 90 * 9.81);  // no spikes
+  const json summary = json::parse(std::ifstream(dir / "id" / "summary.json"));
+  CHECK(summary["ground"] == "estimate");
+  CHECK(summary["residual_force_peak_N"].get<double>() < 3 * 90 * 9.81);
 }
 
 TEST_CASE("mocap refuses bad input in one line naming the file", "[apps][mocap]") {

@@ -24,6 +24,8 @@ struct WalkRunParams {
   double duration_s = 20;  ///< s; with a push the run ends when the push is judged
   /// If set, one CSV line per step is written here (header first).
   std::ostream* trace = nullptr;
+  /// More observers of every step (e.g. a MotionRecorder), not owned.
+  std::vector<StepObserver*> observers;
   void validate() const;  ///< throws sim::InvalidArgument naming the field
 };
 
