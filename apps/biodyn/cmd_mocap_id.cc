@@ -313,6 +313,10 @@ std::string ground_csv(const mocap_io::InverseDynamicsResult& id) {
 
 /// summary.json's "ground_estimate_check": the estimate against the capture's plates.
 json plate_check_json(const mocap_io::PlateComparison& c, double mass_kg) {
+  if (c.frames == 0) {
+    return {{"frames", 0},
+            {"note", "no frame where a plate sees one whole foot of this motion: not checked"}};
+  }
   const double bw = c.body_weight_N;
   json j = {
       {"frames", c.frames},
@@ -349,6 +353,11 @@ std::string plate_check_csv(const mocap_io::PlateComparison& c) {
 /// The console lines of the plate check; a WARNING when the plates suggest another mass.
 void print_plate_check(const mocap_io::PlateComparison& c, double mass_kg) {
   const double bw = c.body_weight_N;
+  if (c.frames == 0) {
+    std::cerr << "WARNING: no frame where a plate sees one whole foot of this motion: the "
+                 "estimate is not checked (is the motion from this capture, in its lab frame?)\n";
+    return;
+  }
   std::cout << "  estimate vs plates over " << c.frames << " frames (a plate sees one whole "
             << "foot): vertical RMS " << c.vertical_rms_N << " N (" << 100 * c.vertical_rms_N / bw
             << "% BW), fore-aft " << c.fore_aft_rms_N << " N (" << 100 * c.fore_aft_rms_N / bw

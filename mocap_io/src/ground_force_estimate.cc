@@ -343,6 +343,10 @@ GroundForceEstimate estimate_ground_forces(const mjModel& m, const MatrixXd& qpo
   double mass = 0;
   for (int b = 1; b < m.nbody; ++b) mass += m.body_mass[b];
   const double weight = mass * std::sqrt(mju_dot(m.opt.gravity, m.opt.gravity, 3));
+  if (!(weight > 0)) {
+    throw sim::InvalidArgument("ground force estimate: the model has no weight (mass " +
+                               std::to_string(mass) + " kg, gravity off?)");
+  }
   const models::RigLeg& leg = rig.leg(models::kLeft);
   const double moment_scale = weight * (leg.thigh_length_m + leg.shank_length_m);
   const int root_dof = rig.root_joint() >= 0 ? m.jnt_dofadr[rig.root_joint()] : -1;

@@ -77,7 +77,8 @@ struct GroundForceEstimate {
 /// Estimates the ground forces of a motion on `m` (contacts and constraints off, as inverse
 /// dynamics runs it): `qpos` (frames x nq) and `qvel` (frames x nv) its filtered states,
 /// `required` (frames x nv) the generalised forces each frame needs with no ground
-/// (mj_inverse's qfrc_inverse). Deterministic; allocates per call, not per frame.
+/// (mj_inverse's qfrc_inverse). Deterministic. Offline (per motion, not per simulation step).
+/// Throws sim::InvalidArgument for mismatched sizes, no frames or a massless model.
 GroundForceEstimate estimate_ground_forces(const mjModel& m, const Eigen::MatrixXd& qpos,
                                            const Eigen::MatrixXd& qvel,
                                            const Eigen::MatrixXd& required,
