@@ -208,7 +208,8 @@ Command add_mocap_command(CLI::App* app) {
   const std::vector<Command> subcommands = {
       add_mocap_info_command(mocap), add_mocap_convert_command(mocap),
       add_mocap_ik_command(mocap),   add_mocap_id_command(mocap),
-      add_mocap_so_command(mocap),   add_mocap_retarget_command(mocap)};
+      add_mocap_so_command(mocap),   add_mocap_retarget_command(mocap),
+      add_mocap_track_command(mocap)};
   return {mocap, [subcommands]() {
             for (const Command& c : subcommands) {
               if (c.cli->parsed()) return c.run();

@@ -81,5 +81,7 @@ Command add_mocap_retarget_command(CLI::App* mocap);
 /// `mocap so`: static optimisation, the joint torques of a motion shared among the legs' Hill
 /// muscles (cmd_mocap_so.cc).
 Command add_mocap_so_command(CLI::App* mocap);
+/// `mocap track`: physics tracking of a motion (SAMCON; cmd_mocap_track.cc).
+Command add_mocap_track_command(CLI::App* mocap);
 
 }  // namespace biodyn::apps

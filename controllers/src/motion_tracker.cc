@@ -212,7 +212,36 @@ Eigen::Quaterniond MotionTracker::group_orientation(const mjModel& m, const Join
   return orientation_from_angles(g, hinge_angles(m, g, qpos));
 }
 
+void MotionTracker::apply_offsets(const mjModel& m, ControlFrame* frame) const {
+  if (offsets_.size() != m.nv) return;
+  const std::vector<JointGroup>& groups = rig_->groups();
+  for (std::size_t i = 0; i < groups.size(); ++i) {
+    const JointGroup& g = groups[i];
+    const int group = static_cast<int>(i);
+    const JointTarget& t = frame->target(group);
+    if (g.ball) {
+      const Eigen::Vector3d r = offsets_.segment<3>(g.dof_begin);
+      if (r.isZero()) continue;
+      const Eigen::Quaterniond turn(Eigen::AngleAxisd(r.norm(), r.normalized()));
+      frame->set_target(group, t.orientation * turn, t.reach_at_s);
+    } else {
+      Eigen::Vector3d angles = angles_from_orientation(g, t.orientation);
+      bool any = false;
+      for (int k = 0; k < g.dof_count; ++k) {
+        angles[k] += offsets_(g.dof_begin + k);
+        any = any || offsets_(g.dof_begin + k) != 0.0;
+      }
+      if (any) frame->set_joint_angles(group, angles, t.reach_at_s);
+    }
+  }
+}
+
 void MotionTracker::drive(const ControlInput& in, ControlFrame* frame) {
+  drive_feedback(in, frame);
+  apply_offsets(in.m, frame);
+}
+
+void MotionTracker::drive_feedback(const ControlInput& in, ControlFrame* frame) {
   const mjModel& m = in.m;
   const mjData& d = in.d;
   const std::vector<JointGroup>& groups = rig_->groups();

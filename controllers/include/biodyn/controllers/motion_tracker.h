@@ -103,6 +103,13 @@ class MotionTracker : public ControlDriver {
 
   const MotionTrackerParams& params() const { return params_; }
 
+  /// Open-loop corrections on top of the tracking (sampling-based control, scenarios/samcon.h):
+  /// per DOF (nv entries, the root's ignored), rad, added to each joint group's target after the
+  /// feedback: hinge angles directly, a ball group's as a rotation vector in its body frame.
+  /// Empty (the default): none. A stance hip turning the pelvis by velocity keeps that wish.
+  void set_offsets(const Eigen::VectorXd& offsets_rad) { offsets_ = offsets_rad; }
+  const Eigen::VectorXd& offsets() const { return offsets_; }
+
  private:
   Eigen::Quaterniond group_orientation(const mjModel& m, const JointGroup& g,
                                        const double* qpos) const;
@@ -112,7 +119,11 @@ class MotionTracker : public ControlDriver {
   MotionTrackerParams params_;
   double weight_ = 0;  // N
   std::vector<sim::FloorContact> contacts_;
+  void drive_feedback(const ControlInput& in, ControlFrame* frame);
+  void apply_offsets(const mjModel& m, ControlFrame* frame) const;
+
   mutable std::vector<double> pose_;  // nq scratch (drive and error: one thread)
+  Eigen::VectorXd offsets_;           // nv, or empty
 };
 
 }  // namespace biodyn::controllers

@@ -63,6 +63,13 @@ class MocapScenario : public Scenario {
   controllers::MotionTracker::Error tracking_error() const;
   TrackingReport tracking_report() const;
   const TrackingStats& tracking_stats() const { return stats_; }
+  /// Open-loop corrections added to the tracker's joint targets from the next step
+  /// (MotionTracker::set_offsets; samcon.h). Not part of the saved state: set before stepping.
+  void set_tracking_offsets(const Eigen::VectorXd& offsets_rad) {
+    if (tracker_) tracker_->set_offsets(offsets_rad);
+  }
+  /// The motion as tracked (floored at its first frame); valid when tracked.
+  const controllers::TrackedMotion& tracked_motion() const { return tracked_; }
   /// The motion's length, s.
   double motion_length_s() const { return times_.empty() ? 0.0 : times_.back(); }
 
