@@ -20,6 +20,7 @@ packages=(
   libglfw3-dev libimgui-dev          # the interactive viewer's window and panels
   xvfb xauth xdotool                 # the viewer's tests: a virtual display, and a mouse to drag with
   clang-format pmccabe               # the house check (scripts/check_house.sh): format, function length
+  chromium                           # tests open biodyn evaluate's HTML report in a real browser (headless)
 )
 
 missing=()

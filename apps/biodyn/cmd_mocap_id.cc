@@ -44,26 +44,6 @@ void to_z_up(std::vector<mocap_io::ForcePlate>* plates, const std::string& lab_u
   }
 }
 
-/// The longest run of frames with a pose (IK leaves unsolved frames as NaN rows).
-mocap_io::Motion longest_solved_span(const mocap_io::Motion& motion, int* first) {
-  int best_start = 0, best_len = 0, start = 0;
-  for (int f = 0; f <= motion.frame_count(); ++f) {
-    const bool ok = f < motion.frame_count() && motion.qpos.row(f).allFinite();
-    if (ok) continue;
-    if (f - start > best_len) {
-      best_len = f - start;
-      best_start = start;
-    }
-    start = f + 1;
-  }
-  mocap_io::Motion out = motion;
-  out.qpos = motion.qpos.middleRows(best_start, best_len);
-  out.times_s.assign(motion.times_s.begin() + best_start,
-                     motion.times_s.begin() + best_start + best_len);
-  *first = best_start;
-  return out;
-}
-
 /// Heel strikes of one foot: times its body origin comes down to within kStrikeHeight_m of its
 /// lowest height in the motion after being higher than kLiftHeight_m above it.
 std::vector<double> foot_strikes(const mjModel& m, const mocap_io::Motion& motion, int body) {
@@ -496,7 +476,7 @@ MotionId run_motion_id(const mjModel& model, const mocap_io::Motion& all, const 
   options.filter.cutoff_hz = s.cutoff_hz;
   options.ground = ground.ground;
   MotionId out;
-  out.motion = longest_solved_span(all, &out.first_frame);
+  out.motion = mocap_io::longest_solved_span(all, &out.first_frame);
   int solved = 0;
   for (int f = 0; f < all.frame_count(); ++f) solved += all.qpos.row(f).allFinite() ? 1 : 0;
   if (solved > out.motion.frame_count()) {

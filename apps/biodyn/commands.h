@@ -32,6 +32,8 @@ Command add_bench_command(CLI::App* app);
 /// `biodyn mocap info|convert|ik|retarget|id`: capture files in, marker IK, retargeting,
 /// inverse dynamics.
 Command add_mocap_command(CLI::App* app);
+/// `biodyn evaluate`: a motion on a list of bodies (cmd_evaluate.cc).
+Command add_evaluate_command(CLI::App* app);
 
 /// `biodyn muscles curves`: the Hill curves, and one muscle's isometric force-angle curve.
 Command add_muscles_command(CLI::App* app);

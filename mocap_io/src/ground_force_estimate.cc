@@ -104,6 +104,24 @@ std::vector<double> foot_flat_floors(const std::vector<SoleContactPoint>& points
   return floors;
 }
 
+/// Per DOF: its motor's tau_max (a ball's three motors turn it about x, y, z by their gears);
+/// `fallback` for a DOF without one.
+std::vector<double> dof_strengths(const mjModel& m, double fallback) {
+  std::vector<double> tau(static_cast<size_t>(m.nv), fallback);
+  for (int i = 0; i < m.nu; ++i) {
+    if (m.actuator_trntype[i] != mjTRN_JOINT) continue;
+    const int jnt = m.actuator_trnid[2 * i];
+    int k = 0;
+    if (m.jnt_type[jnt] == mjJNT_BALL) {
+      for (int a = 1; a < 3; ++a)
+        if (std::abs(m.actuator_gear[6 * i + a]) > std::abs(m.actuator_gear[6 * i + k])) k = a;
+    }
+    const double t = std::abs(m.actuator_gear[6 * i + k]) * m.actuator_ctrlrange[2 * i + 1];
+    if (t > 0) tau[static_cast<size_t>(m.jnt_dofadr[jnt] + k)] = t;
+  }
+  return tau;
+}
+
 /// The DOFs a sole point's force can reach: the root's and the legs' (ancestors of the points'
 /// bodies), in DOF order.
 std::vector<int> reachable_dofs(const mjModel& m, const std::vector<SoleContactPoint>& points) {
@@ -350,6 +368,7 @@ GroundForceEstimate estimate_ground_forces(const mjModel& m, const MatrixXd& qpo
   const models::RigLeg& leg = rig.leg(models::kLeft);
   const double moment_scale = weight * (leg.thigh_length_m + leg.shank_length_m);
   const int root_dof = rig.root_joint() >= 0 ? m.jnt_dofadr[rig.root_joint()] : -1;
+  const std::vector<double> tau_max = dof_strengths(m, moment_scale);
   const int nd = static_cast<int>(dofs.size());
   VectorXd row_weight(nd);
   MatrixXd required_dofs(frames, nd);
@@ -361,7 +380,10 @@ GroundForceEstimate estimate_ground_forces(const mjModel& m, const MatrixXd& qpo
     } else if (root_row >= 3 && root_row < 6) {
       row_weight(j) = o.root_weight / (moment_scale * moment_scale);
     } else {
-      row_weight(j) = o.joint_weight / (moment_scale * moment_scale);
+      // Relative to the joint's strength (its motor's tau_max): the ground takes load where it
+      // spares the weak joints most (Fluit 2014's muscle effort, at the joint level).
+      const double strength = tau_max[static_cast<size_t>(v)];
+      row_weight(j) = o.joint_weight / (strength * strength);
     }
     required_dofs.col(j) = required.col(v);
   }

@@ -163,4 +163,23 @@ void check_motion_matches(const Motion& motion, const mjModel& model, const std:
   }
 }
 
+Motion longest_solved_span(const Motion& motion, int* first) {
+  int best_start = 0, best_len = 0, start = 0;
+  for (int f = 0; f <= motion.frame_count(); ++f) {
+    const bool ok = f < motion.frame_count() && motion.qpos.row(f).allFinite();
+    if (ok) continue;
+    if (f - start > best_len) {
+      best_len = f - start;
+      best_start = start;
+    }
+    start = f + 1;
+  }
+  Motion out = motion;
+  out.qpos = motion.qpos.middleRows(best_start, best_len);
+  out.times_s.assign(motion.times_s.begin() + best_start,
+                     motion.times_s.begin() + best_start + best_len);
+  if (first) *first = best_start;
+  return out;
+}
+
 }  // namespace biodyn::mocap_io

@@ -192,6 +192,7 @@ void check_range(const char* field, double value, double lo, double hi, const ch
 void CharacterSpec::validate() const {
   check_range("height", height_m, kMinHeight, kMaxHeight, "m");
   check_range("mass", mass_kg, kMinMass, kMaxMass, "kg");
+  check_range("tau_max_factor", tau_max_factor, 1e-3, 10.0, "");
   for (const auto& [name, o] : overrides) {
     if (o.mass_kg && !(std::isfinite(*o.mass_kg) && *o.mass_kg > 0)) {
       throw InvalidArgument("overrides." + name + ".mass_kg: must be > 0, got " +
@@ -758,7 +759,8 @@ Character generate_character(const CharacterSpec& spec) {
 
   Character c;
   c.spec = spec;
-  c.torque_scale = (spec.mass_kg / kPaperMass_kg) * (spec.height_m / kPaperHeight_m);  // §5.1
+  c.torque_scale = (spec.mass_kg / kPaperMass_kg) * (spec.height_m / kPaperHeight_m) *  // §5.1
+                   spec.tau_max_factor;
   const auto joints = make_joints(b, c.torque_scale);
   for (const SegmentPlan& p : plan)
     c.segments.push_back(assemble_segment(b, p, joints, c.torque_scale));

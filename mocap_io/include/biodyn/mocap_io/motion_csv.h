@@ -47,4 +47,8 @@ std::optional<models::CharacterSpec> motion_body(const Motion& motion, const std
 /// the first column that differs (a motion made for another detail level or body plan).
 void check_motion_matches(const Motion& motion, const mjModel& model, const std::string& source);
 
+/// The longest run of frames without a gap (an unsolved IK frame is a row of NaN): what finite
+/// differences and tracking can use. `first` (optional) gets its first frame's index.
+Motion longest_solved_span(const Motion& motion, int* first = nullptr);
+
 }  // namespace biodyn::mocap_io

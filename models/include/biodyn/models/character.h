@@ -60,6 +60,10 @@ struct CharacterSpec {
   /// Add the Hill muscles of the legs (muscle_anatomy.h): sites, wrapping cylinders and one
   /// spatial tendon per muscle in the MJCF. Mass, joints and geometry are the same either way.
   bool muscles = false;
+  /// Multiplies every joint's tau_max (the paper's scaling by mass and height times this): 1
+  /// by default; `biodyn evaluate`'s fixed rule keeps a reference body's torques on another
+  /// body with it. In (0, 10].
+  double tau_max_factor = 1.0;
 
   static constexpr double kMinHeight = 0.5;  ///< m; below: not a standing human
   static constexpr double kMaxHeight = 2.8;  ///< m; taller than any recorded human

@@ -1,0 +1,123 @@
+// biodyn evaluate's core (scenarios/evaluate.h): bodies.json is checked field by field; a motion
+// on bodies of growing mass under the fixed tau_max rule needs growing shares of tau_max; the
+// same results on 1 and 2 threads.
+#include <catch2/catch.hpp>
+#include <cmath>
+#include <filesystem>
+
+#include "biodyn/mocap_io/motion_csv.h"
+#include "biodyn/models/mjcf.h"
+#include "biodyn/scenarios/evaluate.h"
+#include "biodyn/scenarios/motion_recorder.h"
+#include "biodyn/scenarios/walk.h"
+#include "biodyn/sim/errors.h"
+#include "biodyn/sim/file_io.h"
+#include "biodyn/sim/model.h"
+#include "test_support.h"
+
+using namespace biodyn;
+
+TEST_CASE("bodies.json: each bad field is named with its body", "[scenarios][evaluate]") {
+  const auto fails_with = [](const std::string& text, const std::string& expected) {
+    try {
+      scenarios::parse_bodies(text, "b.json");
+      FAIL("accepted " << text);
+    } catch (const sim::InvalidArgument& e) {
+      INFO(e.what());
+      CHECK(std::string(e.what()).find(expected) != std::string::npos);
+    }
+  };
+  fails_with("not json", "b.json: not JSON");
+  fails_with("{\"bodies\": []}", "at least one body");
+  fails_with("{\"bodies\": [{\"mass_kg\": \"heavy\"}]}", "body 1: mass_kg must be a number");
+  fails_with("{\"bodies\": [{\"sex\": \"x\"}]}", "body 1: sex must be male or female");
+  fails_with("{\"bodies\": [{\"name\": \"a\"}, {\"name\": \"a\"}]}", "body 2: name 'a' twice");
+  fails_with("{\"bodies\": [{\"tau_max\": \"strong\"}]}", "tau_max must be scaled or fixed");
+  fails_with("{\"bodies\": [{\"profile\": \"round\"}]}", "profile must be standard");
+  fails_with("{\"bodies\": [{\"name\": \"x\", \"mass_kg\": 2}]}", "body 1 ('x'): mass");
+  const std::vector<scenarios::EvaluationBody> ok = scenarios::parse_bodies(
+      R"({"bodies": [{"name": "h", "height_m": 1.6, "mass_kg": 120, "sex": "female",
+          "profile": "heavy_trunk_thighs", "tau_max": "fixed"}]})",
+      "b.json");
+  REQUIRE(ok.size() == 1);
+  CHECK(ok[0].spec.height_m == 1.6);
+  CHECK(ok[0].spec.sex == models::Sex::kFemale);
+  CHECK(ok[0].tau_rule == scenarios::TauMaxRule::kFixed);
+}
+
+TEST_CASE_METHOD(
+    biodyn::testing::SimulationTest,
+    "evaluate: under fixed tau_max a heavier body needs more of it, on any thread count",
+    "[scenarios][evaluate]") {
+  // The body's own walk (1.8 m, 80 kg), recorded at 100 Hz.
+  models::CharacterSpec spec;
+  sim::Simulation sim(
+      sim::Model::from_string(models::to_mjcf(models::generate_character(spec)), "walker"));
+  scenarios::WalkRunParams p;
+  p.duration_s = 3.0;
+  p.config.character = spec;
+  const double dt = sim.model().opt.timestep;
+  scenarios::MotionRecorder recorder(sim.model(), static_cast<int>(std::lround(0.01 / dt)),
+                                     std::lround(p.duration_s / dt) + 1);
+  p.observers.push_back(&recorder);
+  REQUIRE_FALSE(scenarios::run_walk(&sim, p).fallen);
+  const scenarios::RecordedMotion rec = recorder.motion();
+  mocap_io::Motion motion;
+  motion.columns = mocap_io::qpos_names(sim.model());
+  motion.times_s = rec.times_s;
+  motion.qpos = rec.qpos;
+  mocap_io::set_motion_body(&motion, spec);
+  const std::string dir = biodyn::testing::binary_dir() + "/evaluate_test";
+  std::filesystem::create_directories(dir);
+  sim::write_file_atomically(dir + "/walk.csv", mocap_io::format_motion_csv(motion));
+
+  const std::vector<scenarios::EvaluationBody> bodies = scenarios::parse_bodies(
+      R"({"bodies": [{"name": "m80", "mass_kg": 80, "tau_max": "fixed"},
+                     {"name": "m150", "mass_kg": 150, "tau_max": "fixed"}]})",
+      "bodies");
+  scenarios::EvaluateOptions o;
+  o.samcon.parents = 4;
+  o.samcon.children = 4;
+  const std::vector<scenarios::BodyEvaluation> one = scenarios::evaluate_motion(
+      dir + "/walk.csv", bodies,
+      [&] {
+        auto x = o;
+        x.threads = 1;
+        return x;
+      }(),
+      dir);
+  const std::vector<scenarios::BodyEvaluation> two = scenarios::evaluate_motion(
+      dir + "/walk.csv", bodies,
+      [&] {
+        auto x = o;
+        x.threads = 2;
+        return x;
+      }(),
+      dir);
+  REQUIRE(one.size() == 2);
+  for (const scenarios::BodyEvaluation& e : one) {
+    INFO(e.body.name << ": " << e.verdict << "; tracking joint RMS " << e.joint_rms_deg
+                     << " deg, fell at " << e.fell_at_s << " s");
+    REQUIRE(e.error.empty());
+    CHECK(e.tracked);
+  }
+  const auto peak = [](const scenarios::BodyEvaluation& e, const std::string& joint) {
+    for (const scenarios::JointEvaluation& j : e.joints)
+      if (j.joint == joint) return j.peak_ratio;
+    return -1.0;
+  };
+  // Same motion, same tau_max, 150/80 of the mass: the stance joints need ~1.9x the share.
+  for (const char* joint : {"hip_l", "knee_l", "ankle_l", "hip_r", "knee_r", "ankle_r"}) {
+    INFO(joint << ": " << peak(one[0], joint) << " -> " << peak(one[1], joint));
+    CHECK(peak(one[1], joint) > 1.5 * peak(one[0], joint));
+  }
+  CHECK(one[0].kept_up);  // its own body keeps up with its own walk
+  // Not asserted: that the heavy body tracks worse. Measured (issue 26's note) it does not,
+  // up to 250 kg on 80 kg's tau_max: an open question, not a result.
+  // Deterministic whatever the thread count.
+  for (size_t b = 0; b < 2; ++b) {
+    CHECK(one[b].torque_Nm == two[b].torque_Nm);
+    CHECK(one[b].joint_rms_deg == two[b].joint_rms_deg);
+    CHECK(one[b].fell_at_s == two[b].fell_at_s);
+  }
+}
