@@ -224,8 +224,7 @@ void evaluate_body(const std::string& motion_path, const models::CharacterSpec& 
     config.motion_path = dir + "/motion.csv";
     config.track = true;
     config.tracker.lookahead_s = o.tracking_lookahead_s;
-    SamconParams sp = o.samcon;
-    sp.threads = 1;  // bodies run in parallel
+    const SamconParams& sp = o.samcon;  // its threads: the cores left over per body
     const SamconResult t = run_samcon(config, {}, sp);
     e->tracked = true;
     const double length = t.windows * sp.window_s;
@@ -332,6 +331,14 @@ std::vector<BodyEvaluation> evaluate_motion(const std::string& motion_path,
   reference.muscles = false;
   std::vector<BodyEvaluation> out(bodies.size());
   for (size_t i = 0; i < bodies.size(); ++i) out[i].body = bodies[i];
+  const int threads = options.threads > 0
+                          ? options.threads
+                          : std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
+  // Bodies in parallel; each body's tracking search gets the cores left over (any split gives
+  // the same results).
+  const int body_threads = std::min<int>(threads, static_cast<int>(out.size()));
+  EvaluateOptions per_body = options;
+  per_body.samcon.threads = std::max(1, threads / std::max(1, body_threads));
   std::atomic<int> next{0};
   int done = 0;
   std::mutex progress_mutex;
@@ -339,7 +346,7 @@ std::vector<BodyEvaluation> evaluate_motion(const std::string& motion_path,
     for (int i = next++; i < static_cast<int>(out.size()); i = next++) {
       BodyEvaluation& e = out[static_cast<size_t>(i)];
       try {
-        evaluate_body(motion_path, reference, options, work_dir, &e);
+        evaluate_body(motion_path, reference, per_body, work_dir, &e);
         judge(&e);
       } catch (const std::exception& ex) {
         e.error = ex.what();
@@ -350,12 +357,8 @@ std::vector<BodyEvaluation> evaluate_motion(const std::string& motion_path,
       if (progress) progress(done, static_cast<int>(out.size()));
     }
   };
-  const int threads = options.threads > 0
-                          ? options.threads
-                          : std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
   std::vector<std::thread> pool;
-  for (int t = 1; t < std::min<int>(threads, static_cast<int>(out.size())); ++t)
-    pool.emplace_back(work);
+  for (int t = 1; t < body_threads; ++t) pool.emplace_back(work);
   work();
   for (std::thread& t : pool) t.join();
   return out;
