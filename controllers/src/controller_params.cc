@@ -166,21 +166,7 @@ JointParams& ControllerParams::at(const std::string& name) {
 }
 
 ControllerParams default_params(const mjModel& m, const std::vector<JointGroup>& groups) {
-  // Motor limit per DOF (ctrlrange * |gear|), from the generated motors.
-  std::vector<double> dof_tau(static_cast<std::size_t>(m.nv), -1.0);
-  for (int a = 0; a < m.nu; ++a) {
-    if (m.actuator_trntype[a] != mjTRN_JOINT) continue;
-    const int j = m.actuator_trnid[2 * a];
-    const mjtNum* gear = m.actuator_gear + 6 * a;
-    const double limit = m.actuator_ctrllimited[a] ? m.actuator_ctrlrange[2 * a + 1] : -1.0;
-    if (m.jnt_type[j] == mjJNT_BALL) {
-      for (int k = 0; k < 3; ++k)
-        if (gear[k] != 0)
-          dof_tau[static_cast<std::size_t>(m.jnt_dofadr[j] + k)] = limit * std::abs(gear[k]);
-    } else if (m.jnt_type[j] == mjJNT_HINGE) {
-      dof_tau[static_cast<std::size_t>(m.jnt_dofadr[j])] = limit * std::abs(gear[0]);
-    }
-  }
+  const std::vector<double> dof_tau = sim::motor_limits_per_dof(m);  // from the generated motors
   ControllerParams p;
   for (const JointGroup& g : groups) {
     JointParams jp;

@@ -9,6 +9,7 @@
 #include "biodyn/muscles/box_qp.h"
 #include "biodyn/sim/errors.h"
 #include "biodyn/sim/model.h"
+#include "biodyn/sim/queries.h"
 
 namespace biodyn::mocap_io {
 namespace {
@@ -102,24 +103,6 @@ std::vector<double> foot_flat_floors(const std::vector<SoleContactPoint>& points
     }
   }
   return floors;
-}
-
-/// Per DOF: its motor's tau_max (a ball's three motors turn it about x, y, z by their gears);
-/// `fallback` for a DOF without one.
-std::vector<double> dof_strengths(const mjModel& m, double fallback) {
-  std::vector<double> tau(static_cast<size_t>(m.nv), fallback);
-  for (int i = 0; i < m.nu; ++i) {
-    if (m.actuator_trntype[i] != mjTRN_JOINT) continue;
-    const int jnt = m.actuator_trnid[2 * i];
-    int k = 0;
-    if (m.jnt_type[jnt] == mjJNT_BALL) {
-      for (int a = 1; a < 3; ++a)
-        if (std::abs(m.actuator_gear[6 * i + a]) > std::abs(m.actuator_gear[6 * i + k])) k = a;
-    }
-    const double t = std::abs(m.actuator_gear[6 * i + k]) * m.actuator_ctrlrange[2 * i + 1];
-    if (t > 0) tau[static_cast<size_t>(m.jnt_dofadr[jnt] + k)] = t;
-  }
-  return tau;
 }
 
 /// The DOFs a sole point's force can reach: the root's and the legs' (ancestors of the points'
@@ -368,7 +351,8 @@ GroundForceEstimate estimate_ground_forces(const mjModel& m, const MatrixXd& qpo
   const models::RigLeg& leg = rig.leg(models::kLeft);
   const double moment_scale = weight * (leg.thigh_length_m + leg.shank_length_m);
   const int root_dof = rig.root_joint() >= 0 ? m.jnt_dofadr[rig.root_joint()] : -1;
-  const std::vector<double> tau_max = dof_strengths(m, moment_scale);
+  std::vector<double> tau_max = sim::motor_limits_per_dof(m);
+  for (double& t : tau_max) t = t > 0 ? t : moment_scale;  // no motor: the body-weight scale
   const int nd = static_cast<int>(dofs.size());
   VectorXd row_weight(nd);
   MatrixXd required_dofs(frames, nd);

@@ -142,4 +142,22 @@ void efc_jacobian_row(const mjModel& m, const mjData& d, int r, mjtNum* out) {
   for (int k = 0; k < d.efc_J_rownnz[r]; ++k) out[d.efc_J_colind[adr + k]] = d.efc_J[adr + k];
 }
 
+std::vector<double> motor_limits_per_dof(const mjModel& m) {
+  std::vector<double> tau(static_cast<std::size_t>(m.nv), -1.0);
+  for (int a = 0; a < m.nu; ++a) {
+    if (m.actuator_trntype[a] != mjTRN_JOINT || !m.actuator_ctrllimited[a]) continue;
+    const int j = m.actuator_trnid[2 * a];
+    const mjtNum* gear = m.actuator_gear + 6 * a;
+    const double limit = m.actuator_ctrlrange[2 * a + 1];
+    if (m.jnt_type[j] == mjJNT_BALL) {
+      for (int k = 0; k < 3; ++k)
+        if (gear[k] != 0)
+          tau[static_cast<std::size_t>(m.jnt_dofadr[j] + k)] = limit * std::abs(gear[k]);
+    } else if (m.jnt_type[j] == mjJNT_HINGE || m.jnt_type[j] == mjJNT_SLIDE) {
+      tau[static_cast<std::size_t>(m.jnt_dofadr[j])] = limit * std::abs(gear[0]);
+    }
+  }
+  return tau;
+}
+
 }  // namespace biodyn::sim

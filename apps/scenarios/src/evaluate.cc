@@ -21,6 +21,7 @@
 #include "biodyn/sim/errors.h"
 #include "biodyn/sim/file_io.h"
 #include "biodyn/sim/model.h"
+#include "biodyn/sim/queries.h"
 
 namespace biodyn::scenarios {
 namespace {
@@ -112,20 +113,8 @@ void joint_figures(const mjModel& m, const models::Rig& rig, BodyEvaluation* e,
   const int frames = static_cast<int>(id.times_s.size());
   const double dt = frames > 1 ? id.times_s[1] - id.times_s[0] : 0.0;
   e->power_W = id.generalized_force.cwiseProduct(id.qvel);
-  // Each DOF's tau_max: its motor's control range (a ball's three motors turn it about x, y, z
-  // by their gears).
-  std::vector<double> tau_max_of_dof(static_cast<size_t>(m.nv), 1e300);
-  for (int i = 0; i < m.nu; ++i) {
-    if (m.actuator_trntype[i] != mjTRN_JOINT) continue;
-    const int jnt = m.actuator_trnid[2 * i];
-    int k = 0;
-    if (m.jnt_type[jnt] == mjJNT_BALL) {
-      for (int a = 1; a < 3; ++a)
-        if (std::abs(m.actuator_gear[6 * i + a]) > std::abs(m.actuator_gear[6 * i + k])) k = a;
-    }
-    tau_max_of_dof[static_cast<size_t>(m.jnt_dofadr[jnt] + k)] =
-        std::abs(m.actuator_gear[6 * i + k]) * m.actuator_ctrlrange[2 * i + 1];
-  }
+  std::vector<double> tau_max_of_dof = sim::motor_limits_per_dof(m);
+  for (double& t : tau_max_of_dof) t = t > 0 ? t : 1e300;  // no motor: never saturates
   double first = -1;
   for (const models::JointGroup& g : rig.groups()) {
     JointEvaluation j;

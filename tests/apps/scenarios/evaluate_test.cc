@@ -13,6 +13,7 @@
 #include "biodyn/sim/errors.h"
 #include "biodyn/sim/file_io.h"
 #include "biodyn/sim/model.h"
+#include "recorded_walk.h"
 #include "test_support.h"
 
 using namespace biodyn;
@@ -50,26 +51,9 @@ TEST_CASE_METHOD(
     "evaluate: under fixed tau_max a heavier body needs more of it, on any thread count",
     "[scenarios][evaluate]") {
   // The body's own walk (1.8 m, 80 kg), recorded at 100 Hz.
-  models::CharacterSpec spec;
-  sim::Simulation sim(
-      sim::Model::from_string(models::to_mjcf(models::generate_character(spec)), "walker"));
-  scenarios::WalkRunParams p;
-  p.duration_s = 3.0;
-  p.config.character = spec;
-  const double dt = sim.model().opt.timestep;
-  scenarios::MotionRecorder recorder(sim.model(), static_cast<int>(std::lround(0.01 / dt)),
-                                     std::lround(p.duration_s / dt) + 1);
-  p.observers.push_back(&recorder);
-  REQUIRE_FALSE(scenarios::run_walk(&sim, p).fallen);
-  const scenarios::RecordedMotion rec = recorder.motion();
-  mocap_io::Motion motion;
-  motion.columns = mocap_io::qpos_names(sim.model());
-  motion.times_s = rec.times_s;
-  motion.qpos = rec.qpos;
-  mocap_io::set_motion_body(&motion, spec);
   const std::string dir = biodyn::testing::binary_dir() + "/evaluate_test";
   std::filesystem::create_directories(dir);
-  sim::write_file_atomically(dir + "/walk.csv", mocap_io::format_motion_csv(motion));
+  biodyn::testing::record_walk_csv(models::CharacterSpec{}, 1.0, 3.0, dir + "/walk.csv");
 
   const std::vector<scenarios::EvaluationBody> bodies = scenarios::parse_bodies(
       R"({"bodies": [{"name": "m80", "mass_kg": 80, "tau_max": "fixed"},

@@ -12,37 +12,10 @@
 #include "biodyn/scenarios/walk.h"
 #include "biodyn/sim/file_io.h"
 #include "biodyn/sim/model.h"
+#include "recorded_walk.h"
 #include "test_support.h"
 
 using namespace biodyn;
-
-namespace {
-
-/// A walk of `spec` at `speed`, recorded at 100 Hz for `duration_s`, written as a motion CSV
-/// (with its body) to `path`.
-void record_walk(const models::CharacterSpec& spec, double speed, double duration_s,
-                 const std::string& path) {
-  sim::Simulation sim(
-      sim::Model::from_string(models::to_mjcf(models::generate_character(spec)), "walker"));
-  scenarios::WalkRunParams p;
-  p.duration_s = duration_s;
-  p.config.character = spec;
-  p.config.speed_m_s = speed;
-  const double dt = sim.model().opt.timestep;
-  scenarios::MotionRecorder recorder(sim.model(), static_cast<int>(std::lround(0.01 / dt)),
-                                     std::lround(duration_s / dt) + 1);
-  p.observers.push_back(&recorder);
-  REQUIRE_FALSE(scenarios::run_walk(&sim, p).fallen);
-  const scenarios::RecordedMotion rec = recorder.motion();
-  mocap_io::Motion motion;
-  motion.columns = mocap_io::qpos_names(sim.model());
-  motion.times_s = rec.times_s;
-  motion.qpos = rec.qpos;
-  mocap_io::set_motion_body(&motion, spec);
-  sim::write_file_atomically(path, mocap_io::format_motion_csv(motion));
-}
-
-}  // namespace
 
 TEST_CASE_METHOD(biodyn::testing::SimulationTest,
                  "SAMCON tracks the body's own walk, the same on 1 and 2 threads, and its "
@@ -52,7 +25,7 @@ TEST_CASE_METHOD(biodyn::testing::SimulationTest,
   spec.height_m = 1.7;
   spec.mass_kg = 70;
   const std::string path = biodyn::testing::binary_dir() + "/samcon_own_walk.csv";
-  record_walk(spec, 1.1, 5.0, path);
+  biodyn::testing::record_walk_csv(spec, 1.1, 5.0, path);
   scenarios::ScenarioConfig config;
   config.scenario = "mocap";
   config.character = spec;

@@ -78,6 +78,10 @@ Eigen::Quaterniond joint_quaternion(const mjModel& m, const mjData& d, int joint
 /// (2.2.2's mj_energyPos/Vel return 0 unless the model enables the energy flag.)
 double mechanical_energy(const mjModel& m, const mjData& d);
 
+/// Per DOF (nv): the torque its joint motor can give, ctrlrange x |gear| (a ball joint's three
+/// motors turn it about x, y, z by their gears); -1 for a DOF without a limited motor.
+std::vector<double> motor_limits_per_dof(const mjModel& m);
+
 /// Row `r` (< d.nefc) of the constraint Jacobian efc_J as a dense row of nv values in `out`,
 /// whichever storage the model uses (<option jacobian>: dense rows, or 2.2.2's compressed
 /// rows efc_J_rownnz/rowadr/colind). No allocation.
