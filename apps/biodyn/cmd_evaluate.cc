@@ -250,12 +250,13 @@ int run_evaluate(EvaluateCli o) {
   }
   json summary = {{"motion", o.motion}, {"bodies_file", o.bodies}, {"assumptions", assumptions(o)}};
   json list = json::array();
+  for (const scenarios::BodyEvaluation& e : all) list.push_back(body_json(e));
+  summary["bodies"] = list;
+  // The plot first (gnuplot may fail): then no CSV, summary or report is left half a set.
+  const std::string png = torque_plot(o.output, all);
   for (const scenarios::BodyEvaluation& e : all) {
-    list.push_back(body_json(e));
     if (e.error.empty()) write_file_atomically(o.output + "/" + e.body.name + ".csv", body_csv(e));
   }
-  summary["bodies"] = list;
-  const std::string png = torque_plot(o.output, all);
   write_file_atomically(o.output + "/summary.json", summary.dump(1) + "\n");
   write_file_atomically(o.output + "/report.html", report_html(o, all, png));
   std::cout << "evaluate: " << o.motion << " on " << all.size() << " bodies\n";
