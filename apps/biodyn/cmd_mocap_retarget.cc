@@ -28,15 +28,7 @@ mocap_io::JointMap choose_map(const std::string& given, const mocap_io::BvhMotio
   if (given.find(".json") != std::string::npos) return mocap_io::read_joint_map(given);
   if (!given.empty()) return mocap_io::builtin_joint_map(given);
   std::string tried;
-  for (const std::string& name : mocap_io::builtin_joint_map_names()) {
-    const mocap_io::JointMap map = mocap_io::builtin_joint_map(name);
-    try {
-      mocap_io::resolve_joint_map(map, bvh, bvh_path);
-      return map;
-    } catch (const sim::InvalidArgument& e) {
-      tried += std::string("\n  ") + e.what();
-    }
-  }
+  if (auto map = mocap_io::first_fitting_builtin_map(bvh, bvh_path, &tried)) return *map;
   throw sim::InvalidArgument(bvh_path +
                              ": no built-in joint map fits this BVH; give --map "
                              "FILE.json (see mocap_io/README.md, \"Retargeting\"). Tried:" +

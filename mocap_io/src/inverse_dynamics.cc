@@ -19,8 +19,6 @@ namespace {
 constexpr double kDoublePassCorrection = 0.802;
 /// Timing tolerance for "evenly spaced" frames, relative to the step.
 constexpr double kUnevenTolerance = 1e-3;
-/// A plate with less vertical force than this has no meaningful centre of pressure (N).
-constexpr double kMinPlateLoad_N = 20.0;
 
 /// One pass of the 2nd-order Butterworth low-pass (bilinear transform, pre-warped) over x.
 void butterworth_pass(std::vector<double>* x, double cutoff_hz, double rate_hz) {
@@ -149,7 +147,7 @@ Eigen::Vector3d apply_force_plates(const mjModel& m, mjData* d,
     const plate_internal::PlateSample sample = plate_internal::plate_sample(p, plate_rate_hz, t_s);
     const Eigen::Vector3d &grf = sample.force_N, &cop = sample.cop_m;
     const Eigen::Vector3d& free_moment = sample.free_moment_Nm;
-    if (std::abs(grf.z()) < kMinPlateLoad_N) continue;
+    if (std::abs(grf.z()) < plate_internal::kMinPlateLoad_N) continue;
     if (!cop.allFinite() || !free_moment.allFinite()) continue;
     const int side = feet.foot_for(*d, p, cop);
     plate_foot[i] = side < 0 ? kPlateUnassigned : side;

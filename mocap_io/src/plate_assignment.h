@@ -23,6 +23,8 @@
 
 namespace biodyn::mocap_io::plate_internal {
 
+/// N: a plate with less vertical force has no meaningful centre of pressure: unloaded.
+inline constexpr double kMinPlateLoad_N = 20.0;
 /// m: a sole point this high above the plate surface is off it (swing clearance is 1-2 cm at
 /// the toe but the stance sole of an IK-fitted model can sit ~1-2 cm off the floor).
 inline constexpr double kSoleOnFloor_m = 0.03;

@@ -11,8 +11,6 @@
 namespace biodyn::mocap_io {
 namespace {
 
-/// N: a plate with less vertical force is unloaded (as inverse dynamics applies plates).
-constexpr double kMinPlateLoad_N = 20.0;
 /// m: a sole point this far outside a plate's edge is still seen by it.
 constexpr double kWholeFootMargin_m = 0.01;
 /// m: a sole point this high above its floor (the estimate's foot-flat calibration) may be
@@ -62,7 +60,8 @@ PlateComparison compare_with_plates(const mjModel& model, const InverseDynamicsR
     for (const ForcePlate& plate : plates) {
       const plate_internal::PlateSample s = plate_internal::plate_sample(
           plate, plate_rate_hz, estimated.times_s[static_cast<size_t>(f)]);
-      if (std::abs(s.force_N.z()) < kMinPlateLoad_N || !s.cop_m.allFinite()) continue;
+      if (std::abs(s.force_N.z()) < plate_internal::kMinPlateLoad_N || !s.cop_m.allFinite())
+        continue;
       const int side = feet.foot_for(*d, plate, s.cop_m);
       if (side < 0 || !plate_sees_whole_foot(*d, e, f, side, plate)) continue;
       const Eigen::Vector3d est = e.force_N[static_cast<size_t>(side)].row(f).transpose();

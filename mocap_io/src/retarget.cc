@@ -371,4 +371,19 @@ RetargetResult retarget_bvh(const BvhMotion& motion, const JointMap& map,
   return result;
 }
 
+std::optional<JointMap> first_fitting_builtin_map(const BvhMotion& motion,
+                                                  const std::string& bvh_source,
+                                                  std::string* tried) {
+  for (const std::string& name : builtin_joint_map_names()) {
+    JointMap map = builtin_joint_map(name);
+    try {
+      resolve_joint_map(map, motion, bvh_source);
+      return map;
+    } catch (const sim::InvalidArgument& e) {
+      if (tried) *tried += std::string("\n  ") + e.what();
+    }
+  }
+  return std::nullopt;
+}
+
 }  // namespace biodyn::mocap_io

@@ -189,6 +189,10 @@ void check_range(const char* field, double value, double lo, double hi, const ch
 
 }  // namespace
 
+double torque_scale(const CharacterSpec& spec) {
+  return (spec.mass_kg / kPaperMass_kg) * (spec.height_m / kPaperHeight_m) * spec.tau_max_factor;
+}
+
 void CharacterSpec::validate() const {
   check_range("height", height_m, kMinHeight, kMaxHeight, "m");
   check_range("mass", mass_kg, kMinMass, kMaxMass, "kg");
@@ -759,8 +763,7 @@ Character generate_character(const CharacterSpec& spec) {
 
   Character c;
   c.spec = spec;
-  c.torque_scale = (spec.mass_kg / kPaperMass_kg) * (spec.height_m / kPaperHeight_m) *  // §5.1
-                   spec.tau_max_factor;
+  c.torque_scale = torque_scale(spec);
   const auto joints = make_joints(b, c.torque_scale);
   for (const SegmentPlan& p : plan)
     c.segments.push_back(assemble_segment(b, p, joints, c.torque_scale));

@@ -36,6 +36,7 @@
 #include "biodyn/muscles/static_optimization.h"
 #include "biodyn/sim/model.h"
 #include "character.h"
+#include "ik_motion.h"
 #include "test_support.h"
 
 using namespace biodyn;
@@ -78,24 +79,6 @@ struct SoWalking5 {
   bool legs_found[2] = {false, false};
 };
 
-/// The IK's longest run of solved frames as a motion (what `mocap id` and `mocap so` run on).
-mocap_io::Motion solved_span(const mjModel& m, const mocap_io::MarkerData& markers,
-                             const mocap_io::MarkerIkResult& ik) {
-  int best_start = 0, best_len = 0, start = 0;
-  const int frames = markers.frame_count();
-  for (int f = 0; f <= frames; ++f) {
-    if (f < frames && ik.frames[static_cast<size_t>(f)].solved) continue;
-    if (f - start > best_len) best_len = f - start, best_start = start;
-    start = f + 1;
-  }
-  mocap_io::Motion motion;
-  motion.columns = mocap_io::qpos_names(m);
-  motion.qpos = ik.qpos.middleRows(best_start, best_len);
-  for (int f = best_start; f < best_start + best_len; ++f)
-    motion.times_s.push_back(markers.time_s(f));
-  return motion;
-}
-
 /// The cycle of `side` whose heel strike a plate saw, and its muscles' activation profile.
 bool plate_cycle(const SoWalking5& run, const muscles::MuscleSet& set, int side, LegCycle* leg) {
   const std::vector<mocap_io::HeelStrike> strikes =
@@ -136,8 +119,8 @@ SoWalking5 solve_so_walking5() {
   const mocap_io::MarkerIkResult ik = mocap_io::solve_marker_ik(m, c3d.markers, weights);
   mocap_io::InverseDynamicsOptions options;
   options.ground = mocap_io::GroundForces::kForcePlates;
-  run.id = mocap_io::inverse_dynamics(m, solved_span(m, c3d.markers, ik), options, c3d.force_plates,
-                                      c3d.analog.rate_hz);
+  run.id = mocap_io::inverse_dynamics(m, testing::longest_solved_ik_run(m, c3d.markers, ik),
+                                      options, c3d.force_plates, c3d.analog.rate_hz);
   muscles::StaticOptimization so(muscles::MuscleSet(
       m, muscles::muscle_params(character.muscles, muscles::TendonChoice::kAllRigid)));
   run.so = muscles::static_optimization(m, &so, run.id.qpos, run.id.qvel, run.id.generalized_force);

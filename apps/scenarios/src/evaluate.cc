@@ -50,10 +50,7 @@ models::Character body_character(const EvaluationBody& b, const models::Characte
   }
   if (b.tau_rule == TauMaxRule::kFixed) {
     // The reference body's torque scale on this body (paper §5.1 scales by mass and height).
-    const auto scale = [](const models::CharacterSpec& x) {
-      return x.mass_kg / models::kPaperMass_kg * x.height_m / models::kPaperHeight_m;
-    };
-    spec.tau_max_factor = scale(reference) / scale(spec);
+    spec.tau_max_factor = models::torque_scale(reference) / models::torque_scale(spec);
   }
   models::Character c = models::generate_character(spec);
   return c;
@@ -91,20 +88,13 @@ mocap_io::Motion motion_on_body(const std::string& path, const models::Character
     const double dt = source.times_s.size() > 1 ? source.times_s[1] - source.times_s[0] : 0.01;
     bvh = mocap_io::character_bvh(from, *from_model, source.qpos, dt);
   }
-  const mocap_io::JointMap map = [&] {
-    for (const std::string& name : mocap_io::builtin_joint_map_names()) {
-      try {
-        const mocap_io::JointMap m = mocap_io::builtin_joint_map(name);
-        mocap_io::resolve_joint_map(m, bvh, {});
-        return m;
-      } catch (const sim::InvalidArgument&) {
-      }
-    }
-    throw sim::InvalidArgument(path + ": no built-in joint map fits its skeleton");
-  }();
-  mocap_io::RetargetOptions ro;
-  ro.units = map.units;
-  return mocap_io::retarget_bvh(bvh, map, target.spec, ro).motion;
+  std::string tried;
+  const std::optional<mocap_io::JointMap> map =
+      mocap_io::first_fitting_builtin_map(bvh, path, &tried);
+  if (!map) throw sim::InvalidArgument(path + ": no built-in joint map fits its skeleton:" + tried);
+  mocap_io::RetargetOptions options;
+  options.source = path;
+  return mocap_io::retarget_bvh(bvh, *map, target.spec, options).motion;
 }
 
 /// The joint groups' peak torque ratios, saturation, work and power from ID on `m`.

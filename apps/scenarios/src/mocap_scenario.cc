@@ -18,17 +18,10 @@ mocap_io::Motion retarget_with_builtin_map(const std::string& path,
                                            const models::CharacterSpec& character) {
   const mocap_io::BvhMotion bvh = mocap_io::read_bvh(path);
   std::string tried;
-  for (const std::string& name : mocap_io::builtin_joint_map_names()) {
-    const mocap_io::JointMap map = mocap_io::builtin_joint_map(name);
-    try {
-      mocap_io::resolve_joint_map(map, bvh, path);
-    } catch (const sim::InvalidArgument& e) {
-      tried += std::string(" ") + e.what();
-      continue;
-    }
+  if (const auto map = mocap_io::first_fitting_builtin_map(bvh, path, &tried)) {
     mocap_io::RetargetOptions options;
     options.source = path;
-    return mocap_io::retarget_bvh(bvh, map, character, options).motion;
+    return mocap_io::retarget_bvh(bvh, *map, character, options).motion;
   }
   throw sim::InvalidArgument(path +
                              ": no built-in joint map fits this BVH (retarget it with "

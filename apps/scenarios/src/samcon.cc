@@ -274,6 +274,7 @@ SamconResult run_samcon(const ScenarioConfig& config, const models::PhysicsOptio
   MocapScenario& s = *fresh->scenario;
   double peak = 0;
   const int total_steps = r.windows * steps;
+  r.qpos.resize((total_steps + record_every_steps - 1) / record_every_steps, m.nq);
   for (int k = 0; k < total_steps; ++k) {
     const int window = k / steps;
     if (k % steps == 0) {
@@ -282,15 +283,16 @@ SamconResult run_samcon(const ScenarioConfig& config, const models::PhysicsOptio
                                  : Eigen::VectorXd::Zero(m.nv));
     }
     if (k % record_every_steps == 0) {
-      r.times_s.push_back(fresh->sim->data().time);
       const mjData& d = fresh->sim->data();
-      r.qpos.conservativeResize(static_cast<Eigen::Index>(r.times_s.size()), m.nq);
-      for (int q = 0; q < m.nq; ++q) r.qpos(r.qpos.rows() - 1, q) = d.qpos[q];
+      const auto row = static_cast<Eigen::Index>(r.times_s.size());
+      r.times_s.push_back(d.time);
+      for (int q = 0; q < m.nq; ++q) r.qpos(row, q) = d.qpos[q];
     }
     s.step();
     peak = std::max(peak, s.pipeline()->last_report().joints.max_torque_ratio);
     if (s.fell_at_s() >= 0) break;
   }
+  r.qpos.conservativeResize(static_cast<Eigen::Index>(r.times_s.size()), m.nq);  // a fall ends it
   const TrackingReport report = s.tracking_report();
   r.fell_at_s = report.fell_at_s;
   r.joint_rms_rad = report.stats.joint_rms_rad();

@@ -118,6 +118,12 @@ int find_bvh_joint(const BvhMotion& motion, const std::string& name);
 JointMap resolve_joint_map(const JointMap& map, const BvhMotion& motion,
                            const std::string& bvh_source);
 
+/// The first built-in map (builtin_joint_map_names order) whose required joints `motion` has,
+/// or nullopt; `tried` (optional) gets each refusal, one per line, for the caller's message.
+std::optional<JointMap> first_fitting_builtin_map(const BvhMotion& motion,
+                                                  const std::string& bvh_source,
+                                                  std::string* tried = nullptr);
+
 // ---------------------------------------------------------------------------------------------
 // Retargeting
 // ---------------------------------------------------------------------------------------------

@@ -142,6 +142,10 @@ struct Character {
   const Segment* find(const std::string& name) const;
 };
 
+/// The paper's torque scale of a body (§5.1): (mass / 82.2 kg) x (height / 1.799 m) x
+/// spec.tau_max_factor. Every joint's tau_max is its Table 2 value times this.
+double torque_scale(const CharacterSpec& spec);
+
 /// Reference subject of the paper's Table 1/2: torques scale from these (paper §5.1).
 inline constexpr double kPaperHeight_m = 1.799;
 inline constexpr double kPaperMass_kg = 82.2;
