@@ -5,6 +5,7 @@
 #include <exception>
 #include <filesystem>
 #include <fstream>
+#include <iomanip>
 #include <iostream>
 #include <map>
 #include <sstream>
@@ -199,6 +200,30 @@ nlohmann::json muscles_json(const std::optional<scenarios::MuscleRunReport>& rep
            "not_given: wanted by the controller, beyond the backups' range"},
           {"qp_failures", report->qp_failures},
           {"fiber_solve_failures", report->fiber_solve_failures}};
+}
+
+nlohmann::json joint_load_json(const scenarios::JointLoadReport& r) {
+  return {{"stop_peak_Nm", r.stop_peak_Nm},
+          {"stop_peak_dof", r.stop_peak_dof},
+          {"load_peak_ratio", r.load_peak_ratio},
+          {"load_peak_dof", r.load_peak_dof},
+          {"load_over_tau_max_s", r.over_s},
+          {"load_over_tau_max_longest_s", r.over_longest_s},
+          {"about",
+           "the joints' range stops (rigid MuJoCo limits) are passive structure; load = |motor "
+           "+ stop| / tau_max per DOF, toes not judged"}};
+}
+
+void print_joint_load(const scenarios::JointLoadReport& r, std::ostream& out) {
+  const auto old = out.flags();
+  const auto precision = out.precision();
+  out << std::fixed << std::setprecision(0) << "  joint stops carried up to " << r.stop_peak_Nm
+      << " N m" << (r.stop_peak_dof.empty() ? "" : " (" + r.stop_peak_dof + ")")
+      << "; motor + stop up to " << 100 * r.load_peak_ratio << "% of tau_max"
+      << (r.load_peak_dof.empty() ? "" : " (" + r.load_peak_dof + ")") << std::setprecision(3)
+      << ", above it " << r.over_s << " s (longest " << r.over_longest_s << " s)\n";
+  out.flags(old);
+  out.precision(precision);
 }
 
 void print_muscles(const std::optional<scenarios::MuscleRunReport>& report, std::ostream& out) {

@@ -63,6 +63,11 @@ nlohmann::json muscles_json(const std::optional<scenarios::MuscleRunReport>& rep
 /// The same in a few lines a person reads (nothing without muscles).
 void print_muscles(const std::optional<scenarios::MuscleRunReport>& report, std::ostream& out);
 
+/// What the joints' range stops carried beside the motors (scenario.h) for the JSON summaries.
+nlohmann::json joint_load_json(const scenarios::JointLoadReport& r);
+/// The same as one line a person reads ("  joint stops: ...\n").
+void print_joint_load(const scenarios::JointLoadReport& r, std::ostream& out);
+
 /// The body an output was computed for, as every JSON summary reports it: height_m, mass_kg,
 /// sex, detail (add a command's own inputs to it).
 nlohmann::json character_json(const models::CharacterSpec& spec);

@@ -68,6 +68,12 @@ MotionId run_motion_id(const mjModel& model, const mocap_io::Motion& all, const 
                        const IdGround& ground, const std::string& command,
                        std::vector<std::string>* notes);
 
+/// Marker IK of a capture (.c3d or .trc) as `mocap ik --c3d|--trc CAPTURE -o OUTPUT` runs it
+/// with its defaults (the marker set sharing the most labels, the trial scaling the body, z up):
+/// writes OUTPUT (qpos CSV with its body) and its .body.json and .xml beside it, and prints the
+/// fit. Throws sim::InvalidArgument as `mocap ik` does (no frame solved, ...).
+void run_default_mocap_ik(const std::string& capture, const std::string& output);
+
 /// `mocap info FILE`: what a capture file holds.
 Command add_mocap_info_command(CLI::App* mocap);
 /// `mocap convert IN OUT`: C3D/TRC markers to TRC or C3D, or a BVH rewritten (scaled).

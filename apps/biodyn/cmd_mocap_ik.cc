@@ -421,6 +421,13 @@ int run_ik(const IkOptions& o, bool height_given) {
 
 }  // namespace
 
+void run_default_mocap_ik(const std::string& capture, const std::string& output) {
+  IkOptions o;
+  (format_of(capture, "--motion") == Format::kC3d ? o.c3d : o.trc) = capture;
+  o.output = output;
+  run_ik(o, false);
+}
+
 Command add_mocap_ik_command(CLI::App* mocap) {
   auto ik = std::make_shared<IkOptions>();
   CLI::App* ik_cmd = mocap->add_subcommand(

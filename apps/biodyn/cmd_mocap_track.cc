@@ -39,7 +39,8 @@ json samcon_json(const scenarios::SamconParams& p) {
           {"sigma_hip_rad", p.sigma_hip_rad},
           {"sigma_knee_rad", p.sigma_knee_rad},
           {"sigma_ankle_rad", p.sigma_ankle_rad},
-          {"sigma_trunk_rad", p.sigma_trunk_rad}};
+          {"sigma_trunk_rad", p.sigma_trunk_rad},
+          {"load_scale", p.load_scale}};
 }
 
 int run_track(const TrackOptions& o) {
@@ -67,7 +68,9 @@ int run_track(const TrackOptions& o) {
       {"motion", o.motion},
       {"character", character_json(config.character)},
       {"method", "SAMCON (Liu et al. 2010) over the feedback tracker (motion_tracker.h)"},
-      {"physics", "joints within tau_max and the floor only: no force on the root"},
+      {"physics",
+       "motors within tau_max and the floor only: no force on the root; the joints' range "
+       "stops are passive structure and carry load beside the motors (joint_stops)"},
       {"weld", o.weld},
       {"lookahead_s", o.lookahead_s},
       {"samcon", samcon_json(o.samcon)},
@@ -79,6 +82,7 @@ int run_track(const TrackOptions& o) {
       {"joint_max_deg", r.joint_max_rad * 180 / M_PI},
       {"root_max_m", r.root_max_m},
       {"peak_torque_ratio", r.peak_torque_ratio},
+      {"joint_stops", joint_load_json(r.joint_load)},
       {"rollouts", r.rollouts},
       {"simulated_steps", r.steps},
       {"wall_s", r.wall_s},
@@ -117,6 +121,7 @@ int run_track(const TrackOptions& o) {
             << "  " << r.rollouts << " rollouts, " << r.wall_s << " s wall ("
             << (r.wall_s > 0 ? motion_s / r.wall_s : 0.0) << "x real time)\n"
             << "wrote " << o.output << "/{tracked.csv, offsets.csv, summary.json}\n";
+  print_joint_load(r.joint_load, std::cout);
   for (const std::string& n : notes) std::cout << "  note: " << n << "\n";
   return summary["kept_up"].get<bool>() ? kExitOk : kExitFailure;
 }
@@ -145,6 +150,10 @@ Command add_mocap_track_command(CLI::App* mocap) {
   cmd->add_option("--children", o->samcon.children, "rollouts per kept state")
       ->capture_default_str();
   cmd->add_option("--seed", o->samcon.seed, "random seed of the offsets")->capture_default_str();
+  cmd->add_option("--load-scale", o->samcon.load_scale,
+                  "a joint's load (motor + range stop) this far over tau_max through a window "
+                  "costs as much as 0.03 rad of joint error (large: stops are free)")
+      ->capture_default_str();
   cmd->add_option("--threads", o->samcon.threads, "worker threads (0: every core)")
       ->capture_default_str();
   cmd->add_option("-o,--output", o->output, "output directory")->required();

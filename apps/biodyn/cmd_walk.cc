@@ -114,6 +114,7 @@ nlohmann::json walk_json(const scenarios::WalkRunResult& r) {
       {"weld_redone_steps", r.weld_redone_steps},
       {"max_weld_force", r.max_weld_force_N},
       {"max_torque_ratio", r.max_torque_ratio},
+      {"joint_stops", joint_load_json(r.joint_load)},
       {"max_root_force", r.max_root_force_N},
       {"speed_command", r.speed_command_m_s},
       {"heading_rate_deg_s", r.heading_rate_deg_s},
@@ -192,6 +193,7 @@ void print_walk_summary(const scenarios::WalkRunResult& r, std::ostream& out) {
       << ", root force " << r.max_root_force_N << " N, peak torque " << std::setprecision(0)
       << 100 * r.max_torque_ratio << "% of tau_max, " << std::setprecision(1) << r.realtime_factor
       << "x real time\n";
+  print_joint_load(r.joint_load, out);
   print_muscles(r.muscles, out);
   if (r.stopped_at_s >= 0) {
     out << "  stopped (feet side by side, standing controller) at " << std::setprecision(2)

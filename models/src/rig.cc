@@ -62,6 +62,15 @@ Sole find_sole(const mjModel& m, int foot_body) {
   return s;
 }
 
+std::vector<double> judged_tau_max(const mjModel& m, const std::vector<JointGroup>& groups) {
+  std::vector<double> tau_max = sim::motor_limits_per_dof(m);
+  for (const JointGroup& g : groups) {
+    if (strength_judged(g)) continue;
+    for (int k = 0; k < g.dof_count; ++k) tau_max[static_cast<std::size_t>(g.dof_begin + k)] = -1;
+  }
+  return tau_max;
+}
+
 std::string joint_name_for_body(const std::string& body_name) {
   std::string stem = body_name, suffix;
   if (stem.size() > 2 &&

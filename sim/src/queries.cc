@@ -142,6 +142,15 @@ void efc_jacobian_row(const mjModel& m, const mjData& d, int r, mjtNum* out) {
   for (int k = 0; k < d.efc_J_rownnz[r]; ++k) out[d.efc_J_colind[adr + k]] = d.efc_J[adr + k];
 }
 
+void joint_stop_torques(const mjModel& m, const mjData& d, mjtNum* row, mjtNum* out) {
+  std::fill(out, out + m.nv, 0.0);
+  for (int r = 0; r < d.nefc; ++r) {
+    if (d.efc_type[r] != mjCNSTR_LIMIT_JOINT || d.efc_force[r] == 0) continue;
+    efc_jacobian_row(m, d, r, row);
+    for (int i = 0; i < m.nv; ++i) out[i] += row[i] * d.efc_force[r];
+  }
+}
+
 std::vector<double> motor_limits_per_dof(const mjModel& m) {
   std::vector<double> tau(static_cast<std::size_t>(m.nv), -1.0);
   for (int a = 0; a < m.nu; ++a) {

@@ -1,5 +1,7 @@
 #include <cmath>
 
+#include "biodyn/sim/errors.h"
+#include "biodyn/sim/joint_load.h"
 #include "biodyn/sim/queries.h"
 #include "biodyn/sim/simulation.h"
 #include "test_support.h"
@@ -122,4 +124,68 @@ TEST_CASE_METHOD(biodyn::testing::SimulationTest,
   // Ball: 0.5*1*(1+9) + 0.5*0.004*4 kinetic; potential of both bodies.
   const double expected = 0.5 * 10 + 0.5 * 0.004 * 4 + 9.81 * (3 * 0.1 + 1 * 3);
   CHECK(std::abs(e0 - expected) < 1e-6);
+}
+
+namespace {
+// A 2 kg bar, its centre 0.5 m out, on a hinge about y whose range stops it at horizontal
+// (gravity turns it towards -range); a motor of gear 1 and ctrlrange +-12 N m on the hinge.
+const char* kBarOnStop = R"(
+<mujoco>
+  <option timestep="0.002"/>
+  <worldbody>
+    <body name="bar" pos="0 0 1">
+      <joint name="hinge" type="hinge" axis="0 -1 0" limited="true" range="0 90"/>
+      <geom type="capsule" fromto="0 0 0 1 0 0" size="0.02" mass="2"/>
+    </body>
+  </worldbody>
+  <actuator>
+    <motor joint="hinge" gear="1" ctrllimited="true" ctrlrange="-12 12"/>
+  </actuator>
+</mujoco>)";
+}  // namespace
+
+TEST_CASE_METHOD(biodyn::testing::SimulationTest,
+                 "A range stop's torque is what it carries, and the load meter adds the motor's",
+                 "[sim][queries]") {
+  Simulation sim(load_inline(kBarOnStop));
+  const mjModel& m = sim.model();
+  const double gravity_torque = 2 * 9.81 * 0.5;  // 9.81 N m: the stop and the motor share it
+  std::vector<mjtNum> row(1), stop(1);
+  biodyn::sim::JointLoadStats stats;
+  CHECK(biodyn::sim::motor_limits_per_dof(m) == std::vector<double>{12.0});
+  biodyn::sim::JointLoadMeter meter(m, {4.0});  // judged against 4 N m
+  for (const double motor : {0.0, 3.0}) {
+    sim.data().ctrl[0] = motor;
+    for (int i = 0; i < 500; ++i) sim.step();  // 1 s on the stop
+    biodyn::sim::joint_stop_torques(m, sim.data(), row.data(), stop.data());
+    INFO("motor " << motor << " N m: stop " << stop[0] << " N m");
+    // At rest the stop carries what the motor does not (its soft constraint sags a little).
+    CHECK(std::abs(stop[0] - (gravity_torque - motor)) < 0.02 * gravity_torque);
+    CHECK(std::abs(sim.data().qpos[0]) < 0.01);
+    // Motor + stop = the gravity torque, over 4 N m: a load of ~2.45.
+    const double load = meter.measure(m, sim.data(), &stats);
+    CHECK(std::abs(load - gravity_torque / 4) < 0.05);
+  }
+  CHECK(stats.steps == 2);
+  CHECK(stats.over_steps == 2);
+  CHECK(stats.over_longest == 2);
+  CHECK(stats.load_peak_dof == 0);
+  CHECK(stats.stop_peak_dof == 0);
+  CHECK(std::abs(stats.stop_peak_Nm - gravity_torque) < 0.02 * gravity_torque);
+  // A stretch above 1 adds to excess_sum once it outlasts the impact time (10 ms: 5 steps).
+  CHECK(stats.excess_sum == 0);
+  for (int i = 0; i < 5; ++i) meter.measure(m, sim.data(), &stats);
+  CHECK(stats.over_run == 7);
+  const double excess = gravity_torque / 4 - 1;
+  CHECK(std::abs(stats.excess_sum - 2 * excess * excess) < 0.1);
+  // Lifted off the stop by a motor stronger than gravity: no stop torque, and a load under 1
+  // ends the stretch.
+  sim.data().ctrl[0] = 12.0;
+  biodyn::sim::JointLoadMeter strong(m, {20.0});
+  for (int i = 0; i < 100; ++i) sim.step();
+  biodyn::sim::joint_stop_torques(m, sim.data(), row.data(), stop.data());
+  CHECK(stop[0] == 0.0);
+  CHECK(strong.measure(m, sim.data(), &stats) < 1);
+  CHECK(stats.over_run == 0);
+  CHECK_THROWS_AS(biodyn::sim::JointLoadMeter(m, {1.0, 2.0}), biodyn::sim::InvalidArgument);
 }

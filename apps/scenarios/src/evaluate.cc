@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <mutex>
 #include <nlohmann/json.hpp>
+#include <sstream>
 #include <thread>
 
 #include "biodyn/mocap_io/bvh.h"
@@ -133,9 +134,8 @@ void joint_figures(const mjModel& m, const models::Rig& rig, BodyEvaluation* e,
       j.peak_power_W = std::max(j.peak_power_W, std::abs(power));
       (power > 0 ? j.positive_work_J : j.negative_work_J) += power * dt;
     }
-    // The toes are reported but not judged: their tau_max is an estimate (joints.csv) and their
-    // load hangs on the ground estimate's split between toe tip and forefoot.
-    const bool judged = g.name.rfind("toe", 0) != 0;
+    // The toes are reported but not judged (rig.h).
+    const bool judged = models::strength_judged(g);
     if (judged && j.first_saturation_s >= 0 && (first < 0 || j.first_saturation_s < first)) {
       first = j.first_saturation_s;
       e->first_saturating_joint = j.joint;
@@ -214,6 +214,7 @@ void evaluate_body(const std::string& motion_path, const models::CharacterSpec& 
     e->tracking_wall_s = t.wall_s;
     e->tracking_realtime_factor = t.wall_s > 0 ? length / t.wall_s : 0;
     e->peak_torque_ratio_tracked = t.peak_torque_ratio;
+    e->joint_load_tracked = t.joint_load;
   }
   e->wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
@@ -221,12 +222,24 @@ void evaluate_body(const std::string& motion_path, const models::CharacterSpec& 
 /// The verdict sentence and the feasibility flag.
 void judge(BodyEvaluation* e) {
   const bool saturates = !e->first_saturating_joint.empty();
-  e->feasible = !saturates && (!e->tracked || e->kept_up);
+  // A tracking that keeps up only by leaning on a joint's range stop beyond the joint's strength
+  // is not a way this body can do the motion.
+  const bool overloaded =
+      e->tracked && e->kept_up && e->joint_load_tracked.over_longest_s >= kSustained_s - 1e-9;
+  e->feasible = !saturates && (!e->tracked || e->kept_up) && !overloaded;
   std::string v = e->feasible ? "can do it" : "cannot do it";
   if (saturates) v += ": " + e->first_saturating_joint + " exceeds tau_max first";
   if (e->tracked && !e->kept_up) {
     v += std::string(saturates ? "; " : ": ") + "the tracking falls at " +
          std::to_string(e->fell_at_s) + " s";
+  }
+  if (overloaded) {
+    std::ostringstream s;
+    s.precision(2);
+    s << (saturates ? "; " : ": ") << "the tracking keeps up only with "
+      << e->joint_load_tracked.load_peak_dof << " at up to "
+      << e->joint_load_tracked.load_peak_ratio << "x tau_max (motor + joint stop)";
+    v += s.str();
   }
   e->verdict = v;
 }

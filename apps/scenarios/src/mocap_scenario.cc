@@ -3,11 +3,13 @@
 
 #include <algorithm>
 #include <cctype>
+#include <cmath>
 
 #include "biodyn/mocap_io/bvh.h"
 #include "biodyn/mocap_io/motion_csv.h"
 #include "biodyn/mocap_io/retarget.h"
 #include "biodyn/sim/errors.h"
+#include "biodyn/sim/queries.h"
 #include "fall_watch.h"
 
 namespace biodyn::scenarios {
@@ -142,6 +144,7 @@ void MocapScenario::start_tracking() {
   pipeline_->reset();
   tracker_ = std::make_unique<controllers::MotionTracker>(m, rig_, &tracked_, config_.tracker);
   pipeline_->set_driver(tracker_.get());
+  load_meter_ = std::make_unique<sim::JointLoadMeter>(m, models::judged_tau_max(m, rig_.groups()));
 }
 
 bool MocapScenario::fallen() const {
@@ -161,9 +164,9 @@ void MocapScenario::advance() {
 void MocapScenario::after_step() {
   // Tracking error while upright and while the motion lasts (after it, the targets hold its
   // last frame).
-  if (!tracker_ || fell_at_s_ >= 0 || steps_ % 10 != 0 ||
-      sim_->data().time > motion_length_s() + 1e-9)
-    return;
+  if (!tracker_ || fell_at_s_ >= 0 || sim_->data().time > motion_length_s() + 1e-9) return;
+  load_meter_->measure(sim_->model(), sim_->data(), &stats_.load);
+  if (steps_ % 10 != 0) return;
   const controllers::MotionTracker::Error e = tracker_->error(sim_->model(), sim_->data());
   ++stats_.samples;
   stats_.joint_sum_sq_rad2 += e.joint_rms_rad * e.joint_rms_rad;

@@ -129,11 +129,20 @@ double rollout(Worker* w, const ScenarioState& from, const Eigen::VectorXd& offs
   MocapScenario& s = *w->scenario;
   s.restore(from);
   s.set_tracking_offsets(offsets);
+  const TrackingStats start = s.tracking_stats();
   double cost = 0;
   for (int k = 1; k <= steps; ++k) {
     s.step();
     if (s.fell_at_s() >= 0) return kInfinity;
     if (k * kCostPointsPerWindow % steps < kCostPointsPerWindow) cost += distance_cost(w, p);
+  }
+  // The window's mean squared joint load over tau_max, weighted like the distance points.
+  const sim::JointLoadStats& end = s.tracking_stats().load;
+  const long load_steps = end.steps - start.load.steps;
+  if (load_steps > 0) {
+    const double excess =
+        (end.excess_sum - start.load.excess_sum) / static_cast<double>(load_steps);
+    cost += kCostPointsPerWindow * excess / (p.load_scale * p.load_scale);
   }
   s.save(to);
   return cost;
@@ -160,7 +169,8 @@ void SamconParams::validate() const {
   check(threads >= 0 && threads <= 256, "threads: must be in [0, 256]", threads);
   for (const double s : {sigma_hip_rad, sigma_knee_rad, sigma_ankle_rad, sigma_trunk_rad})
     check(s >= 0 && s <= 1, "sigma: must be in [0, 1] rad", s);
-  for (const double s : {joint_scale_rad, root_scale_m, pelvis_scale_rad, com_speed_scale_m_s})
+  for (const double s :
+       {joint_scale_rad, root_scale_m, pelvis_scale_rad, com_speed_scale_m_s, load_scale})
     check(s > 0 && std::isfinite(s), "cost scale: must be > 0", s);
 }
 
@@ -299,6 +309,7 @@ SamconResult run_samcon(const ScenarioConfig& config, const models::PhysicsOptio
   r.joint_max_rad = report.stats.joint_max_rad;
   r.root_max_m = report.stats.root_max_m;
   r.peak_torque_ratio = peak;
+  r.joint_load = joint_load_report(m, report.stats.load);
   r.simulated_s = static_cast<double>(r.steps) * m.opt.timestep;
   r.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
   return r;

@@ -1,6 +1,8 @@
 // The scenario interface and its configuration (scenario.h).
 #include "biodyn/scenarios/scenario.h"
 
+#include "biodyn/mocap_io/inverse_dynamics.h"
+
 #include <cmath>
 #include <sstream>
 
@@ -29,6 +31,21 @@ void check_heading_rate(double deg_s) {
 }
 
 std::vector<double> paper_stepping_stones_m() { return {0.60, 0.20, 0.50, 0.16, 0.50, 0.30}; }
+
+JointLoadReport joint_load_report(const mjModel& m, const sim::JointLoadStats& stats) {
+  const std::vector<std::string> names = mocap_io::dof_names(m);
+  const auto name_of = [&](int dof) {
+    return dof >= 0 ? names[static_cast<std::size_t>(dof)] : std::string();
+  };
+  JointLoadReport r;
+  r.stop_peak_Nm = stats.stop_peak_Nm;
+  r.stop_peak_dof = name_of(stats.stop_peak_dof);
+  r.load_peak_ratio = stats.load_peak_ratio;
+  r.load_peak_dof = name_of(stats.load_peak_dof);
+  r.over_s = static_cast<double>(stats.over_steps) * m.opt.timestep;
+  r.over_longest_s = static_cast<double>(stats.over_longest) * m.opt.timestep;
+  return r;
+}
 
 std::optional<MuscleRunReport> muscle_report(const controllers::ControlPipeline& pipeline) {
   if (pipeline.muscles() == nullptr) return std::nullopt;

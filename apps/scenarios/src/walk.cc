@@ -92,7 +92,11 @@ struct FootWatch {
 // The gait's figures (WalkRunResult), measured after every step.
 class WalkMetrics : public StepObserver {
  public:
-  WalkMetrics(const WalkScenario& s, WalkRunResult* r) : r_(r), ranges_(s.rig().groups()) {
+  WalkMetrics(const WalkScenario& s, WalkRunResult* r)
+      : r_(r),
+        ranges_(s.rig().groups()),
+        load_meter_(s.simulation().model(),
+                    models::judged_tau_max(s.simulation().model(), s.rig().groups())) {
     const mjModel& m = s.simulation().model();
     const mjData& d = s.simulation().data();
     for (int side = 0; side < 2; ++side) {
@@ -115,6 +119,7 @@ class WalkMetrics : public StepObserver {
     ++r_->sim_steps;
     r_->warnings += rep.status.new_warnings;
     r_->max_torque_ratio = std::max(r_->max_torque_ratio, rep.joints.max_torque_ratio);
+    load_meter_.measure(m, d, &load_);
     if (rep.weld_tension) ++r_->weld_tension_steps;
     r_->weld_redone_steps += rep.redone > 0 ? 1 : 0;
     for (std::size_t side = 0; side < 2; ++side)
@@ -141,6 +146,7 @@ class WalkMetrics : public StepObserver {
     const mjData& d = s.simulation().data();
     const sim::CenterOfMass com = sim::center_of_mass(m, d);
     r_->final_com_speed_m_s = com.velocity_W.head<2>().norm();
+    r_->joint_load = joint_load_report(m, load_);
     r_->standing_at_end = r_->stopped_at_s >= 0 && !r_->fallen &&
                           r_->final_com_speed_m_s < kStandingSpeed_m_s && feet_down_[0] &&
                           feet_down_[1];
@@ -252,6 +258,8 @@ class WalkMetrics : public StepObserver {
   FootWatch feet_[2];
   int knee_dof_[2] = {0, 0};
   AngleRanges ranges_;
+  sim::JointLoadMeter load_meter_;
+  sim::JointLoadStats load_;
   Vector2d start_heading_, com_start_, com_last_strike_;
   int strikes_seen_ = 0;
   double steady_first_t_ = -1, steady_last_t_ = 0, steady_path_ = 0;

@@ -1,6 +1,7 @@
 // `biodyn evaluate` as a user runs it: the CMU clip on two bodies (no tracking: the costly part
 // has its own tests), a CSV per body, summary.json, and report.html opened in a real browser
 // (Debian's Chromium, headless): it renders the feasibility table and the torque plot.
+// A C3D capture goes through marker IK first.
 #include <algorithm>
 #include <filesystem>
 #include <nlohmann/json.hpp>
@@ -65,6 +66,25 @@ TEST_CASE("biodyn evaluate: CSV per body, summary.json, and an HTML report a bro
     return std::max({red, green, blue}) - std::min({red, green, blue}) > 80;
   });
   CHECK(coloured > 2000);
+}
+
+TEST_CASE("biodyn evaluate: a C3D capture is solved by marker IK first, then evaluated",
+          "[apps][cli][evaluate]") {
+  const fs::path dir = fresh_dir("evaluate_cli_test", "c3d");
+  write_text(dir / "bodies.json", R"({"bodies": [{"name": "same", "height_m": 1.87}]})");
+  const std::string c3d = source_dir() + "/../shared/data/mocap/c3d/opensim_walking5.c3d";
+  const CliRun r =
+      run_biodyn("evaluate --motion '" + c3d + "' --bodies bodies.json --tracking off -o out", dir);
+  INFO(r.out << r.err);
+  REQUIRE(r.exit_code == 0);
+  CHECK(r.out.find("mocap ik:") != std::string::npos);  // the IK's own summary
+  CHECK(fs::file_size(dir / "out" / "capture_ik.csv") > 10000);
+  CHECK(fs::exists(dir / "out" / "capture_ik.body.json"));
+  const json s = json::parse(slurp(dir / "out" / "summary.json"));
+  CHECK(s["motion_ik"].get<std::string>().find("capture_ik.csv") != std::string::npos);
+  REQUIRE(s["bodies"].size() == 1);
+  CHECK(s["bodies"][0]["joints"].size() > 10);
+  CHECK(s["bodies"][0]["ground_force_peak_bw"].get<double>() < 3.0);
 }
 
 }  // namespace biodyn::testing::cmd_evaluate_test

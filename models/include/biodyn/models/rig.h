@@ -70,6 +70,14 @@ struct JointGroup {
   std::vector<Eigen::Vector2d> range_rad;
 };
 
+/// Whether a group's strength is judged against its tau_max: every joint but the toes, whose
+/// tau_max is an estimate (joints.csv) and whose load hangs on the forefoot/toe-tip split.
+inline bool strength_judged(const JointGroup& g) { return g.name.rfind("toe", 0) != 0; }
+
+/// Per DOF (nv): the motor's tau_max (sim::motor_limits_per_dof) where `groups` judge the
+/// strength, -1 elsewhere (the root, the toes, DOFs without a motor).
+std::vector<double> judged_tau_max(const mjModel& m, const std::vector<JointGroup>& groups);
+
 /// The anatomical joint name of a generated character's body ("thigh_l" -> "hip_l",
 /// "shank_r" -> "knee_r", "trunk" -> "trunk"); the body's own name for other bodies.
 std::string joint_name_for_body(const std::string& body_name);

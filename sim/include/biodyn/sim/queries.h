@@ -87,4 +87,9 @@ std::vector<double> motor_limits_per_dof(const mjModel& m);
 /// rows efc_J_rownnz/rowadr/colind). No allocation.
 void efc_jacobian_row(const mjModel& m, const mjData& d, int r, mjtNum* out);
 
+/// Per DOF (nv) into `out`: the generalized force the joints' range stops (MuJoCo's joint-limit
+/// constraint rows) apply now, J^T f over those rows. `row` is nv scratch. No allocation. The
+/// stops are passive structure, not muscle: a result that leans on them should say so.
+void joint_stop_torques(const mjModel& m, const mjData& d, mjtNum* row, mjtNum* out);
+
 }  // namespace biodyn::sim

@@ -78,8 +78,10 @@ struct BodyEvaluation {
   bool tracked = false, kept_up = false;
   double fell_at_s = -1, joint_rms_deg = 0, root_max_m = 0, tracking_wall_s = 0;
   double tracking_realtime_factor = 0, peak_torque_ratio_tracked = 0;
+  JointLoadReport joint_load_tracked;  ///< the tracking's joint stops beside its motors
   double wall_s = 0;
-  /// Can this body do the motion: kept up (if tracked) and no joint past tau_max in ID.
+  /// Can this body do the motion: no joint past tau_max in ID and, if tracked, kept up without
+  /// a joint's load (motor + range stop) above its tau_max for 50 ms or more.
   bool feasible = false;
   std::string verdict;  ///< a sentence: who can do it, what fails first
 };

@@ -15,6 +15,7 @@
 #include "biodyn/controllers/control_pipeline.h"
 #include "biodyn/controllers/motion_tracker.h"
 #include "biodyn/scenarios/scenario.h"
+#include "biodyn/sim/joint_load.h"
 
 namespace biodyn::scenarios {
 
@@ -26,6 +27,9 @@ struct TrackingStats {
   double joint_rms_rad() const {
     return samples > 0 ? std::sqrt(joint_sum_sq_rad2 / static_cast<double>(samples)) : 0.0;
   }
+  /// Every step while tracking: the motors' and the joints' range stops' load (joint_load.h;
+  /// the toes not judged).
+  sim::JointLoadStats load;
 };
 
 /// Everything the summaries report about a tracked motion.
@@ -94,6 +98,7 @@ class MocapScenario : public Scenario {
   double playback_time_s_ = 0;
   TrackingStats stats_;
   std::unique_ptr<FallWatch> fall_;
+  std::unique_ptr<sim::JointLoadMeter> load_meter_;  // tracked only
 };
 
 }  // namespace biodyn::scenarios

@@ -42,6 +42,10 @@ struct SamconParams {
   /// vertically, a pelvis turned this much, or a CoM this much faster each cost 1.
   double joint_scale_rad = 0.03, root_scale_m = 0.05, pelvis_scale_rad = 0.1,
          com_speed_scale_m_s = 0.3;
+  /// A joint load (motor + range stop, TrackingStats) this far over tau_max through a window
+  /// costs as much as one of the scales above: a path may not lean on the stops for free
+  /// (impacts under 10 ms excepted: sim/joint_load.h).
+  double load_scale = 0.1;
   void validate() const;  ///< throws sim::InvalidArgument naming the field
 };
 
@@ -63,6 +67,7 @@ struct SamconResult {
   std::vector<double> times_s;
   Eigen::MatrixXd qpos;          ///< frames x nq, one per `record_every_steps` step of the replay
   double peak_torque_ratio = 0;  ///< max over the replay of |tau| / tau_max
+  JointLoadReport joint_load;    ///< the replay's joint stops beside its motors
 };
 
 /// Runs SAMCON for the motion `config` names (scenario "mocap", track on) on the body

@@ -28,6 +28,7 @@
 #include "biodyn/models/rig.h"
 #include "biodyn/muscles/muscle_drive.h"
 #include "biodyn/muscles/muscle_set.h"
+#include "biodyn/sim/joint_load.h"
 #include "biodyn/sim/simulation.h"
 
 namespace biodyn::scenarios {
@@ -106,6 +107,16 @@ struct MuscleRunReport {
 };
 /// The report of `pipeline`'s muscles so far; nullopt without muscles.
 std::optional<MuscleRunReport> muscle_report(const controllers::ControlPipeline& pipeline);
+
+/// What the joints' range stops carried beside the motors over a run (sim/joint_load.h), with
+/// the DOFs named (mocap_io::dof_names; "" when none).
+struct JointLoadReport {
+  double stop_peak_Nm = 0;                ///< largest stop torque
+  double load_peak_ratio = 0;             ///< largest |motor + stop| / tau_max of a judged DOF
+  double over_s = 0, over_longest_s = 0;  ///< s with a load above 1: in all, longest stretch
+  std::string stop_peak_dof, load_peak_dof;
+};
+JointLoadReport joint_load_report(const mjModel& m, const sim::JointLoadStats& stats);
 
 /// Everything a scenario is built from. Fields a scenario does not use must keep their
 /// defaults (validate() refuses them, naming the option, rather than ignoring them).

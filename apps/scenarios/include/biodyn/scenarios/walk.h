@@ -101,6 +101,7 @@ struct WalkRunResult {
   int weld_redone_steps = 0;
   double max_weld_force_N = 0;
   double max_torque_ratio = 0;  ///< peak |tau| / tau_max
+  JointLoadReport joint_load;   ///< the joints' range stops beside the motors (toes not judged)
   double max_root_force_N = 0;  ///< largest applied force on the root's DOFs (must be 0)
   sim::WarningCounts warnings;
   std::optional<WalkPushOutcome> push;
