@@ -209,9 +209,11 @@ nlohmann::json joint_load_json(const scenarios::JointLoadReport& r) {
           {"load_peak_dof", r.load_peak_dof},
           {"load_over_tau_max_s", r.over_s},
           {"load_over_tau_max_longest_s", r.over_longest_s},
+          {"load_over_tau_max_longest_dof", r.over_longest_dof},
           {"about",
            "the joints' range stops (rigid MuJoCo limits) are passive structure; load = |motor "
-           "+ stop| / tau_max per DOF, toes not judged"}};
+           "+ stop| / tau_max per DOF (motor: every torque applied on the DOF, the ball joints' "
+           "swing-twist limits included; damping not counted), toes not judged"}};
 }
 
 void print_joint_load(const scenarios::JointLoadReport& r, std::ostream& out) {
@@ -221,7 +223,8 @@ void print_joint_load(const scenarios::JointLoadReport& r, std::ostream& out) {
       << " N m" << (r.stop_peak_dof.empty() ? "" : " (" + r.stop_peak_dof + ")")
       << "; motor + stop up to " << 100 * r.load_peak_ratio << "% of tau_max"
       << (r.load_peak_dof.empty() ? "" : " (" + r.load_peak_dof + ")") << std::setprecision(3)
-      << ", above it " << r.over_s << " s (longest " << r.over_longest_s << " s)\n";
+      << ", above it " << r.over_s << " s (longest " << r.over_longest_s << " s"
+      << (r.over_longest_dof.empty() ? "" : ", " + r.over_longest_dof) << ")\n";
   out.flags(old);
   out.precision(precision);
 }

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <filesystem>
 #include <fstream>
+#include <iomanip>
 #include <iostream>
 #include <memory>
 #include <nlohmann/json.hpp>
@@ -22,6 +23,7 @@ namespace fs = std::filesystem;
 
 struct EvaluateCli {
   std::string motion, bodies, output, tracking = "on";
+  std::string lab_up = "z", markerset;  ///< a capture's IK (mocap ik's options)
   scenarios::EvaluateOptions options;
 };
 
@@ -199,6 +201,15 @@ std::string html_escape(const std::string& s) {
 }
 
 /// report.html: the torque plot, the feasibility table and the assumptions, in one file.
+/// The report's joint-load cell: the longest stretch over tau_max and the peak, with their DOFs.
+std::string load_cell(const scenarios::JointLoadReport& r) {
+  std::ostringstream s;
+  s << std::fixed << std::setprecision(3) << r.over_longest_s << " s";
+  if (!r.over_longest_dof.empty()) s << " " << r.over_longest_dof;
+  s << std::setprecision(2) << " (" << r.load_peak_ratio << "x " << r.load_peak_dof << ")";
+  return html_escape(s.str());
+}
+
 std::string report_html(const EvaluateCli& o, const std::vector<scenarios::BodyEvaluation>& all,
                         const std::string& png) {
   std::ostringstream h;
@@ -212,8 +223,8 @@ std::string report_html(const EvaluateCli& o, const std::vector<scenarios::BodyE
     << "<h2>Feasibility</h2>\n<table id=\"feasibility\"><tr><th class=\"l\">body</th><th>height "
        "(m)</th><th>mass (kg)</th><th class=\"l\">profile</th><th class=\"l\">tau_max</th><th "
        "class=\"l\">verdict</th><th>peak tau/tau_max</th><th class=\"l\">first to saturate</th>"
-       "<th>tracking joint RMS (deg)</th><th>fell at (s)</th><th>tracking motor + stop "
-       "/ tau_max</th><th>residual force RMS (N)</th></tr>\n";
+       "<th>tracking joint RMS (deg)</th><th>fell at (s)</th><th class=\"l\">tracking motor + "
+       "stop over tau_max: longest (peak)</th><th>residual force RMS (N)</th></tr>\n";
   for (const scenarios::BodyEvaluation& e : all) {
     double peak = 0;
     for (const scenarios::JointEvaluation& j : e.joints) peak = std::max(peak, j.peak_ratio);
@@ -225,10 +236,8 @@ std::string report_html(const EvaluateCli& o, const std::vector<scenarios::BodyE
       << "</td><td>" << peak << "</td><td class=\"l\">" << e.first_saturating_joint << "</td><td>"
       << (e.tracked ? std::to_string(e.joint_rms_deg) : "-") << "</td><td>"
       << (e.fell_at_s >= 0 ? std::to_string(e.fell_at_s) : "-") << "</td><td>"
-      << (e.tracked ? std::to_string(e.joint_load_tracked.load_peak_ratio) + " " +
-                          e.joint_load_tracked.load_peak_dof
-                    : "-")
-      << "</td><td>" << e.residual_force_rms_N << "</td></tr>\n";
+      << (e.tracked ? load_cell(e.joint_load_tracked) : "-") << "</td><td>"
+      << e.residual_force_rms_N << "</td></tr>\n";
   }
   std::ifstream in(png, std::ios::binary);
   const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
@@ -243,6 +252,9 @@ std::string report_html(const EvaluateCli& o, const std::vector<scenarios::BodyE
   return h.str();
 }
 
+/// The name of a capture's IK output in the output directory (.csv, .json, .body.json, .xml).
+constexpr const char* kCaptureIk = "capture_ik";
+
 int run_evaluate(EvaluateCli o) {
   check_outputs({{"-o", o.output, true}}, {o.motion, o.bodies});
   if (o.tracking != "on" && o.tracking != "off")
@@ -253,11 +265,20 @@ int run_evaluate(EvaluateCli o) {
   const Format format = format_of(o.motion, "--motion");
   fs::create_directories(o.output);
   // A capture's markers become a motion first, as `mocap ik` makes it (its body scaled by the
-  // trial, 80 kg unless the bodies say otherwise: the fixed tau_max rule uses that body).
+  // trial at 80 kg: the fixed tau_max rule's body).
   std::string motion = o.motion;
+  json ik_status;
   if (format == Format::kC3d || format == Format::kTrc) {
-    motion = o.output + "/capture_ik.csv";
-    run_default_mocap_ik(o.motion, motion);
+    for (const scenarios::EvaluationBody& b : bodies)
+      if (b.name == kCaptureIk)
+        throw sim::InvalidArgument(o.bodies + ": body name '" + b.name +
+                                   "' is the capture's IK output's; rename the body");
+    motion = o.output + "/" + kCaptureIk + ".csv";
+    run_capture_ik(o.motion, "--motion", o.lab_up, o.markerset, motion,
+                   o.output + "/" + kCaptureIk + ".json");
+    ik_status = json::parse(read_file(o.output + "/" + kCaptureIk + ".json"))["status"];
+  } else if (o.lab_up != "z" || !o.markerset.empty()) {
+    throw sim::InvalidArgument("--lab-up/--markerset: only for a C3D or TRC --motion");
   }
   std::vector<scenarios::BodyEvaluation> all;
   {
@@ -267,7 +288,7 @@ int run_evaluate(EvaluateCli o) {
     });
   }
   json summary = {{"motion", o.motion}, {"bodies_file", o.bodies}, {"assumptions", assumptions(o)}};
-  if (motion != o.motion) summary["motion_ik"] = motion;
+  if (motion != o.motion) summary["motion_ik"] = {{"file", motion}, {"status", ik_status}};
   json list = json::array();
   for (const scenarios::BodyEvaluation& e : all) list.push_back(body_json(e));
   summary["bodies"] = list;
@@ -313,6 +334,11 @@ Command add_evaluate_command(CLI::App* app) {
       ->capture_default_str();
   cmd->add_option("--seed", o->options.samcon.seed, "tracking: random seed of the search")
       ->capture_default_str();
+  cmd->add_option("--lab-up", o->lab_up, "a capture's vertical axis, z or y (as mocap ik)")
+      ->capture_default_str();
+  cmd->add_option("--markerset", o->markerset,
+                  "a capture's marker set (as mocap ik; default: the built-in set sharing the "
+                  "most labels)");
   cmd->add_option("--threads", o->options.threads, "bodies in parallel (0: every core)")
       ->capture_default_str();
   cmd->add_option("-o,--output", o->output, "output directory")->required();

@@ -68,11 +68,14 @@ MotionId run_motion_id(const mjModel& model, const mocap_io::Motion& all, const 
                        const IdGround& ground, const std::string& command,
                        std::vector<std::string>* notes);
 
-/// Marker IK of a capture (.c3d or .trc) as `mocap ik --c3d|--trc CAPTURE -o OUTPUT` runs it
-/// with its defaults (the marker set sharing the most labels, the trial scaling the body, z up):
-/// writes OUTPUT (qpos CSV with its body) and its .body.json and .xml beside it, and prints the
-/// fit. Throws sim::InvalidArgument as `mocap ik` does (no frame solved, ...).
-void run_default_mocap_ik(const std::string& capture, const std::string& output);
+/// Marker IK of a capture (.c3d or .trc) as `mocap ik --c3d|--trc CAPTURE --lab-up UP
+/// [--markerset SET] -o OUTPUT --json JSON` runs it (otherwise its defaults: the trial scales the
+/// body, 80 kg): writes OUTPUT (qpos CSV with its body), its .body.json and .xml beside it and the
+/// fit's JSON, and prints the fit. Throws sim::InvalidArgument naming `option` for another
+/// extension, and as `mocap ik` does (no frame solved, ...).
+void run_capture_ik(const std::string& capture, const std::string& option,
+                    const std::string& lab_up, const std::string& markerset,
+                    const std::string& output, const std::string& json_path);
 
 /// `mocap info FILE`: what a capture file holds.
 Command add_mocap_info_command(CLI::App* mocap);

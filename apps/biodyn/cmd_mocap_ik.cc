@@ -421,10 +421,19 @@ int run_ik(const IkOptions& o, bool height_given) {
 
 }  // namespace
 
-void run_default_mocap_ik(const std::string& capture, const std::string& output) {
+void run_capture_ik(const std::string& capture, const std::string& option,
+                    const std::string& lab_up, const std::string& markerset,
+                    const std::string& output, const std::string& json_path) {
   IkOptions o;
-  (format_of(capture, "--motion") == Format::kC3d ? o.c3d : o.trc) = capture;
+  const Format format = format_of(capture, option);
+  if (format != Format::kC3d && format != Format::kTrc)
+    throw sim::InvalidArgument(option + ": marker IK needs a .c3d or .trc capture, got '" +
+                               capture + "'");
+  (format == Format::kC3d ? o.c3d : o.trc) = capture;
+  o.lab_up = lab_up;
+  o.markerset = markerset;
   o.output = output;
+  o.json_path = json_path;
   run_ik(o, false);
 }
 

@@ -27,6 +27,7 @@ struct TrackOptions {
   /// s: half the feedback tracker's default; its lag is most of the error left once SAMCON
   /// keeps the body up (the body's own walk, 3 s: 2.5 deg RMS at 0.1 s, 1.8 at 0.05, 2.7 at 0.03)
   double lookahead_s = 0.05;
+  bool residual = false;
   scenarios::SamconParams samcon;
 };
 
@@ -53,6 +54,7 @@ int run_track(const TrackOptions& o) {
   config.motion_from_s = o.from_s;
   config.motion_to_s = o.to_s;
   config.tracker.lookahead_s = o.lookahead_s;
+  config.residual = o.residual;
   config.character = o.character.spec_for_motion(o.motion, &notes);
   config.weld = controllers::parse_weld_mode(o.weld, "--weld");
   config.validate();
@@ -69,8 +71,20 @@ int run_track(const TrackOptions& o) {
       {"character", character_json(config.character)},
       {"method", "SAMCON (Liu et al. 2010) over the feedback tracker (motion_tracker.h)"},
       {"physics",
-       "motors within tau_max and the floor only: no force on the root; the joints' range "
-       "stops are passive structure and carry load beside the motors (joint_stops)"},
+       std::string(o.residual ? "WITH A RESIDUAL FORCE AND MOMENT ON THE PELVIS (--residual: "
+                                "see residual); "
+                              : "no force on the root; ") +
+           "motors within tau_max and the floor; the joints' range stops are passive structure "
+           "and carry load beside the motors (joint_stops)"},
+      {"residual",
+       {{"on", o.residual},
+        {"force_rms_N", r.residual_force_rms_N},
+        {"force_peak_N", r.residual_force_peak_N},
+        {"moment_rms_Nm", r.residual_moment_rms_Nm},
+        {"moment_peak_Nm", r.residual_moment_peak_Nm},
+        {"about",
+         "a critically damped 2 Hz pull of the pelvis to the motion's root, force and moment "
+         "at the pelvis's centre of mass; only with --residual"}}},
       {"weld", o.weld},
       {"lookahead_s", o.lookahead_s},
       {"samcon", samcon_json(o.samcon)},
@@ -119,9 +133,15 @@ int run_track(const TrackOptions& o) {
             << r.joint_max_rad * 180 / M_PI << "), root off by up to " << r.root_max_m
             << " m; peak torque " << 100 * r.peak_torque_ratio << "% of tau_max\n"
             << "  " << r.rollouts << " rollouts, " << r.wall_s << " s wall ("
-            << (r.wall_s > 0 ? motion_s / r.wall_s : 0.0) << "x real time)\n"
-            << "wrote " << o.output << "/{tracked.csv, offsets.csv, summary.json}\n";
+            << (r.wall_s > 0 ? motion_s / r.wall_s : 0.0) << "x real time)\n";
   print_joint_load(r.joint_load, std::cout);
+  if (o.residual) {
+    std::cout << "  RESIDUAL on the pelvis (--residual): force RMS " << r.residual_force_rms_N
+              << " N (peak " << r.residual_force_peak_N << "), moment RMS "
+              << r.residual_moment_rms_Nm << " N m (peak " << r.residual_moment_peak_Nm
+              << "): the body did not do this alone\n";
+  }
+  std::cout << "wrote " << o.output << "/{tracked.csv, offsets.csv, summary.json}\n";
   for (const std::string& n : notes) std::cout << "  note: " << n << "\n";
   return summary["kept_up"].get<bool>() ? kExitOk : kExitFailure;
 }
@@ -145,14 +165,18 @@ Command add_mocap_track_command(CLI::App* mocap) {
   cmd->add_option("--lookahead", o->lookahead_s,
                   "each joint's target is the motion this far ahead, s (the feedback tracker's)")
       ->capture_default_str();
+  cmd->add_flag("--residual", o->residual,
+                "add a residual force and moment on the pelvis pulling it to the motion's root "
+                "(a 'hand of god': reported, RMS and peak; off by default)");
   cmd->add_option("--window", o->samcon.window_s, "SAMCON window, s")->capture_default_str();
   cmd->add_option("--parents", o->samcon.parents, "states kept per window")->capture_default_str();
   cmd->add_option("--children", o->samcon.children, "rollouts per kept state")
       ->capture_default_str();
   cmd->add_option("--seed", o->samcon.seed, "random seed of the offsets")->capture_default_str();
   cmd->add_option("--load-scale", o->samcon.load_scale,
-                  "a joint's load (motor + range stop) this far over tau_max through a window "
-                  "costs as much as 0.03 rad of joint error (large: stops are free)")
+                  "the worst judged joint's load (motor + range stop) this far over tau_max "
+                  "through a window, past its first 10 ms, costs as much as 0.03 rad of joint "
+                  "error (large: stops are free)")
       ->capture_default_str();
   cmd->add_option("--threads", o->samcon.threads, "worker threads (0: every core)")
       ->capture_default_str();

@@ -24,6 +24,7 @@ JointLoadMeter::JointLoadMeter(const mjModel& m, std::vector<double> tau_max, do
 double JointLoadMeter::measure(const mjModel& m, const mjData& d, JointLoadStats* stats) {
   joint_stop_torques(m, d, row_.data(), stop_.data());
   double worst = 0;
+  int worst_dof = -1;
   for (int i = 0; i < m.nv; ++i) {
     const auto k = static_cast<std::size_t>(i);
     if (std::abs(stop_[k]) > stats->stop_peak_Nm) {
@@ -31,8 +32,13 @@ double JointLoadMeter::measure(const mjModel& m, const mjData& d, JointLoadStats
       stats->stop_peak_dof = i;
     }
     if (tau_max_[k] <= 0) continue;
-    const double load = std::abs(d.qfrc_actuator[i] + stop_[k]) / tau_max_[k];
-    worst = std::max(worst, load);
+    // The joint's torque: its motors (MuJoCo actuators, or torques the controllers apply as
+    // qfrc_applied: control_pipeline.h, with the ball joints' swing-twist limits) plus its stop.
+    const double load = std::abs(d.qfrc_actuator[i] + d.qfrc_applied[i] + stop_[k]) / tau_max_[k];
+    if (load > worst) {
+      worst = load;
+      worst_dof = i;
+    }
     if (load > stats->load_peak_ratio) {
       stats->load_peak_ratio = load;
       stats->load_peak_dof = i;
@@ -41,7 +47,10 @@ double JointLoadMeter::measure(const mjModel& m, const mjData& d, JointLoadStats
   ++stats->steps;
   if (worst > 1) {
     ++stats->over_steps;
-    stats->over_longest = std::max(stats->over_longest, ++stats->over_run);
+    if (++stats->over_run > stats->over_longest) {
+      stats->over_longest = stats->over_run;
+      stats->over_longest_dof = worst_dof;  // the worst DOF as the longest stretch ended
+    }
     if (stats->over_run > impact_steps_) stats->excess_sum += (worst - 1) * (worst - 1);
   } else {
     stats->over_run = 0;

@@ -6,6 +6,7 @@
 #include <chrono>
 #include <cmath>
 #include <filesystem>
+#include <iomanip>
 #include <mutex>
 #include <nlohmann/json.hpp>
 #include <sstream>
@@ -219,7 +220,8 @@ void evaluate_body(const std::string& motion_path, const models::CharacterSpec& 
   e->wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
 
-/// The verdict sentence and the feasibility flag.
+}  // namespace
+
 void judge(BodyEvaluation* e) {
   const bool saturates = !e->first_saturating_joint.empty();
   // A tracking that keeps up only by leaning on a joint's range stop beyond the joint's strength
@@ -235,16 +237,13 @@ void judge(BodyEvaluation* e) {
   }
   if (overloaded) {
     std::ostringstream s;
-    s.precision(2);
-    s << (saturates ? "; " : ": ") << "the tracking keeps up only with "
-      << e->joint_load_tracked.load_peak_dof << " at up to "
-      << e->joint_load_tracked.load_peak_ratio << "x tau_max (motor + joint stop)";
+    s << std::fixed << std::setprecision(2) << (saturates ? "; " : ": ")
+      << "the tracking keeps up only with " << e->joint_load_tracked.over_longest_dof
+      << " over tau_max (motor + joint stop) for " << e->joint_load_tracked.over_longest_s << " s";
     v += s.str();
   }
   e->verdict = v;
 }
-
-}  // namespace
 
 std::vector<EvaluationBody> parse_bodies(const std::string& json_text, const std::string& source) {
   json j;

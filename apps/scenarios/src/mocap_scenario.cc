@@ -40,6 +40,7 @@ struct MocapScenario::State : ScenarioState {
   controllers::ControllerParams params;
   double playback_time_s = 0;
   TrackingStats stats;
+  Eigen::Matrix<double, 6, 1> residual_W = Eigen::Matrix<double, 6, 1>::Zero();
 };
 
 MocapScenario::MocapScenario(sim::Simulation* sim, ScenarioConfig config)
@@ -144,6 +145,9 @@ void MocapScenario::start_tracking() {
   pipeline_->reset();
   tracker_ = std::make_unique<controllers::MotionTracker>(m, rig_, &tracked_, config_.tracker);
   pipeline_->set_driver(tracker_.get());
+  residual_pose_.assign(static_cast<std::size_t>(m.nq), 0.0);
+  residual_pose_next_.assign(static_cast<std::size_t>(m.nq), 0.0);
+  body_mass_kg_ = mj_getTotalmass(&m);
   load_meter_ = std::make_unique<sim::JointLoadMeter>(m, models::judged_tau_max(m, rig_.groups()));
 }
 
@@ -158,7 +162,49 @@ void MocapScenario::advance() {
     show_playback_frame();
     return;
   }
+  if (config_.residual) apply_residual();
   pipeline_->step();
+}
+
+void MocapScenario::apply_residual() {
+  // A critically damped 2 Hz pull of the pelvis to the motion's root (position and orientation),
+  // scaled by the body's mass and a whole-body inertia of mass x (0.2 m)^2: strong enough to
+  // carry what the kinematics get wrong, weak enough to leave the joints their work.
+  constexpr double kOmega = 2 * M_PI * 2.0, kRadiusSq_m2 = 0.04, kDt_s = 0.01;
+  const mjModel& m = sim_->model();
+  mjData& d = sim_->data();
+  controllers::motion_pose_at(m, tracked_, d.time, residual_pose_.data());
+  controllers::motion_pose_at(m, tracked_, d.time + kDt_s, residual_pose_next_.data());
+  const int joint = rig_.root_joint();
+  const auto a = static_cast<std::size_t>(m.jnt_qposadr[joint]);
+  const int v = m.jnt_dofadr[joint];
+  const double* want = residual_pose_.data() + a;
+  const double* next = residual_pose_next_.data() + a;
+  const Eigen::Vector3d position(d.qpos[a], d.qpos[a + 1], d.qpos[a + 2]);
+  const Eigen::Vector3d velocity(d.qvel[v], d.qvel[v + 1], d.qvel[v + 2]);
+  const Eigen::Vector3d want_position(want[0], want[1], want[2]);
+  const Eigen::Vector3d want_velocity =
+      (Eigen::Vector3d(next[0], next[1], next[2]) - want_position) / kDt_s;
+  const Eigen::Quaterniond q(d.qpos[a + 3], d.qpos[a + 4], d.qpos[a + 5], d.qpos[a + 6]);
+  const Eigen::Quaterniond q_want(want[3], want[4], want[5], want[6]);
+  const Eigen::Quaterniond q_next(next[3], next[4], next[5], next[6]);
+  const auto rotation = [](const Eigen::Quaterniond& r) {  // world-frame rotation vector
+    const Eigen::AngleAxisd aa(r.normalized());
+    const double angle = aa.angle() > M_PI ? aa.angle() - 2 * M_PI : aa.angle();
+    return Eigen::Vector3d(angle * aa.axis());
+  };
+  // The free joint's angular velocity is in the body frame (MuJoCo).
+  const Eigen::Vector3d omega =
+      q.normalized() * Eigen::Vector3d(d.qvel[v + 3], d.qvel[v + 4], d.qvel[v + 5]);
+  const Eigen::Vector3d want_omega = rotation(q_next * q_want.conjugate()) / kDt_s;
+  const double kp = kOmega * kOmega, kd = 2 * kOmega;
+  Eigen::Matrix<double, 6, 1> w;
+  w.head<3>() = body_mass_kg_ * (kp * (want_position - position) + kd * (want_velocity - velocity));
+  w.tail<3>() = body_mass_kg_ * kRadiusSq_m2 *
+                (kp * rotation(q_want * q.conjugate()) + kd * (want_omega - omega));
+  mjtNum* f = d.xfrc_applied + 6 * rig_.pelvis();
+  for (int k = 0; k < 6; ++k) f[k] += w(k) - residual_W_(k);
+  residual_W_ = w;
 }
 
 void MocapScenario::after_step() {
@@ -166,6 +212,14 @@ void MocapScenario::after_step() {
   // last frame).
   if (!tracker_ || fell_at_s_ >= 0 || sim_->data().time > motion_length_s() + 1e-9) return;
   load_meter_->measure(sim_->model(), sim_->data(), &stats_.load);
+  if (config_.residual) {
+    const double force = residual_W_.head<3>().norm(), moment = residual_W_.tail<3>().norm();
+    ++stats_.residual_steps;
+    stats_.residual_force_sum_sq += force * force;
+    stats_.residual_moment_sum_sq += moment * moment;
+    stats_.residual_force_peak_N = std::max(stats_.residual_force_peak_N, force);
+    stats_.residual_moment_peak_Nm = std::max(stats_.residual_moment_peak_Nm, moment);
+  }
   if (steps_ % 10 != 0) return;
   const controllers::MotionTracker::Error e = tracker_->error(sim_->model(), sim_->data());
   ++stats_.samples;
@@ -227,6 +281,7 @@ void MocapScenario::save(ScenarioState* out) const {
   }
   s.playback_time_s = playback_time_s_;
   s.stats = stats_;
+  s.residual_W = residual_W_;
 }
 
 void MocapScenario::restore(const ScenarioState& in) {
@@ -239,6 +294,7 @@ void MocapScenario::restore(const ScenarioState& in) {
   if (pipeline_) pipeline_->restore(s.control);
   playback_time_s_ = s.playback_time_s;
   stats_ = s.stats;
+  residual_W_ = s.residual_W;  // xfrc_applied (restored with the data) holds it
 }
 
 }  // namespace biodyn::scenarios

@@ -136,7 +136,8 @@ double rollout(Worker* w, const ScenarioState& from, const Eigen::VectorXd& offs
     if (s.fell_at_s() >= 0) return kInfinity;
     if (k * kCostPointsPerWindow % steps < kCostPointsPerWindow) cost += distance_cost(w, p);
   }
-  // The window's mean squared joint load over tau_max, weighted like the distance points.
+  // The window's mean squared excess of the worst joint load over 1 (stretches past the
+  // meter's 10 ms impact time; sim/joint_load.h), weighted like the distance points.
   const sim::JointLoadStats& end = s.tracking_stats().load;
   const long load_steps = end.steps - start.load.steps;
   if (load_steps > 0) {
@@ -310,6 +311,10 @@ SamconResult run_samcon(const ScenarioConfig& config, const models::PhysicsOptio
   r.root_max_m = report.stats.root_max_m;
   r.peak_torque_ratio = peak;
   r.joint_load = joint_load_report(m, report.stats.load);
+  r.residual_force_rms_N = report.stats.residual_force_rms_N();
+  r.residual_force_peak_N = report.stats.residual_force_peak_N;
+  r.residual_moment_rms_Nm = report.stats.residual_moment_rms_Nm();
+  r.residual_moment_peak_Nm = report.stats.residual_moment_peak_Nm;
   r.simulated_s = static_cast<double>(r.steps) * m.opt.timestep;
   r.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
   return r;

@@ -44,6 +44,7 @@ JointLoadReport joint_load_report(const mjModel& m, const sim::JointLoadStats& s
   r.load_peak_dof = name_of(stats.load_peak_dof);
   r.over_s = static_cast<double>(stats.over_steps) * m.opt.timestep;
   r.over_longest_s = static_cast<double>(stats.over_longest) * m.opt.timestep;
+  r.over_longest_dof = name_of(stats.over_longest_dof);
   return r;
 }
 
@@ -148,6 +149,7 @@ void ScenarioConfig::validate() const {
   }
   // Motion.
   if (track && !mocap) throw sim::InvalidArgument("track: only the mocap scenario tracks a motion");
+  if (residual && !track) throw sim::InvalidArgument("residual: only with a tracked motion");
   refuse_unless(!muscles.on || !mocap || track,
                 "muscles: a kinematic playback has no controllers for them to drive (mocap "
                 "with --track has)");

@@ -81,10 +81,23 @@ TEST_CASE("biodyn evaluate: a C3D capture is solved by marker IK first, then eva
   CHECK(fs::file_size(dir / "out" / "capture_ik.csv") > 10000);
   CHECK(fs::exists(dir / "out" / "capture_ik.body.json"));
   const json s = json::parse(slurp(dir / "out" / "summary.json"));
-  CHECK(s["motion_ik"].get<std::string>().find("capture_ik.csv") != std::string::npos);
+  CHECK(s["motion_ik"]["file"].get<std::string>().find("capture_ik.csv") != std::string::npos);
+  CHECK(s["motion_ik"]["status"]["level"].is_string());  // the IK's fit, as mocap ik judges it
   REQUIRE(s["bodies"].size() == 1);
   CHECK(s["bodies"][0]["joints"].size() > 10);
   CHECK(s["bodies"][0]["ground_force_peak_bw"].get<double>() < 3.0);
+
+  // A body named as the IK's output is refused before anything runs; IK options only with a
+  // capture.
+  write_text(dir / "clash.json", R"({"bodies": [{"name": "capture_ik"}]})");
+  const CliRun clash =
+      run_biodyn("evaluate --motion '" + c3d + "' --bodies clash.json --tracking off -o o2", dir);
+  CHECK(clash.exit_code != 0);
+  CHECK(clash.err.find("capture_ik") != std::string::npos);
+  const CliRun lab =
+      run_biodyn("evaluate --motion out/capture_ik.csv --bodies bodies.json --lab-up y -o o3", dir);
+  CHECK(lab.exit_code != 0);
+  CHECK(lab.err.find("--lab-up") != std::string::npos);
 }
 
 }  // namespace biodyn::testing::cmd_evaluate_test

@@ -46,6 +46,32 @@ TEST_CASE("bodies.json: each bad field is named with its body", "[scenarios][eva
   CHECK(ok[0].tau_rule == scenarios::TauMaxRule::kFixed);
 }
 
+TEST_CASE("evaluate's verdict: saturation, a fall, or a tracking that leans on a stop",
+          "[scenarios][evaluate]") {
+  scenarios::BodyEvaluation e;
+  e.tracked = true;
+  e.kept_up = true;
+  e.joint_load_tracked.over_longest_s = 0.04;  // impacts: under 50 ms
+  e.joint_load_tracked.over_longest_dof = "ankle_dorsiflexion_r";
+  scenarios::judge(&e);
+  CHECK(e.feasible);
+  CHECK(e.verdict == "can do it");
+  e.joint_load_tracked.over_longest_s = 0.05;
+  scenarios::judge(&e);
+  CHECK_FALSE(e.feasible);
+  CHECK(e.verdict ==
+        "cannot do it: the tracking keeps up only with ankle_dorsiflexion_r over tau_max (motor "
+        "+ joint stop) for 0.05 s");
+  e.first_saturating_joint = "hip_r";
+  e.kept_up = false;
+  e.fell_at_s = 2.5;
+  scenarios::judge(&e);
+  CHECK_FALSE(e.feasible);
+  CHECK(e.verdict.find("hip_r exceeds tau_max first; the tracking falls at 2.5") !=
+        std::string::npos);
+  CHECK(e.verdict.find("keeps up only") == std::string::npos);  // it did not keep up
+}
+
 TEST_CASE_METHOD(
     biodyn::testing::SimulationTest,
     "evaluate: under fixed tau_max a heavier body needs more of it, on any thread count",
@@ -138,14 +164,13 @@ TEST_CASE_METHOD(biodyn::testing::SimulationTest,
   CHECK(own.kept_up);
   CHECK(own.feasible);
   CHECK_FALSE(heavy.feasible);
-  // Seeds 1-3 (4x4 search): 200 kg tracked with 2.52/2.35/2.74 deg joint RMS against
-  // 2.44/2.01/1.79 for 50 kg, its joints over tau_max (motor + range stop) for 0.16-0.19 s
-  // against 0.006-0.010 s, up to 5.8-6.3x tau_max against 1.2-2.1x: the rigid stops carry
-  // what its motors cannot, so the error grows little and the load shows the mismatch.
+  // Seeds 1-3 (4x4 search): 200 kg fell at 3.9 s and 2.9 s, or kept up with 5.98 deg joint RMS,
+  // against 2.44/2.01/1.79 deg for 50 kg; its joints over tau_max (motor + range stop) for
+  // 0.32-0.61 s against 0.006-0.014 s (SAMCON charges what lasts over 10 ms).
   INFO("50 kg: " << own.joint_rms_deg << " deg, over tau_max " << own.joint_load_tracked.over_s
                  << " s; 200 kg: " << heavy.joint_rms_deg << " deg, fell at " << heavy.fell_at_s
                  << " s, over tau_max " << heavy.joint_load_tracked.over_s << " s");
-  CHECK((!heavy.kept_up || heavy.joint_rms_deg > own.joint_rms_deg));
+  CHECK((!heavy.kept_up || heavy.joint_rms_deg > 2 * own.joint_rms_deg));
   CHECK(heavy.joint_load_tracked.over_s > 5 * own.joint_load_tracked.over_s);
   CHECK(heavy.joint_load_tracked.load_peak_ratio > 1.5 * own.joint_load_tracked.load_peak_ratio);
   CHECK_FALSE(heavy.joint_load_tracked.load_peak_dof.empty());

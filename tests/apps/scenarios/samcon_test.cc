@@ -61,3 +61,46 @@ TEST_CASE_METHOD(biodyn::testing::SimulationTest,
   CHECK(one.root_max_m == one.search_root_max_m);
   std::filesystem::remove(path);
 }
+
+TEST_CASE_METHOD(biodyn::testing::SimulationTest,
+                 "A residual on the pelvis only when asked, and then reported",
+                 "[scenarios][samcon]") {
+  // The body's own walk made 40% faster by its root alone (the legs still step at the recorded
+  // pace): no body keeps up with that by its joints; a residual carries it, reported.
+  models::CharacterSpec spec;
+  const std::string path = biodyn::testing::binary_dir() + "/samcon_residual_walk.csv";
+  biodyn::testing::record_walk_csv(spec, 1.0, 4.0, path);
+  mocap_io::Motion motion = mocap_io::read_motion_csv(path);
+  const double x0 = motion.qpos(0, 0);
+  for (Eigen::Index f = 0; f < motion.qpos.rows(); ++f)
+    motion.qpos(f, 0) = x0 + 1.4 * (motion.qpos(f, 0) - x0);
+  sim::write_file_atomically(path, mocap_io::format_motion_csv(motion));
+  scenarios::ScenarioConfig config;
+  config.scenario = "mocap";
+  config.character = spec;
+  config.motion_path = path;
+  config.motion_from_s = 2.0;
+  config.motion_to_s = 3.5;
+  config.track = true;
+  config.tracker.lookahead_s = 0.05;
+  scenarios::SamconParams params;  // one child, no offsets: the feedback tracker alone
+  params.parents = 1;
+  params.children = 1;
+  params.threads = 1;
+  const scenarios::SamconResult alone = scenarios::run_samcon(config, {}, params);
+  config.residual = true;
+  const scenarios::SamconResult helped = scenarios::run_samcon(config, {}, params);
+  INFO("alone: fell at " << alone.fell_at_s << " s, root " << alone.root_max_m
+                         << " m; with the residual: root " << helped.root_max_m << " m, force RMS "
+                         << helped.residual_force_rms_N << " N (peak "
+                         << helped.residual_force_peak_N << ")");
+  CHECK(alone.residual_force_peak_N == 0);
+  CHECK(alone.residual_moment_peak_Nm == 0);
+  CHECK((alone.fell_at_s >= 0 || alone.root_max_m > 0.15));
+  CHECK(helped.fell_at_s < 0);
+  CHECK(helped.root_max_m < 0.5 * alone.root_max_m);
+  CHECK(helped.residual_force_rms_N > 20);  // it pulled, and it says how hard
+  CHECK(helped.residual_force_peak_N >= helped.residual_force_rms_N);
+  CHECK(helped.residual_moment_rms_Nm > 0);
+  std::filesystem::remove(path);
+}

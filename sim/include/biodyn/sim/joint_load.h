@@ -11,7 +11,9 @@
 namespace biodyn::sim {
 
 /// Running figures of a JointLoadMeter (a copyable aggregate: saved and restored with a
-/// scenario's state). "Load" is |motor + stop| / tau_max of a judged DOF.
+/// scenario's state). "Load" is |motor + stop| / tau_max of a judged DOF, the motor being every
+/// torque applied on the DOF (qfrc_actuator + qfrc_applied: controllers apply joint torques
+/// either way; the ball joints' swing-twist limits come with them). Joint damping is not counted.
 struct JointLoadStats {
   long steps = 0;         ///< steps measured
   long over_steps = 0;    ///< steps with some judged DOF's load above 1
@@ -19,7 +21,8 @@ struct JointLoadStats {
   long over_longest = 0;  ///< steps in the longest stretch above 1
   double stop_peak_Nm = 0, load_peak_ratio = 0;
   int stop_peak_dof = -1, load_peak_dof = -1;  ///< -1: none yet
-  double excess_sum = 0;                       ///< sum over steps of max(0, worst load - 1)^2
+  int over_longest_dof = -1;  ///< the worst DOF at the last step of the longest stretch
+  double excess_sum = 0;      ///< sum over steps of max(0, worst load - 1)^2
 };
 
 class JointLoadMeter {

@@ -86,6 +86,11 @@ struct BodyEvaluation {
   std::string verdict;  ///< a sentence: who can do it, what fails first
 };
 
+/// Sets `e`'s feasible flag and verdict sentence from its figures: it cannot do the motion when a
+/// judged joint saturates in inverse dynamics, its tracking falls, or its tracking keeps up only
+/// with a joint's load (motor + range stop) over tau_max for 50 ms or more.
+void judge(BodyEvaluation* e);
+
 /// Evaluates the motion at `motion_path` (a qpos CSV with its body in the header, or a BVH) on
 /// every body. `work_dir` receives each body's retargeted motion (<name>/motion.csv) for the
 /// tracking. Deterministic whatever the thread count. `progress(done, total)` after each body.

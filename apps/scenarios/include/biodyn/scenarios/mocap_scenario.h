@@ -30,6 +30,18 @@ struct TrackingStats {
   /// Every step while tracking: the motors' and the joints' range stops' load (joint_load.h;
   /// the toes not judged).
   sim::JointLoadStats load;
+  /// The residual on the pelvis (ScenarioConfig::residual), every step while tracking: sums of
+  /// squares and peaks of its force (N) and moment (N m).
+  long residual_steps = 0;
+  double residual_force_sum_sq = 0, residual_force_peak_N = 0;
+  double residual_moment_sum_sq = 0, residual_moment_peak_Nm = 0;
+  double residual_force_rms_N() const { return rms(residual_force_sum_sq); }
+  double residual_moment_rms_Nm() const { return rms(residual_moment_sum_sq); }
+
+ private:
+  double rms(double sum_sq) const {
+    return residual_steps > 0 ? std::sqrt(sum_sq / static_cast<double>(residual_steps)) : 0.0;
+  }
 };
 
 /// Everything the summaries report about a tracked motion.
@@ -88,6 +100,7 @@ class MocapScenario : public Scenario {
   void load_motion();
   void show_playback_frame();
   void start_tracking();
+  void apply_residual();
 
   Eigen::MatrixXd frames_;     // qpos per frame
   std::vector<double> times_;  // s, per frame, from 0
@@ -99,6 +112,11 @@ class MocapScenario : public Scenario {
   TrackingStats stats_;
   std::unique_ptr<FallWatch> fall_;
   std::unique_ptr<sim::JointLoadMeter> load_meter_;  // tracked only
+  // The residual wrench on the pelvis now (force, moment; world), added to xfrc_applied as a
+  // change so pushes there stay; the pose scratch (nq) for the motion's root.
+  Eigen::Matrix<double, 6, 1> residual_W_ = Eigen::Matrix<double, 6, 1>::Zero();
+  std::vector<double> residual_pose_, residual_pose_next_;
+  double body_mass_kg_ = 0;
 };
 
 }  // namespace biodyn::scenarios

@@ -7,10 +7,11 @@
 /// cannot plan a correction that pays off a step later. SAMCON searches for one, with physics
 /// only: the motion is cut into windows (0.1 s); from each kept state ("parent") children are
 /// simulated with random open-loop offsets on the joint targets (hips, knees, ankles, lumbar),
-/// held over the window; the children closest to the motion at the window's end become the
-/// next parents. The best leaf's chain of offsets is the control. Nothing acts on the root: the
-/// joints (within tau_max, through the muscles when they are on) and the floor move the body,
-/// so a motion the body cannot do still ends in a fall, reported.
+/// held over the window; the children closest to the motion at the window's end (and leaning
+/// least on the joints' range stops beyond tau_max: load_scale) become the next parents. The best
+/// leaf's chain of offsets is the control. Nothing acts on the root: the joints (within tau_max,
+/// through the muscles when they are on) and the floor move the body, so a motion the body cannot
+/// do still ends in a fall, reported.
 ///
 /// Deterministic whatever the thread count: every child's offsets come from a counter-based
 /// generator keyed by (seed, window, attempt, parent, child); each rollout writes its own slot;
@@ -68,6 +69,9 @@ struct SamconResult {
   Eigen::MatrixXd qpos;          ///< frames x nq, one per `record_every_steps` step of the replay
   double peak_torque_ratio = 0;  ///< max over the replay of |tau| / tau_max
   JointLoadReport joint_load;    ///< the replay's joint stops beside its motors
+  /// The replay's residual on the pelvis (ScenarioConfig::residual; 0 without it).
+  double residual_force_rms_N = 0, residual_force_peak_N = 0;
+  double residual_moment_rms_Nm = 0, residual_moment_peak_Nm = 0;
 };
 
 /// Runs SAMCON for the motion `config` names (scenario "mocap", track on) on the body

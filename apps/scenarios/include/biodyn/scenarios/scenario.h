@@ -115,6 +115,7 @@ struct JointLoadReport {
   double load_peak_ratio = 0;             ///< largest |motor + stop| / tau_max of a judged DOF
   double over_s = 0, over_longest_s = 0;  ///< s with a load above 1: in all, longest stretch
   std::string stop_peak_dof, load_peak_dof;
+  std::string over_longest_dof;  ///< the worst DOF as the longest stretch ended
 };
 JointLoadReport joint_load_report(const mjModel& m, const sim::JointLoadStats& stats);
 
@@ -165,6 +166,9 @@ struct ScenarioConfig {
   double motion_from_s = 0, motion_to_s = -1;
   bool track = false;
   controllers::MotionTrackerParams tracker;  ///< lookahead, balance feedback and its gains
+  /// Tracking only, and only when asked: a residual force and moment on the pelvis (a "hand of
+  /// god") pulling the root to the motion's, reported (TrackingStats::residual_*).
+  bool residual = false;
 
   /// Throws sim::InvalidArgument naming the field, the rule and the value.
   void validate() const;
