@@ -221,7 +221,8 @@ void print_joint_load(const scenarios::JointLoadReport& r, std::ostream& out) {
   const auto precision = out.precision();
   out << std::fixed << std::setprecision(0) << "  joint stops carried up to " << r.stop_peak_Nm
       << " N m" << (r.stop_peak_dof.empty() ? "" : " (" + r.stop_peak_dof + ")")
-      << "; motor + stop up to " << 100 * r.load_peak_ratio << "% of tau_max"
+      << "; motor (ball joints: with their swing-twist limits) + stop up to "
+      << 100 * r.load_peak_ratio << "% of tau_max"
       << (r.load_peak_dof.empty() ? "" : " (" + r.load_peak_dof + ")") << std::setprecision(3)
       << ", above it " << r.over_s << " s (longest " << r.over_longest_s << " s"
       << (r.over_longest_dof.empty() ? "" : ", " + r.over_longest_dof) << ")\n";

@@ -200,7 +200,6 @@ std::string html_escape(const std::string& s) {
   return out;
 }
 
-/// report.html: the torque plot, the feasibility table and the assumptions, in one file.
 /// The report's joint-load cell: the longest stretch over tau_max and the peak, with their DOFs.
 std::string load_cell(const scenarios::JointLoadReport& r) {
   std::ostringstream s;
@@ -210,6 +209,7 @@ std::string load_cell(const scenarios::JointLoadReport& r) {
   return html_escape(s.str());
 }
 
+/// report.html: the torque plot, the feasibility table and the assumptions, in one file.
 std::string report_html(const EvaluateCli& o, const std::vector<scenarios::BodyEvaluation>& all,
                         const std::string& png) {
   std::ostringstream h;
@@ -263,22 +263,25 @@ int run_evaluate(EvaluateCli o) {
   const std::vector<scenarios::EvaluationBody> bodies =
       scenarios::parse_bodies(read_file(o.bodies), o.bodies);
   const Format format = format_of(o.motion, "--motion");
+  const bool capture = format == Format::kC3d || format == Format::kTrc;
+  if (capture) {
+    for (const scenarios::EvaluationBody& b : bodies)
+      if (b.name == kCaptureIk)
+        throw sim::InvalidArgument(o.bodies + ": body name '" + b.name +
+                                   "' is the capture's IK output's; rename the body");
+  } else if (o.lab_up != "z" || !o.markerset.empty()) {
+    throw sim::InvalidArgument("--lab-up/--markerset: only for a C3D or TRC --motion");
+  }
   fs::create_directories(o.output);
   // A capture's markers become a motion first, as `mocap ik` makes it (its body scaled by the
   // trial at 80 kg: the fixed tau_max rule's body).
   std::string motion = o.motion;
   json ik_status;
-  if (format == Format::kC3d || format == Format::kTrc) {
-    for (const scenarios::EvaluationBody& b : bodies)
-      if (b.name == kCaptureIk)
-        throw sim::InvalidArgument(o.bodies + ": body name '" + b.name +
-                                   "' is the capture's IK output's; rename the body");
+  if (capture) {
     motion = o.output + "/" + kCaptureIk + ".csv";
     run_capture_ik(o.motion, "--motion", o.lab_up, o.markerset, motion,
                    o.output + "/" + kCaptureIk + ".json");
     ik_status = json::parse(read_file(o.output + "/" + kCaptureIk + ".json"))["status"];
-  } else if (o.lab_up != "z" || !o.markerset.empty()) {
-    throw sim::InvalidArgument("--lab-up/--markerset: only for a C3D or TRC --motion");
   }
   std::vector<scenarios::BodyEvaluation> all;
   {
@@ -288,7 +291,12 @@ int run_evaluate(EvaluateCli o) {
     });
   }
   json summary = {{"motion", o.motion}, {"bodies_file", o.bodies}, {"assumptions", assumptions(o)}};
-  if (motion != o.motion) summary["motion_ik"] = {{"file", motion}, {"status", ik_status}};
+  if (capture) {
+    summary["motion_ik"] = {{"file", motion},
+                            {"lab_up", o.lab_up},
+                            {"markerset", o.markerset.empty() ? "(by labels)" : o.markerset},
+                            {"status", ik_status}};
+  }
   json list = json::array();
   for (const scenarios::BodyEvaluation& e : all) list.push_back(body_json(e));
   summary["bodies"] = list;

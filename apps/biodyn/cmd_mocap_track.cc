@@ -83,14 +83,17 @@ int run_track(const TrackOptions& o) {
         {"moment_rms_Nm", r.residual_moment_rms_Nm},
         {"moment_peak_Nm", r.residual_moment_peak_Nm},
         {"about",
-         "a critically damped 2 Hz pull of the pelvis to the motion's root, force and moment "
-         "at the pelvis's centre of mass; only with --residual"}}},
+         "a force the simulation applied (not mocap id's inverse-dynamics root residual): a "
+         "critically damped 2 Hz pull of the pelvis to the motion's root, force and moment "
+         "about the root's origin; only with --residual"}}},
       {"weld", o.weld},
       {"lookahead_s", o.lookahead_s},
       {"samcon", samcon_json(o.samcon)},
       {"windows", r.windows},
       {"windows_kept_up", r.windows_kept_up},
       {"kept_up", r.windows_kept_up == r.windows && (r.fell_at_s < 0 || r.fell_at_s > motion_s)},
+      {"kept_up_unaided", !o.residual && r.windows_kept_up == r.windows &&
+                              (r.fell_at_s < 0 || r.fell_at_s > motion_s)},
       {"fell_at_s", r.fell_at_s},
       {"joint_rms_deg", r.joint_rms_rad * 180 / M_PI},
       {"joint_max_deg", r.joint_max_rad * 180 / M_PI},
@@ -128,6 +131,7 @@ int run_track(const TrackOptions& o) {
   write_file_atomically(o.output + "/summary.json", summary.dump(1) + "\n");
   std::cout << "mocap track: " << r.windows_kept_up << "/" << r.windows << " windows of "
             << o.samcon.window_s << " s kept up"
+            << (o.residual ? " (with a residual on the pelvis)" : "")
             << (r.fell_at_s >= 0 ? ", fell at " + std::to_string(r.fell_at_s) + " s" : "")
             << "; joint RMS " << r.joint_rms_rad * 180 / M_PI << " deg (max "
             << r.joint_max_rad * 180 / M_PI << "), root off by up to " << r.root_max_m

@@ -105,7 +105,7 @@ void ControlPipeline::control(mjData& d) {
   // 3. Extra generalized forces: the swing-twist limits (muscles would add theirs here).
   last_outside_ = limiter_.compute(m, d, frame_.qfrc_extra());
   // 4. The joint controllers, with every other force of this step acting: the extra forces and
-  // the pushes (xfrc_applied at body CoMs).
+  // the pushes (xfrc_applied at body CoMs; a tracking's residual, when asked for, too).
   const mjtNum* extra = frame_.qfrc_extra();
   std::copy(extra, extra + nv, qfrc_other_.begin());
   for (int b = 1; b < m.nbody; ++b) {

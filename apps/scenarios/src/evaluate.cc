@@ -238,8 +238,9 @@ void judge(BodyEvaluation* e) {
   if (overloaded) {
     std::ostringstream s;
     s << std::fixed << std::setprecision(2) << (saturates ? "; " : ": ")
-      << "the tracking keeps up only with " << e->joint_load_tracked.over_longest_dof
-      << " over tau_max (motor + joint stop) for " << e->joint_load_tracked.over_longest_s << " s";
+      << "the tracking keeps up only with its joints over tau_max (motor + joint stop) for "
+      << e->joint_load_tracked.over_longest_s << " s (last "
+      << e->joint_load_tracked.over_longest_dof << ")";
     v += s.str();
   }
   e->verdict = v;

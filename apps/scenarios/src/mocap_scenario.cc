@@ -41,6 +41,7 @@ struct MocapScenario::State : ScenarioState {
   double playback_time_s = 0;
   TrackingStats stats;
   Eigen::Matrix<double, 6, 1> residual_W = Eigen::Matrix<double, 6, 1>::Zero();
+  double residual_moment_Nm = 0;
 };
 
 MocapScenario::MocapScenario(sim::Simulation* sim, ScenarioConfig config)
@@ -198,13 +199,23 @@ void MocapScenario::apply_residual() {
       q.normalized() * Eigen::Vector3d(d.qvel[v + 3], d.qvel[v + 4], d.qvel[v + 5]);
   const Eigen::Vector3d want_omega = rotation(q_next * q_want.conjugate()) / kDt_s;
   const double kp = kOmega * kOmega, kd = 2 * kOmega;
+  // The wrench about the root's origin (where its error is measured; mocap id's root residual
+  // is the same), written as xfrc_applied, which acts at the pelvis's CoM: moment - r x F.
+  const Eigen::Vector3d force =
+      body_mass_kg_ * (kp * (want_position - position) + kd * (want_velocity - velocity));
+  const Eigen::Vector3d moment =
+      body_mass_kg_ * kRadiusSq_m2 *
+      (kp * rotation(q_want * q.conjugate()) + kd * (want_omega - omega));
+  const int pelvis = rig_.pelvis();
+  const Eigen::Vector3d com_offset_W =
+      q.normalized() * Eigen::Vector3d(m.body_ipos[3 * pelvis], m.body_ipos[3 * pelvis + 1],
+                                       m.body_ipos[3 * pelvis + 2]);
   Eigen::Matrix<double, 6, 1> w;
-  w.head<3>() = body_mass_kg_ * (kp * (want_position - position) + kd * (want_velocity - velocity));
-  w.tail<3>() = body_mass_kg_ * kRadiusSq_m2 *
-                (kp * rotation(q_want * q.conjugate()) + kd * (want_omega - omega));
-  mjtNum* f = d.xfrc_applied + 6 * rig_.pelvis();
+  w << force, moment - com_offset_W.cross(force);
+  mjtNum* f = d.xfrc_applied + 6 * pelvis;
   for (int k = 0; k < 6; ++k) f[k] += w(k) - residual_W_(k);
   residual_W_ = w;
+  residual_moment_Nm_ = moment.norm();
 }
 
 void MocapScenario::after_step() {
@@ -213,7 +224,7 @@ void MocapScenario::after_step() {
   if (!tracker_ || fell_at_s_ >= 0 || sim_->data().time > motion_length_s() + 1e-9) return;
   load_meter_->measure(sim_->model(), sim_->data(), &stats_.load);
   if (config_.residual) {
-    const double force = residual_W_.head<3>().norm(), moment = residual_W_.tail<3>().norm();
+    const double force = residual_W_.head<3>().norm(), moment = residual_moment_Nm_;
     ++stats_.residual_steps;
     stats_.residual_force_sum_sq += force * force;
     stats_.residual_moment_sum_sq += moment * moment;
@@ -282,6 +293,7 @@ void MocapScenario::save(ScenarioState* out) const {
   s.playback_time_s = playback_time_s_;
   s.stats = stats_;
   s.residual_W = residual_W_;
+  s.residual_moment_Nm = residual_moment_Nm_;
 }
 
 void MocapScenario::restore(const ScenarioState& in) {
@@ -295,6 +307,7 @@ void MocapScenario::restore(const ScenarioState& in) {
   playback_time_s_ = s.playback_time_s;
   stats_ = s.stats;
   residual_W_ = s.residual_W;  // xfrc_applied (restored with the data) holds it
+  residual_moment_Nm_ = s.residual_moment_Nm;
 }
 
 }  // namespace biodyn::scenarios

@@ -60,8 +60,8 @@ TEST_CASE("evaluate's verdict: saturation, a fall, or a tracking that leans on a
   scenarios::judge(&e);
   CHECK_FALSE(e.feasible);
   CHECK(e.verdict ==
-        "cannot do it: the tracking keeps up only with ankle_dorsiflexion_r over tau_max (motor "
-        "+ joint stop) for 0.05 s");
+        "cannot do it: the tracking keeps up only with its joints over tau_max (motor + joint "
+        "stop) for 0.05 s (last ankle_dorsiflexion_r)");
   e.first_saturating_joint = "hip_r";
   e.kept_up = false;
   e.fell_at_s = 2.5;

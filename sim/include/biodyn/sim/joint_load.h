@@ -16,7 +16,8 @@ namespace biodyn::sim {
 /// either way; the ball joints' swing-twist limits come with them). Joint damping is not counted.
 struct JointLoadStats {
   long steps = 0;         ///< steps measured
-  long over_steps = 0;    ///< steps with some judged DOF's load above 1
+  long over_steps = 0;    ///< steps with some judged DOF's load above 1 (any DOF: a stretch may
+                          ///< pass from one joint to another)
   long over_run = 0;      ///< steps in the stretch above 1 going on now
   long over_longest = 0;  ///< steps in the longest stretch above 1
   double stop_peak_Nm = 0, load_peak_ratio = 0;

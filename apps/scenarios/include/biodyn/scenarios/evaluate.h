@@ -81,14 +81,14 @@ struct BodyEvaluation {
   JointLoadReport joint_load_tracked;  ///< the tracking's joint stops beside its motors
   double wall_s = 0;
   /// Can this body do the motion: no joint past tau_max in ID and, if tracked, kept up without
-  /// a joint's load (motor + range stop) above its tau_max for 50 ms or more.
+  /// some judged joint's load (motor + range stop) above its tau_max through 50 ms or more.
   bool feasible = false;
   std::string verdict;  ///< a sentence: who can do it, what fails first
 };
 
 /// Sets `e`'s feasible flag and verdict sentence from its figures: it cannot do the motion when a
 /// judged joint saturates in inverse dynamics, its tracking falls, or its tracking keeps up only
-/// with a joint's load (motor + range stop) over tau_max for 50 ms or more.
+/// with some judged joint's load (motor + range stop) over tau_max through 50 ms or more.
 void judge(BodyEvaluation* e);
 
 /// Evaluates the motion at `motion_path` (a qpos CSV with its body in the header, or a BVH) on

@@ -1,7 +1,8 @@
 #pragma once
 /// The mocap scenario: a captured motion on the character, played kinematically (no physics, no
 /// controllers; it loops) or tracked by the joint controllers (controllers/motion_tracker.h:
-/// physics, muscles within tau_max, the root moved only by muscles and contacts; once through,
+/// physics, muscles within tau_max, the root moved only by muscles and contacts unless a
+/// residual is asked for (ScenarioConfig::residual, reported); once through,
 /// then holding the last frame's targets). The motion is a qpos CSV (`biodyn mocap ik` or
 /// `retarget`, for this character) or a BVH retargeted here with the first built-in joint map
 /// that fits; the part config.motion_from_s..motion_to_s is played, from 0.
@@ -31,7 +32,7 @@ struct TrackingStats {
   /// the toes not judged).
   sim::JointLoadStats load;
   /// The residual on the pelvis (ScenarioConfig::residual), every step while tracking: sums of
-  /// squares and peaks of its force (N) and moment (N m).
+  /// squares and peaks of its force (N) and its moment about the root's origin (N m).
   long residual_steps = 0;
   double residual_force_sum_sq = 0, residual_force_peak_N = 0;
   double residual_moment_sum_sq = 0, residual_moment_peak_Nm = 0;
@@ -112,9 +113,12 @@ class MocapScenario : public Scenario {
   TrackingStats stats_;
   std::unique_ptr<FallWatch> fall_;
   std::unique_ptr<sim::JointLoadMeter> load_meter_;  // tracked only
-  // The residual wrench on the pelvis now (force, moment; world), added to xfrc_applied as a
-  // change so pushes there stay; the pose scratch (nq) for the motion's root.
+  // The residual wrench on the pelvis now as written to xfrc_applied (force, moment at its CoM;
+  // world), added as a change so pushes there stay; its moment about the root's origin (the
+  // reported one); the pose scratch (nq) for the motion's root. (A MuJoCo reset after a bad
+  // acceleration zeroes xfrc_applied: the run is broken by then.)
   Eigen::Matrix<double, 6, 1> residual_W_ = Eigen::Matrix<double, 6, 1>::Zero();
+  double residual_moment_Nm_ = 0;
   std::vector<double> residual_pose_, residual_pose_next_;
   double body_mass_kg_ = 0;
 };

@@ -9,9 +9,9 @@
 /// simulated with random open-loop offsets on the joint targets (hips, knees, ankles, lumbar),
 /// held over the window; the children closest to the motion at the window's end (and leaning
 /// least on the joints' range stops beyond tau_max: load_scale) become the next parents. The best
-/// leaf's chain of offsets is the control. Nothing acts on the root: the joints (within tau_max,
-/// through the muscles when they are on) and the floor move the body, so a motion the body cannot
-/// do still ends in a fall, reported.
+/// leaf's chain of offsets is the control. Nothing acts on the root unless the config asks for a
+/// residual (then reported): the joints (within tau_max, through the muscles when they are on)
+/// and the floor move the body, so a motion the body cannot do still ends in a fall, reported.
 ///
 /// Deterministic whatever the thread count: every child's offsets come from a counter-based
 /// generator keyed by (seed, window, attempt, parent, child); each rollout writes its own slot;
