@@ -37,9 +37,9 @@ struct CharacterOptions {
   /// says when the motion has no header.
   models::CharacterSpec spec_for_motion(const std::string& motion_path,
                                         std::vector<std::string>* notes) const;
+  bool geometry_given() const;  ///< --height, --sex, --detail, --overrides or --body-file given
 
  private:
-  bool geometry_given() const;  ///< --height, --sex, --detail, --overrides or --body-file given
   std::vector<CLI::Option*> geometry_options_;
   CLI::Option* mass_option_ = nullptr;
 };

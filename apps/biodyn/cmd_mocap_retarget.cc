@@ -9,7 +9,9 @@
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <sstream>
+#include <vector>
 
+#include "biodyn/mocap_io/motion_csv.h"
 #include "biodyn/mocap_io/retarget.h"
 #include "biodyn/models/mjcf.h"
 #include "biodyn/sim/errors.h"
@@ -130,7 +132,7 @@ constexpr double kSlideBound_m = 0.01;
 mocap_io::RetargetOptions retarget_options(const RetargetCliOptions& o,
                                            const mocap_io::JointMap& map) {
   mocap_io::RetargetOptions options;
-  options.source = o.bvh;
+  options.source = o.input();
   options.align_start = o.align_start;
   if (o.metres_per_unit || !o.up.empty()) {
     mocap_io::BvhUnits units = map.units.value_or(mocap_io::BvhUnits{});
@@ -185,6 +187,7 @@ json retarget_stats(const RetargetCliOptions& o, const mocap_io::JointMap& map,
   const mocap_io::BvhUnits units = options.units.value_or(map.units.value_or(mocap_io::BvhUnits{}));
   return {
       {"bvh", o.bvh},
+      {"motion", o.motion},
       {"joint_map", map.name},
       {"bvh_units",
        {{"metres_per_unit", units.metres_per_unit},
@@ -223,7 +226,7 @@ json retarget_stats(const RetargetCliOptions& o, const mocap_io::JointMap& map,
 void print_retarget(const RetargetCliOptions& o, const mocap_io::JointMap& map,
                     const models::CharacterSpec& spec, const mocap_io::RetargetResult& r) {
   const mocap_io::RetargetStats& s = r.stats;
-  std::cout << "mocap retarget: " << s.frames << " frames of " << o.bvh << " (map " << map.name
+  std::cout << "mocap retarget: " << s.frames << " frames of " << o.input() << " (map " << map.name
             << ") on a " << spec.height_m << " m body, scale " << s.scale << " (leg "
             << s.character_leg_m << " m / " << s.bvh_leg_m << " m)\n"
             << "  stance-foot slide: " << steps_under_bound(r.steps) << " of " << r.steps.size()
@@ -246,7 +249,12 @@ void print_retarget(const RetargetCliOptions& o, const mocap_io::JointMap& map,
 }  // namespace
 
 void RetargetCliOptions::add_to(CLI::App* cmd) {
-  cmd->add_option("--bvh", bvh, "BVH motion to retarget")->required();
+  CLI::Option* bvh_option = cmd->add_option("--bvh", bvh, "BVH motion to retarget");
+  cmd->add_option("--motion", motion,
+                  "or a qpos CSV with its body (mocap ik, retarget): onto another body, or onto "
+                  "its own (no body options) with its stance feet planted flat and still, e.g. "
+                  "a marker-IK walk before mocap track")
+      ->excludes(bvh_option);
   character.add_to(cmd);
   cmd->add_option(
       "--map", map, "joint map: a built-in name (" + [] {
@@ -267,11 +275,24 @@ void RetargetCliOptions::add_to(CLI::App* cmd) {
 }
 
 int run_retarget(const RetargetCliOptions& o) {
-  check_outputs({{"-o", o.output, true}}, {o.bvh, o.map, o.character.body_path});
-  const mocap_io::BvhMotion bvh = mocap_io::read_bvh(o.bvh);
-  const mocap_io::JointMap map = choose_map(o.map, bvh, o.bvh);
+  if (o.bvh.empty() == o.motion.empty())
+    throw sim::InvalidArgument("give the motion to retarget: --bvh FILE or --motion FILE.csv");
+  check_outputs({{"-o", o.output, true}}, {o.input(), o.map, o.character.body_path});
+  std::vector<std::string> notes;
+  mocap_io::BvhMotion bvh;
+  models::CharacterSpec spec;
+  if (!o.bvh.empty()) {
+    bvh = mocap_io::read_bvh(o.bvh);
+    spec = o.character.to_spec();
+  } else {
+    // The motion's own body unless another is given: planted feet on the same body.
+    bvh = mocap_io::motion_bvh(mocap_io::read_motion_csv(o.motion), o.motion);
+    spec = o.character.geometry_given() ? o.character.to_spec()
+                                        : o.character.spec_for_motion(o.motion, &notes);
+  }
+  for (const std::string& n : notes) std::cout << "note: " << n << "\n";
+  const mocap_io::JointMap map = choose_map(o.map, bvh, o.input());
   const mocap_io::RetargetOptions options = retarget_options(o, map);
-  const models::CharacterSpec spec = o.character.to_spec();
   ProgressBar bar("mocap retarget: " + std::to_string(bvh.frame_count()) + " frames");
   const mocap_io::RetargetResult r =
       mocap_io::retarget_bvh(bvh, map, spec, options, [&](double f) { bar.update(f); });
@@ -293,8 +314,8 @@ Command add_mocap_retarget_command(CLI::App* mocap) {
   auto rt = std::make_shared<RetargetCliOptions>();
   CLI::App* rt_cmd =
       mocap->add_subcommand("retarget",
-                            "A BVH motion on a generated character: qpos CSV, the character's BVH, "
-                            "foot-slide and penetration stats");
+                            "A BVH motion (or a qpos CSV with its body) on a generated character: "
+                            "qpos CSV, the character's BVH, foot-slide and penetration stats");
   rt->add_to(rt_cmd);
   return {rt_cmd, [rt]() { return run_retarget(*rt); }};
 }

@@ -12,12 +12,15 @@
 namespace biodyn::apps {
 
 struct RetargetCliOptions {
-  std::string bvh, map, up, output;
+  std::string bvh, motion, map, up, output;
   std::optional<double> metres_per_unit;  ///< unset: the map's units
   bool align_start = false;
   CharacterOptions character;
 
-  /// Adds --bvh, the character options, --map, --metres-per-unit, --up, --align-start, -o.
+  /// The input: the BVH, else the qpos motion.
+  const std::string& input() const { return bvh.empty() ? motion : bvh; }
+  /// Adds --bvh / --motion, the character options, --map, --metres-per-unit, --up, --align-start,
+  /// -o.
   void add_to(CLI::App* cmd);
 };
 

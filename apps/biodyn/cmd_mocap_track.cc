@@ -44,6 +44,14 @@ json samcon_json(const scenarios::SamconParams& p) {
           {"load_scale", p.load_scale}};
 }
 
+/// Whether `path` is a qpos CSV written by mocap ik (its first comment says so).
+bool made_by_marker_ik(const std::string& path) {
+  const std::string ext = std::filesystem::path(path).extension().string();
+  if (ext != ".csv" && ext != ".CSV") return false;
+  const mocap_io::Motion m = mocap_io::read_motion_csv(path);
+  return !m.comments.empty() && m.comments.front().rfind(" biodyn mocap ik", 0) == 0;
+}
+
 int run_track(const TrackOptions& o) {
   check_outputs({{"-o", o.output, true}}, {o.motion});
   std::vector<std::string> notes;
@@ -56,6 +64,13 @@ int run_track(const TrackOptions& o) {
   config.tracker.lookahead_s = o.lookahead_s;
   config.residual = o.residual;
   config.character = o.character.spec_for_motion(o.motion, &notes);
+  if (made_by_marker_ik(o.motion)) {
+    notes.push_back(o.motion +
+                    " is a marker-IK motion: its stance feet stand as the markers put them "
+                    "(walking5's left foot 10-29 deg plantarflexed), which drives a tracked foot "
+                    "into the floor; biodyn mocap retarget --motion " +
+                    o.motion + " -o DIR plants them flat on the same body first");
+  }
   config.weld = controllers::parse_weld_mode(o.weld, "--weld");
   config.validate();
   const models::PhysicsOptions physics;

@@ -371,6 +371,24 @@ RetargetResult retarget_bvh(const BvhMotion& motion, const JointMap& map,
   return result;
 }
 
+BvhMotion motion_bvh(const Motion& motion, const std::string& source) {
+  const Motion solved = longest_solved_span(motion);
+  if (solved.frame_count() < 2) {
+    throw InvalidArgument(source + ": fewer than 2 solved frames in a row (" +
+                          std::to_string(solved.frame_count()) + "): nothing to retarget");
+  }
+  const std::optional<models::CharacterSpec> body = motion_body(solved, source);
+  if (!body) {
+    throw InvalidArgument(source +
+                          ": a qpos CSV needs its body in the header to be retargeted (# body: "
+                          "..., as mocap ik and retarget write)");
+  }
+  const models::Character from = models::generate_character(*body);
+  const sim::Model model = sim::Model::from_string(models::to_mjcf(from), "source body");
+  check_motion_matches(solved, *model, source);
+  return character_bvh(from, *model, solved.qpos, solved.times_s[1] - solved.times_s[0]);
+}
+
 std::optional<JointMap> first_fitting_builtin_map(const BvhMotion& motion,
                                                   const std::string& bvh_source,
                                                   std::string* tried) {

@@ -84,11 +84,7 @@ mocap_io::Motion motion_on_body(const std::string& path, const models::Character
       mocap_io::check_motion_matches(source, model, path);
       return source;
     }
-    const models::Character from = models::generate_character(*body);
-    const sim::Model from_model = sim::Model::from_string(models::to_mjcf(from), "source body");
-    mocap_io::check_motion_matches(source, *from_model, path);
-    const double dt = source.times_s.size() > 1 ? source.times_s[1] - source.times_s[0] : 0.01;
-    bvh = mocap_io::character_bvh(from, *from_model, source.qpos, dt);
+    bvh = mocap_io::motion_bvh(source, path);
   }
   std::string tried;
   const std::optional<mocap_io::JointMap> map =

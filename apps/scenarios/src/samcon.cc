@@ -129,7 +129,7 @@ double rollout(Worker* w, const ScenarioState& from, const Eigen::VectorXd& offs
   MocapScenario& s = *w->scenario;
   s.restore(from);
   s.set_tracking_offsets(offsets);
-  const TrackingStats start = s.tracking_stats();
+  const sim::JointLoadStats start = s.tracking_stats().load;  // plain values: no allocation
   double cost = 0;
   for (int k = 1; k <= steps; ++k) {
     s.step();
@@ -139,10 +139,9 @@ double rollout(Worker* w, const ScenarioState& from, const Eigen::VectorXd& offs
   // The window's mean squared excess of the worst joint load over 1 (stretches past the
   // meter's 10 ms impact time; sim/joint_load.h), weighted like the distance points.
   const sim::JointLoadStats& end = s.tracking_stats().load;
-  const long load_steps = end.steps - start.load.steps;
+  const long load_steps = end.steps - start.steps;
   if (load_steps > 0) {
-    const double excess =
-        (end.excess_sum - start.load.excess_sum) / static_cast<double>(load_steps);
+    const double excess = (end.excess_sum - start.excess_sum) / static_cast<double>(load_steps);
     cost += kCostPointsPerWindow * excess / (p.load_scale * p.load_scale);
   }
   s.save(to);

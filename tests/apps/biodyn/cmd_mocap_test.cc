@@ -228,6 +228,54 @@ TEST_CASE("mocap ik without a static trial scales and places from the trial itse
   CHECK(loose.err.find("WARNING") != std::string::npos);
 }
 
+TEST_CASE("mocap retarget --motion plants a marker-IK walk's feet on its own body",
+          "[apps][mocap]") {
+  // walking5's IK stands its left foot 10-29 degrees plantarflexed through stance (the trial
+  // places its own foot markers); tracked as is, the stance foot is driven into the floor and
+  // the body falls within 0.5 s (issue 26). Retargeted onto its own body, each stance foot is
+  // planted flat where it landed.
+  const fs::path dir = mocap_dir("retarget_motion");
+  const std::string c3d = data("c3d/opensim_walking5.c3d");
+  REQUIRE(run_biodyn("mocap ik --c3d '" + c3d + "' -o ik.csv", dir).exit_code == 0);
+  const Run r = run_biodyn("mocap retarget --motion ik.csv -o planted", dir);
+  INFO(r.out << r.err);
+  REQUIRE(r.exit_code == 0);
+  const json s = json::parse(slurp(dir / "planted" / "stats.json"));
+  CHECK(s["joint_map"] == "biodyn");
+  CHECK(s["motion"] == "ik.csv");
+  CHECK(s["scale"].get<double>() == Approx(1.0).margin(1e-9));  // its own body
+  CHECK(s["unsolved_frames"] == 0);
+  CHECK(s["frames"].get<int>() > 500);  // the IK's longest solved run (2.26 s at 250 Hz)
+  CHECK(s["max_penetration_m"].get<double>() <= 0.001);
+  REQUIRE(s["steps"].size() >= 4);
+  for (const json& step : s["steps"]) {
+    INFO(step.dump());
+    // Heel and ball within 1 cm of the floor: flat (the IK's 10 degrees lift a heel 3.5 cm;
+    // the first step ends on the ankle's 20-degree stop, 5 mm).
+    CHECK(step["height_error_m"].get<double>() < 0.01);
+    CHECK(step["slide_m"].get<double>() < 0.02);
+  }
+  // The body is the motion's own (its header), said in the output.
+  CHECK(slurp(dir / "planted" / "motion.csv").find("# body: ") != std::string::npos);
+
+  // Another body takes the same route; a CSV without its body is refused, naming the file.
+  const Run tall = run_biodyn("mocap retarget --motion ik.csv --height 1.95 -o tall", dir);
+  INFO(tall.out << tall.err);
+  REQUIRE(tall.exit_code == 0);
+  CHECK(json::parse(slurp(dir / "tall" / "stats.json"))["scale"].get<double>() > 1.0);
+  std::string bare = slurp(dir / "ik.csv");
+  const size_t body = bare.find("# body: ");
+  REQUIRE(body != std::string::npos);
+  bare.erase(body, bare.find('\n', body) - body + 1);
+  write_text(dir / "bare.csv", bare);
+  const Run no_body = run_biodyn("mocap retarget --motion bare.csv -o bare", dir);
+  CHECK(no_body.exit_code != 0);
+  CHECK(no_body.err.find("bare.csv") != std::string::npos);
+  CHECK(no_body.err.find("body") != std::string::npos);
+  CHECK_FALSE(fs::exists(dir / "bare" / "motion.csv"));
+  CHECK(run_biodyn("mocap retarget -o none", dir).exit_code != 0);
+}
+
 TEST_CASE("mocap ik ignores the capture's subject prefix and lists the labels when none match",
           "[apps][mocap]") {
   // Vicon Nexus writes "Subject:LASI"; on 777bb0d no built-in set matched such a capture.

@@ -293,4 +293,13 @@ BvhMotion character_bvh(const models::Character& c, const mjModel& model,
                         const Eigen::MatrixXd& qpos, double frame_time_s,
                         const BvhUnits& units = BvhUnits{0.01, UpAxis::kY});
 
+/// The character BVH (character_bvh) of a qpos motion on its own body, the one its "# body:"
+/// header names (mocap ik and retarget write it): what carries a motion from marker IK or an
+/// earlier retarget through retarget_bvh (the "biodyn" map) onto another body, or onto the
+/// same body with its stance feet planted flat and still. Unsolved frames (NaN rows) are left
+/// out: the longest solved run is used (its first frame at time 0). `source` names the file in
+/// errors. Throws sim::InvalidArgument for a motion without a body header, of the wrong width for
+/// its body, or with fewer than 2 solved frames in a row.
+BvhMotion motion_bvh(const Motion& motion, const std::string& source);
+
 }  // namespace biodyn::mocap_io
