@@ -277,6 +277,10 @@ void RetargetCliOptions::add_to(CLI::App* cmd) {
 int run_retarget(const RetargetCliOptions& o) {
   if (o.bvh.empty() == o.motion.empty())
     throw sim::InvalidArgument("give the motion to retarget: --bvh FILE or --motion FILE.csv");
+  if (!o.motion.empty() && (o.metres_per_unit || !o.up.empty()))
+    throw sim::InvalidArgument(
+        "--metres-per-unit and --up describe a BVH file; a qpos CSV (--motion) is in metres, z "
+        "up");
   check_outputs({{"-o", o.output, true}}, {o.input(), o.map, o.character.body_path});
   std::vector<std::string> notes;
   mocap_io::BvhMotion bvh;

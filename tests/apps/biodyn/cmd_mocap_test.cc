@@ -274,6 +274,9 @@ TEST_CASE("mocap retarget --motion plants a marker-IK walk's feet on its own bod
   CHECK(no_body.err.find("body") != std::string::npos);
   CHECK_FALSE(fs::exists(dir / "bare" / "motion.csv"));
   CHECK(run_biodyn("mocap retarget -o none", dir).exit_code != 0);
+  const Run units = run_biodyn("mocap retarget --motion ik.csv --up y -o units", dir);
+  CHECK(units.exit_code != 0);
+  CHECK(units.err.find("--up") != std::string::npos);
 }
 
 TEST_CASE("mocap ik ignores the capture's subject prefix and lists the labels when none match",

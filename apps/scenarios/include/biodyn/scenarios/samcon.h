@@ -30,8 +30,8 @@ namespace biodyn::scenarios {
 
 struct SamconParams {
   double window_s = 0.1;   ///< s, offsets are held over a window
-  int parents = 20;        ///< states kept per window
-  int children = 10;       ///< rollouts per parent per window
+  int parents = 40;        ///< states kept per window
+  int children = 20;       ///< rollouts per parent per window
   int max_attempts = 3;    ///< a window whose children all fall is sampled again, sigma x 1.5
   std::uint64_t seed = 1;  ///< the offsets' random stream
   int threads = 0;         ///< 0: every core
