@@ -97,6 +97,7 @@ json body_json(const scenarios::BodyEvaluation& e) {
                      {"root_max_m", e.root_max_m},
                      {"peak_torque_ratio", e.peak_torque_ratio_tracked},
                      {"joint_stops", joint_load_json(e.joint_load_tracked)},
+                     {"start_swing_lift_deg", e.start_swing_lift_deg},
                      {"wall_s", e.tracking_wall_s},
                      {"realtime_factor", e.tracking_realtime_factor}};
   }
@@ -120,7 +121,9 @@ json assumptions(const EvaluateCli& o) {
            o.options.tracking
                ? "SAMCON over the feedback tracker; no force on the root; motors within "
                  "tau_max; the joints' range stops (rigid MuJoCo limits) may carry more, so a "
-                 "body whose motor + stop load stays above tau_max for 50 ms cannot do it"
+                 "body whose motor + stop load stays above tau_max for 50 ms cannot do it; a "
+                 "foot swinging with its toes on the floor at the first frame starts "
+                 "dorsiflexed clear of it (start_swing_lift_deg)"
                : "off"},
           {"static_optimisation", "rigid tendons, activations squared plus reserves (mocap so)"}};
 }

@@ -102,6 +102,13 @@ int run_track(const TrackOptions& o) {
          "critically damped 2 Hz pull of the pelvis to the motion's root, force and moment "
          "about the root's origin; only with --residual"}}},
       {"weld", o.weld},
+      {"start_swing_lift_deg",
+       {{"left", r.start_swing_lift_rad[0] * 180 / M_PI},
+        {"right", r.start_swing_lift_rad[1] * 180 / M_PI},
+        {"about",
+         "dorsiflexion added to the first pose of a foot the motion has in the air with its "
+         "toes within 1.5 cm of the floor: the body starts with it clear (a toe set down on "
+         "the floor at swing speed trips it); the targets stay the motion's"}}},
       {"lookahead_s", o.lookahead_s},
       {"samcon", samcon_json(o.samcon)},
       {"windows", r.windows},
@@ -154,6 +161,14 @@ int run_track(const TrackOptions& o) {
             << "  " << r.rollouts << " rollouts, " << r.wall_s << " s wall ("
             << (r.wall_s > 0 ? motion_s / r.wall_s : 0.0) << "x real time)\n";
   print_joint_load(r.joint_load, std::cout);
+  for (int s = 0; s < 2; ++s) {
+    const double lift = r.start_swing_lift_rad[static_cast<std::size_t>(s)];
+    if (lift > 0) {
+      std::cout << "  the " << (s == 0 ? "left" : "right")
+                << " foot swings with its toes on the floor at the start: it starts with "
+                << lift * 180 / M_PI << " deg more dorsiflexion, clear of it\n";
+    }
+  }
   if (o.residual) {
     std::cout << "  RESIDUAL on the pelvis (--residual): force RMS " << r.residual_force_rms_N
               << " N (peak " << r.residual_force_peak_N << "), moment RMS "

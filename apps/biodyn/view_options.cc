@@ -181,6 +181,8 @@ nlohmann::json tracking_json(const scenarios::TrackingReport& r) {
       {"lookahead_s", r.lookahead_s},
       {"balance_feedback", r.balance},
       {"start_lift_m", r.start_lift_m},
+      {"start_swing_lift_deg",
+       {r.start_swing_lift_rad[0] * kDegPerRad, r.start_swing_lift_rad[1] * kDegPerRad}},
       {"fell_at_s", r.fell_at_s >= 0 ? nlohmann::json(r.fell_at_s) : nlohmann::json(nullptr)},
       {"kept_up_through_motion", r.kept_up()},
       {"joint_error_rms_deg", r.stats.joint_rms_rad() * kDegPerRad},

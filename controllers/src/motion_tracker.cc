@@ -36,6 +36,64 @@ Eigen::Quaterniond quat_at(const double* q) {
   return Eigen::Quaterniond(q[0], q[1], q[2], q[3]).normalized();
 }
 
+// Each foot's sole boxes (the foot's and the toes' box geoms) and their lowest point.
+struct Soles {
+  std::array<std::vector<int>, 2> geoms;
+  Soles(const mjModel& m, const models::Rig& rig) {
+    for (int s = 0; s < 2; ++s) {
+      for (int g = 0; g < m.ngeom; ++g) {
+        if ((m.geom_bodyid[g] == rig.leg(s).foot || m.geom_bodyid[g] == rig.leg(s).toes) &&
+            m.geom_type[g] == mjGEOM_BOX) {
+          geoms[static_cast<std::size_t>(s)].push_back(g);
+        }
+      }
+    }
+  }
+  // World height of foot s's lowest box corner (after mj_kinematics): the centre minus the
+  // half sizes along the box's axes' vertical parts.
+  double lowest(const mjModel& m, const mjData& d, int s) const {
+    double low = 1e9;
+    for (int g : geoms[static_cast<std::size_t>(s)]) {
+      const mjtNum* R = d.geom_xmat + 9 * g;
+      const mjtNum* size = m.geom_size + 3 * g;
+      low = std::min(low, d.geom_xpos[3 * g + 2] - std::abs(R[6]) * size[0] -
+                              std::abs(R[7]) * size[1] - std::abs(R[8]) * size[2]);
+    }
+    return low;
+  }
+};
+
+// TrackedMotion::start_swing_lift_rad: for each foot the motion has off the floor at its first
+// frame with its lowest point under kSwingClearance_m, the dorsiflexion (in 1 degree steps, up
+// to kSwingLiftMax_rad and the ankle's range) that lifts it there, or as high as it goes while
+// dorsiflexion raises it (toes down; a heel about to strike is left alone).
+void lift_swinging_feet_at_start(const mjModel& m, const models::Rig& rig, const Soles& soles,
+                                 mjData* scratch, TrackedMotion* motion) {
+  constexpr double kStep_rad = M_PI / 180;
+  for (int s = 0; s < 2; ++s) {
+    const auto side = static_cast<std::size_t>(s);
+    for (int k = 0; k < m.nq; ++k) scratch->qpos[k] = motion->qpos(0, k);
+    mj_kinematics(&m, scratch);
+    double best = soles.lowest(m, *scratch, s);
+    if (motion->stance[0][side] || best >= TrackedMotion::kSwingClearance_m) continue;
+    const JointGroup& ankle = rig.groups()[static_cast<std::size_t>(rig.leg(s).ankle)];
+    const int joint = m.dof_jntid[ankle.dof_begin];
+    const int adr = m.jnt_qposadr[joint];
+    const double angle = scratch->qpos[adr];
+    const double most = std::min(TrackedMotion::kSwingLiftMax_rad,
+                                 m.jnt_limited[joint] ? m.jnt_range[2 * joint + 1] - angle : 1e9);
+    for (double lift = kStep_rad; lift <= most + 1e-9; lift += kStep_rad) {
+      scratch->qpos[adr] = angle + lift;
+      mj_kinematics(&m, scratch);
+      const double low = soles.lowest(m, *scratch, s);
+      if (low <= best) break;  // dorsiflexion lowers the heel: nothing (more) to gain
+      best = low;
+      motion->start_swing_lift_rad[side] = lift;
+      if (low >= TrackedMotion::kSwingClearance_m) break;
+    }
+  }
+}
+
 }  // namespace
 
 TrackedMotion make_tracked_motion(const mjModel& m, const models::Rig& rig,
@@ -60,30 +118,11 @@ TrackedMotion make_tracked_motion(const mjModel& m, const models::Rig& rig,
   motion.qpos = qpos;
   rig.require_legs("tracked motion");
   int foot_body[2];
-  std::vector<int> sole_geoms[2];
-  for (int s = 0; s < 2; ++s) {
-    foot_body[s] = rig.leg(s).foot;
-    const int toes = rig.leg(s).toes;
-    for (int g = 0; g < m.ngeom; ++g) {
-      if ((m.geom_bodyid[g] == foot_body[s] || m.geom_bodyid[g] == toes) &&
-          m.geom_type[g] == mjGEOM_BOX) {
-        sole_geoms[s].push_back(g);
-      }
-    }
-  }
+  for (int s = 0; s < 2; ++s) foot_body[s] = rig.leg(s).foot;
+  const Soles soles(m, rig);
   sim::Data scratch(m);
   mjData& d = *scratch;
-  const auto lowest_sole = [&](int s) {
-    double lowest = 1e9;
-    for (int g : sole_geoms[s]) {
-      // The box's lowest corner: centre minus the half sizes along its axes' vertical parts.
-      const mjtNum* R = d.geom_xmat + 9 * g;
-      const mjtNum* size = m.geom_size + 3 * g;
-      lowest = std::min(lowest, d.geom_xpos[3 * g + 2] - std::abs(R[6]) * size[0] -
-                                    std::abs(R[7]) * size[1] - std::abs(R[8]) * size[2]);
-    }
-    return lowest;
-  };
+  const auto lowest_sole = [&](int s) { return soles.lowest(m, d, s); };
   // Captured roots are rarely at the simulated floor's height: the whole motion is raised or
   // lowered so the first frame's lowest sole point touches the floor, before the feet's
   // contacts are read from it.
@@ -126,6 +165,7 @@ TrackedMotion make_tracked_motion(const mjModel& m, const models::Rig& rig,
           lowest[f][s] < TrackedMotion::kStanceHeight_m && speed < TrackedMotion::kStanceSpeed_m_s;
     }
   }
+  lift_swinging_feet_at_start(m, rig, soles, &d, &motion);
   return motion;
 }
 

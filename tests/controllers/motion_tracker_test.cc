@@ -47,3 +47,49 @@ TEST_CASE_METHOD(biodyn::testing::SimulationTest,
   CHECK_FALSE(glide.stance[60][0]);
   CHECK_FALSE(glide.stance[60][1]);
 }
+
+TEST_CASE_METHOD(biodyn::testing::SimulationTest,
+                 "Tracked motion: a foot swinging with its toes on the floor starts clear of it; "
+                 "a heel about to strike is left alone",
+                 "[gait][track]") {
+  // walking5 through IK starts with its left toes on the floor at 4 m/s: set down there the
+  // body tripped (issue 26). The whole body glides at 1.2 m/s, so no foot is in stance.
+  const sim::Model model = testing::generated_character();
+  const mjModel& m = *model.get();
+  const models::Rig rig(m);
+  const int n = 60;
+  std::vector<double> times(n);
+  for (int f = 0; f < n; ++f) times[static_cast<std::size_t>(f)] = f / 120.0;
+  const auto ankle_adr = [&](int s) {
+    return m.jnt_qposadr
+        [m.dof_jntid[rig.groups()[static_cast<std::size_t>(rig.leg(s).ankle)].dof_begin]];
+  };
+  const auto gliding = [&](double left_ankle_rad) {
+    Eigen::MatrixXd qpos(n, m.nq);
+    for (int f = 0; f < n; ++f) {
+      for (int k = 0; k < m.nq; ++k) qpos(f, k) = m.qpos0[k];
+      qpos(f, 0) += 1.2 * times[static_cast<std::size_t>(f)];
+      qpos(f, ankle_adr(0)) = left_ankle_rad;
+    }
+    return controllers::make_tracked_motion(m, rig, times, qpos);
+  };
+  // Toes down (plantarflexed 30 degrees): the lowest point of both feet, floored to 0.
+  const controllers::TrackedMotion toes = gliding(-30 * M_PI / 180);
+  REQUIRE_FALSE(toes.stance[0][0]);
+  CHECK(toes.start_swing_lift_rad[0] > 0);
+  CHECK(toes.start_swing_lift_rad[0] <= controllers::TrackedMotion::kSwingLiftMax_rad + 1e-9);
+  CHECK(toes.start_swing_lift_rad[1] == 0);  // flat: dorsiflexion would lower its heel
+  // Heel down (dorsiflexed 15 degrees): lifting the toes would drive the heel into the floor.
+  const controllers::TrackedMotion heel = gliding(15 * M_PI / 180);
+  CHECK(heel.start_swing_lift_rad[0] == 0);
+  CHECK(heel.start_swing_lift_rad[1] == 0);
+  // Standing still: feet in stance are never lifted.
+  const controllers::TrackedMotion toes_still = [&] {
+    Eigen::MatrixXd qpos(n, m.nq);
+    for (int f = 0; f < n; ++f)
+      for (int k = 0; k < m.nq; ++k) qpos(f, k) = m.qpos0[k];
+    return controllers::make_tracked_motion(m, rig, times, qpos);
+  }();
+  CHECK(toes_still.start_swing_lift_rad[0] == 0);
+  CHECK(toes_still.start_swing_lift_rad[1] == 0);
+}

@@ -212,6 +212,8 @@ void evaluate_body(const std::string& motion_path, const models::CharacterSpec& 
     e->tracking_realtime_factor = t.wall_s > 0 ? length / t.wall_s : 0;
     e->peak_torque_ratio_tracked = t.peak_torque_ratio;
     e->joint_load_tracked = t.joint_load;
+    for (std::size_t s = 0; s < 2; ++s)
+      e->start_swing_lift_deg[s] = t.start_swing_lift_rad[s] * 180.0 / M_PI;
   }
   e->wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }

@@ -140,6 +140,15 @@ void MocapScenario::start_tracking() {
     q0[static_cast<std::size_t>(k)] = tracked_.qpos(0, k);
     q1[static_cast<std::size_t>(k)] = tracked_.qpos(static_cast<Eigen::Index>(f1), k);
   }
+  // A foot swinging with its toes on the floor starts clear of it (the same lift in both poses
+  // leaves its velocity the motion's).
+  for (int s = 0; s < 2; ++s) {
+    const int adr =
+        m.jnt_qposadr
+            [m.dof_jntid[rig_.groups()[static_cast<std::size_t>(rig_.leg(s).ankle)].dof_begin]];
+    q0[static_cast<std::size_t>(adr)] += tracked_.start_swing_lift_rad[static_cast<std::size_t>(s)];
+    q1[static_cast<std::size_t>(adr)] += tracked_.start_swing_lift_rad[static_cast<std::size_t>(s)];
+  }
   std::copy(q0.begin(), q0.end(), d.qpos);
   mj_differentiatePos(&m, d.qvel, tracked_.times_s[f1] - tracked_.times_s[0], q0.data(), q1.data());
   mj_forward(&m, &d);
@@ -252,6 +261,7 @@ TrackingReport MocapScenario::tracking_report() const {
   r.motion_length_s = motion_length_s();
   r.lookahead_s = config_.tracker.lookahead_s;
   r.start_lift_m = tracked_.start_lift_m;
+  r.start_swing_lift_rad = tracked_.start_swing_lift_rad;
   r.fell_at_s = fell_at_s_;
   r.stats = stats_;
   return r;

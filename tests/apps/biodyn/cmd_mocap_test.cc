@@ -279,6 +279,29 @@ TEST_CASE("mocap retarget --motion plants a marker-IK walk's feet on its own bod
   CHECK(units.err.find("--up") != std::string::npos);
 }
 
+TEST_CASE("mocap track keeps up with walking5 through IK from its first frame to its end",
+          "[apps][mocap][track][slow]") {
+  // The issue-26 route for a capture on the body it was scaled to: marker IK, the stance feet
+  // planted, then SAMCON with physics only. The walk starts with the left toes on the floor
+  // at swing speed; set down there the body tripped at 0.42 s (start_swing_lift_rad).
+  const fs::path dir = mocap_dir("track_walking5");
+  REQUIRE(run_biodyn("mocap ik --c3d '" + data("c3d/opensim_walking5.c3d") + "' -o ik.csv", dir)
+              .exit_code == 0);
+  REQUIRE(run_biodyn("mocap retarget --motion ik.csv -o planted", dir).exit_code == 0);
+  const Run r = run_biodyn("mocap track --motion planted/motion.csv -o tracked", dir);
+  INFO(r.out << r.err);
+  REQUIRE(r.exit_code == 0);
+  const json s = json::parse(slurp(dir / "tracked" / "summary.json"));
+  CHECK(s["kept_up_unaided"] == true);
+  CHECK(s["windows"].get<int>() >= 22);  // the whole 2.26 s
+  CHECK(s["fell_at_s"].get<double>() < 0);
+  CHECK(s["residual"]["force_peak_N"].get<double>() == 0);
+  CHECK(s["joint_rms_deg"].get<double>() < 5.0);
+  CHECK(s["root_max_m"].get<double>() < 0.10);
+  CHECK(s["start_swing_lift_deg"]["left"].get<double>() > 0);
+  CHECK(r.out.find("left foot swings with its toes on the floor") != std::string::npos);
+}
+
 TEST_CASE("mocap ik ignores the capture's subject prefix and lists the labels when none match",
           "[apps][mocap]") {
   // Vicon Nexus writes "Subject:LASI"; on 777bb0d no built-in set matched such a capture.

@@ -6,6 +6,7 @@
 /// tau_max per joint and the first joint to saturate, and mechanical work and power per joint.
 
 #include <Eigen/Core>
+#include <array>
 #include <functional>
 #include <map>
 #include <string>
@@ -79,6 +80,9 @@ struct BodyEvaluation {
   double fell_at_s = -1, joint_rms_deg = 0, root_max_m = 0, tracking_wall_s = 0;
   double tracking_realtime_factor = 0, peak_torque_ratio_tracked = 0;
   JointLoadReport joint_load_tracked;  ///< the tracking's joint stops beside its motors
+  /// Dorsiflexion added to a foot's first pose that swings with its toes on the floor, left
+  /// and right, deg (TrackedMotion::start_swing_lift_rad).
+  std::array<double, 2> start_swing_lift_deg{0.0, 0.0};
   double wall_s = 0;
   /// Can this body do the motion: no joint past tau_max in ID and, if tracked, kept up without
   /// some judged joint's load (motor + range stop) above its tau_max through 50 ms or more.

@@ -8,6 +8,7 @@
 /// that fits; the part config.motion_from_s..motion_to_s is played, from 0.
 
 #include <Eigen/Core>
+#include <array>
 #include <cmath>
 #include <memory>
 #include <optional>
@@ -50,6 +51,9 @@ struct TrackingReport {
   bool tracked = false;
   bool balance = false;
   double motion_length_s = 0, lookahead_s = 0, start_lift_m = 0, fell_at_s = -1;
+  /// Dorsiflexion added to each foot's first pose so a swinging foot starts clear of the floor
+  /// (TrackedMotion::start_swing_lift_rad), rad, left and right.
+  std::array<double, 2> start_swing_lift_rad{0.0, 0.0};
   TrackingStats stats;
   /// Did not fall while the motion lasted (after its end the targets hold its last frame).
   bool kept_up() const { return tracked && (fell_at_s < 0 || fell_at_s > motion_length_s); }

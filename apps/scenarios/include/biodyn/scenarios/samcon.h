@@ -18,6 +18,7 @@
 /// the selection sorts by (cost, index) on one thread.
 
 #include <Eigen/Core>
+#include <array>
 #include <functional>
 #include <string>
 #include <vector>
@@ -69,6 +70,9 @@ struct SamconResult {
   Eigen::MatrixXd qpos;          ///< frames x nq, one per `record_every_steps` step of the replay
   double peak_torque_ratio = 0;  ///< max over the replay of |tau| / tau_max
   JointLoadReport joint_load;    ///< the replay's joint stops beside its motors
+  /// Dorsiflexion added to a swinging foot's first pose to start it clear of the floor, rad,
+  /// left and right (TrackedMotion::start_swing_lift_rad).
+  std::array<double, 2> start_swing_lift_rad{0.0, 0.0};
   /// The replay's residual on the pelvis (ScenarioConfig::residual; 0 without it).
   double residual_force_rms_N = 0, residual_force_peak_N = 0;
   double residual_moment_rms_Nm = 0, residual_moment_peak_Nm = 0;
