@@ -49,7 +49,7 @@ TEST_CASE_METHOD(biodyn::testing::SimulationTest,
 }
 
 TEST_CASE_METHOD(biodyn::testing::SimulationTest,
-                 "Tracked motion: a foot swinging with its toes on the floor starts clear of it; "
+                 "Tracked motion: a foot swinging with its toes on the floor starts clear of it, "
                  "a heel about to strike is left alone",
                  "[gait][track]") {
   // walking5 through IK starts with its left toes on the floor at 4 m/s: set down there the
