@@ -105,10 +105,13 @@ int run_track(const TrackOptions& o) {
       {"start_swing_lift_deg",
        {{"left", r.start_swing_lift_rad[0] * 180 / M_PI},
         {"right", r.start_swing_lift_rad[1] * 180 / M_PI},
+        {"clearance_mm",
+         {r.start_swing_clearance_m[0] * 1000, r.start_swing_clearance_m[1] * 1000}},
         {"about",
          "dorsiflexion added to the first pose of a foot the motion has in the air with its "
-         "toes within 1.5 cm of the floor: the body starts with it clear (a toe set down on "
-         "the floor at swing speed trips it); the targets stay the motion's"}}},
+         "lowest point within 1.5 cm of the floor and not leaving it (a toe set down on the "
+         "floor at swing speed trips the body), the smallest that clears 1.5 cm (at most 15 "
+         "deg); clearance_mm: that foot's lowest point then; the targets stay the motion's"}}},
       {"lookahead_s", o.lookahead_s},
       {"samcon", samcon_json(o.samcon)},
       {"windows", r.windows},
@@ -165,8 +168,10 @@ int run_track(const TrackOptions& o) {
     const double lift = r.start_swing_lift_rad[static_cast<std::size_t>(s)];
     if (lift > 0) {
       std::cout << "  the " << (s == 0 ? "left" : "right")
-                << " foot swings with its toes on the floor at the start: it starts with "
-                << lift * 180 / M_PI << " deg more dorsiflexion, clear of it\n";
+                << " foot swings low over the floor at the start: it starts with "
+                << lift * 180 / M_PI << " deg more dorsiflexion, its lowest point "
+                << r.start_swing_clearance_m[static_cast<std::size_t>(s)] * 1000
+                << " mm above the floor\n";
     }
   }
   if (o.residual) {

@@ -64,33 +64,70 @@ struct Soles {
 };
 
 // TrackedMotion::start_swing_lift_rad: for each foot the motion has off the floor at its first
-// frame with its lowest point under kSwingClearance_m, the dorsiflexion (in 1 degree steps, up
-// to kSwingLiftMax_rad and the ankle's range) that lifts it there, or as high as it goes while
-// dorsiflexion raises it (toes down; a heel about to strike is left alone).
+// frame, its lowest point under kSwingClearance_m and not leaving the floor (rising less than
+// kSwingClearance_m over kVelocityWindow_s: a toe pushing off is a support, not a trip), the
+// smallest dorsiflexion (1 degree steps over the whole of kSwingLiftMax_rad and the ankle's
+// range: the lowest point may first dip) that lifts it there, else the one that lifts it
+// highest; none if none raises it (a heel about to strike). Then the motion is floored again
+// on the stance feet of the lifted first pose, and the lifted feet's clearance kept.
 void lift_swinging_feet_at_start(const mjModel& m, const models::Rig& rig, const Soles& soles,
-                                 mjData* scratch, TrackedMotion* motion) {
+                                 const std::vector<std::array<double, 2>>& lowest, mjData* scratch,
+                                 TrackedMotion* motion) {
   constexpr double kStep_rad = M_PI / 180;
+  const std::size_t f1 = motion->frame_at(TrackedMotion::kVelocityWindow_s);
+  const auto load_first_pose = [&] {
+    for (int k = 0; k < m.nq; ++k) scratch->qpos[k] = motion->qpos(0, k);
+  };
+  const auto ankle_joint = [&](int s) {  // the dorsiflexion hinge
+    return m.dof_jntid[rig.groups()[static_cast<std::size_t>(rig.leg(s).ankle)].dof_begin];
+  };
   for (int s = 0; s < 2; ++s) {
     const auto side = static_cast<std::size_t>(s);
-    for (int k = 0; k < m.nq; ++k) scratch->qpos[k] = motion->qpos(0, k);
-    mj_kinematics(&m, scratch);
-    double best = soles.lowest(m, *scratch, s);
-    if (motion->stance[0][side] || best >= TrackedMotion::kSwingClearance_m) continue;
-    const JointGroup& ankle = rig.groups()[static_cast<std::size_t>(rig.leg(s).ankle)];
-    const int joint = m.dof_jntid[ankle.dof_begin];
-    const int adr = m.jnt_qposadr[joint];
+    if (motion->stance[0][side] || lowest[0][side] >= TrackedMotion::kSwingClearance_m ||
+        lowest[f1][side] - lowest[0][side] >= TrackedMotion::kSwingClearance_m) {
+      continue;
+    }
+    load_first_pose();
+    const int joint = ankle_joint(s), adr = m.jnt_qposadr[joint];
     const double angle = scratch->qpos[adr];
     const double most = std::min(TrackedMotion::kSwingLiftMax_rad,
                                  m.jnt_limited[joint] ? m.jnt_range[2 * joint + 1] - angle : 1e9);
+    double best = lowest[0][side], best_lift = 0;
     for (double lift = kStep_rad; lift <= most + 1e-9; lift += kStep_rad) {
       scratch->qpos[adr] = angle + lift;
       mj_kinematics(&m, scratch);
       const double low = soles.lowest(m, *scratch, s);
-      if (low <= best) break;  // dorsiflexion lowers the heel: nothing (more) to gain
-      best = low;
-      motion->start_swing_lift_rad[side] = lift;
-      if (low >= TrackedMotion::kSwingClearance_m) break;
+      if (low > best) {
+        best = low;
+        best_lift = lift;
+      }
+      if (low >= TrackedMotion::kSwingClearance_m) break;  // the smallest that clears it
     }
+    motion->start_swing_lift_rad[side] = best_lift;
+  }
+  if (motion->start_swing_lift_rad[0] == 0 && motion->start_swing_lift_rad[1] == 0) return;
+  // The lifted first pose, floored again on its feet in stance (the first flooring may have
+  // been on the lifted toe, leaving the stance foot above the floor, to drop at the start).
+  load_first_pose();
+  for (int s = 0; s < 2; ++s) {
+    scratch->qpos[m.jnt_qposadr[ankle_joint(s)]] +=
+        motion->start_swing_lift_rad[static_cast<std::size_t>(s)];
+  }
+  mj_kinematics(&m, scratch);
+  double low[2] = {soles.lowest(m, *scratch, 0), soles.lowest(m, *scratch, 1)};
+  double gap = 1e9;  // none without a foot in stance
+  for (std::size_t side = 0; side < 2; ++side) {
+    if (motion->stance[0][side]) gap = std::min(gap, low[side]);
+  }
+  if (gap > 0 && gap < 1e9 && m.njnt > 0 && m.jnt_type[0] == mjJNT_FREE) {
+    motion->qpos.col(m.jnt_qposadr[0] + 2).array() -= gap;
+    motion->start_lift_m -= gap;
+    for (Eigen::Vector3d& com : motion->com_W) com.z() -= gap;
+    low[0] -= gap;
+    low[1] -= gap;
+  }
+  for (std::size_t side = 0; side < 2; ++side) {
+    if (motion->start_swing_lift_rad[side] > 0) motion->start_swing_clearance_m[side] = low[side];
   }
 }
 
@@ -165,7 +202,7 @@ TrackedMotion make_tracked_motion(const mjModel& m, const models::Rig& rig,
           lowest[f][s] < TrackedMotion::kStanceHeight_m && speed < TrackedMotion::kStanceSpeed_m_s;
     }
   }
-  lift_swinging_feet_at_start(m, rig, soles, &d, &motion);
+  lift_swinging_feet_at_start(m, rig, soles, lowest, &d, &motion);
   return motion;
 }
 

@@ -79,17 +79,53 @@ TEST_CASE_METHOD(biodyn::testing::SimulationTest,
   CHECK(toes.start_swing_lift_rad[0] > 0);
   CHECK(toes.start_swing_lift_rad[0] <= controllers::TrackedMotion::kSwingLiftMax_rad + 1e-9);
   CHECK(toes.start_swing_lift_rad[1] == 0);  // flat: dorsiflexion would lower its heel
+  // The smallest lift that clears kSwingClearance_m (no foot in stance: not floored again).
+  CHECK(toes.start_swing_clearance_m[0] >= controllers::TrackedMotion::kSwingClearance_m);
+  {
+    sim::Data data(m);
+    for (int k = 0; k < m.nq; ++k) data->qpos[k] = toes.qpos(0, k);
+    data->qpos[ankle_adr(0)] += toes.start_swing_lift_rad[0] - M_PI / 180;  // one step less
+    mj_kinematics(&m, data.get());
+    double low = 1e9;
+    for (int g = 0; g < m.ngeom; ++g) {
+      if ((m.geom_bodyid[g] == rig.leg(0).foot || m.geom_bodyid[g] == rig.leg(0).toes) &&
+          m.geom_type[g] == mjGEOM_BOX) {
+        const mjtNum* R = data->geom_xmat + 9 * g;
+        low = std::min(low, data->geom_xpos[3 * g + 2] - std::abs(R[6]) * m.geom_size[3 * g] -
+                                std::abs(R[7]) * m.geom_size[3 * g + 1] -
+                                std::abs(R[8]) * m.geom_size[3 * g + 2]);
+      }
+    }
+    CHECK(low < controllers::TrackedMotion::kSwingClearance_m);
+  }
   // Heel down (dorsiflexed 15 degrees): lifting the toes would drive the heel into the floor.
   const controllers::TrackedMotion heel = gliding(15 * M_PI / 180);
   CHECK(heel.start_swing_lift_rad[0] == 0);
   CHECK(heel.start_swing_lift_rad[1] == 0);
-  // Standing still: feet in stance are never lifted.
+  // Standing still on the left toes (plantarflexed 30 degrees): a foot in stance is a support,
+  // never lifted.
   const controllers::TrackedMotion toes_still = [&] {
     Eigen::MatrixXd qpos(n, m.nq);
-    for (int f = 0; f < n; ++f)
+    for (int f = 0; f < n; ++f) {
       for (int k = 0; k < m.nq; ++k) qpos(f, k) = m.qpos0[k];
+      qpos(f, ankle_adr(0)) = -30 * M_PI / 180;
+    }
     return controllers::make_tracked_motion(m, rig, times, qpos);
   }();
+  REQUIRE(toes_still.stance[0][0]);
   CHECK(toes_still.start_swing_lift_rad[0] == 0);
   CHECK(toes_still.start_swing_lift_rad[1] == 0);
+  // A toe leaving the floor (pushing off: rising 3 cm in 50 ms) is not lifted either.
+  const controllers::TrackedMotion push_off = [&] {
+    Eigen::MatrixXd qpos(n, m.nq);
+    for (int f = 0; f < n; ++f) {
+      for (int k = 0; k < m.nq; ++k) qpos(f, k) = m.qpos0[k];
+      qpos(f, 0) += 1.2 * times[static_cast<std::size_t>(f)];
+      qpos(f, 2) += 0.6 * times[static_cast<std::size_t>(f)];  // the body rising 0.6 m/s
+      qpos(f, ankle_adr(0)) = -30 * M_PI / 180;
+    }
+    return controllers::make_tracked_motion(m, rig, times, qpos);
+  }();
+  REQUIRE_FALSE(push_off.stance[0][0]);
+  CHECK(push_off.start_swing_lift_rad[0] == 0);
 }

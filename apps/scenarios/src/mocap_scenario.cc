@@ -262,6 +262,7 @@ TrackingReport MocapScenario::tracking_report() const {
   r.lookahead_s = config_.tracker.lookahead_s;
   r.start_lift_m = tracked_.start_lift_m;
   r.start_swing_lift_rad = tracked_.start_swing_lift_rad;
+  r.start_swing_clearance_m = tracked_.start_swing_clearance_m;
   r.fell_at_s = fell_at_s_;
   r.stats = stats_;
   return r;

@@ -311,6 +311,7 @@ SamconResult run_samcon(const ScenarioConfig& config, const models::PhysicsOptio
   r.peak_torque_ratio = peak;
   r.joint_load = joint_load_report(m, report.stats.load);
   r.start_swing_lift_rad = report.start_swing_lift_rad;
+  r.start_swing_clearance_m = report.start_swing_clearance_m;
   r.residual_force_rms_N = report.stats.residual_force_rms_N();
   r.residual_force_peak_N = report.stats.residual_force_peak_N;
   r.residual_moment_rms_Nm = report.stats.residual_moment_rms_Nm();

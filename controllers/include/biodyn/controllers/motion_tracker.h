@@ -51,15 +51,18 @@ struct TrackedMotion {
   std::vector<Eigen::Vector3d> com_W, com_velocity_W;
   std::vector<std::array<Eigen::Vector2d, 2>> ankle_W;
   /// rad of ankle dorsiflexion added to each foot's first pose where the motion has that foot
-  /// off the floor with its toes within kSwingClearance_m of it (0 elsewhere): the simulation
-  /// starts with it clear. Captured and retargeted swings pass their toes within millimetres
-  /// of the floor (walking5 through IK: 0-2 mm at 4 m/s in its first 65 ms), and a body set
-  /// down with a toe touching the floor at swing speed trips at once (walking5 from its first
-  /// frame: thrown 5 cm up in 0.1 s, fell at 0.42 s; with the toes clear it kept up). People
-  /// clear it by 1-2 cm at mid-swing (Winter 1992: minimum toe clearance 1.29 +- 0.62 cm).
-  /// Only the start: the targets stay the motion's, and a toe that grazes later meets the
+  /// off the floor with its toes within kSwingClearance_m of it and not leaving it (0
+  /// elsewhere): the simulation starts with it clear. Captured and retargeted swings pass their
+  /// toes within millimetres of the floor (walking5 through IK: 0-2 mm at 4 m/s in its first 65
+  /// ms), and a body set down with a toe touching the floor at swing speed trips at once (walking5
+  /// from its first frame: thrown 5 cm up in 0.1 s, fell at 0.42 s; with the toes clear it kept
+  /// up). People clear it by 1-2 cm at mid-swing (Winter 1992: minimum toe clearance 1.29 +- 0.62
+  /// cm). Only the start: the targets stay the motion's, and a toe that grazes later meets the
   /// floor through the dynamics.
   std::array<double, 2> start_swing_lift_rad{0.0, 0.0};
+  /// m, a lifted foot's lowest point above the floor in the lifted first pose (the motion
+  /// floored again on it); 0 for a foot not lifted.
+  std::array<double, 2> start_swing_clearance_m{0.0, 0.0};
   static constexpr double kSwingClearance_m = 0.015;
   static constexpr double kSwingLiftMax_rad = 15 * M_PI / 180;
   static constexpr double kStanceHeight_m = 0.02;

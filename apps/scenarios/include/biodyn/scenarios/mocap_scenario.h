@@ -54,6 +54,7 @@ struct TrackingReport {
   /// Dorsiflexion added to each foot's first pose so a swinging foot starts clear of the floor
   /// (TrackedMotion::start_swing_lift_rad), rad, left and right.
   std::array<double, 2> start_swing_lift_rad{0.0, 0.0};
+  std::array<double, 2> start_swing_clearance_m{0.0, 0.0};  ///< the lifted feet's, m
   TrackingStats stats;
   /// Did not fall while the motion lasted (after its end the targets hold its last frame).
   bool kept_up() const { return tracked && (fell_at_s < 0 || fell_at_s > motion_length_s); }

@@ -73,6 +73,7 @@ struct SamconResult {
   /// Dorsiflexion added to a swinging foot's first pose to start it clear of the floor, rad,
   /// left and right (TrackedMotion::start_swing_lift_rad).
   std::array<double, 2> start_swing_lift_rad{0.0, 0.0};
+  std::array<double, 2> start_swing_clearance_m{0.0, 0.0};  ///< the lifted feet's then, m
   /// The replay's residual on the pelvis (ScenarioConfig::residual; 0 without it).
   double residual_force_rms_N = 0, residual_force_peak_N = 0;
   double residual_moment_rms_Nm = 0, residual_moment_peak_Nm = 0;
