@@ -49,16 +49,11 @@ struct Soles {
       }
     }
   }
-  // World height of foot s's lowest box corner (after mj_kinematics): the centre minus the
-  // half sizes along the box's axes' vertical parts.
+  // World height of foot s's lowest box corner (after mj_kinematics).
   double lowest(const mjModel& m, const mjData& d, int s) const {
     double low = 1e9;
-    for (int g : geoms[static_cast<std::size_t>(s)]) {
-      const mjtNum* R = d.geom_xmat + 9 * g;
-      const mjtNum* size = m.geom_size + 3 * g;
-      low = std::min(low, d.geom_xpos[3 * g + 2] - std::abs(R[6]) * size[0] -
-                              std::abs(R[7]) * size[1] - std::abs(R[8]) * size[2]);
-    }
+    for (int g : geoms[static_cast<std::size_t>(s)])
+      low = std::min(low, sim::geom_lowest_z(m, d, g));
     return low;
   }
 };

@@ -14,6 +14,7 @@
 #include "biodyn/models/mjcf.h"
 #include "biodyn/sim/errors.h"
 #include "biodyn/sim/model.h"
+#include "biodyn/sim/queries.h"
 #include "biodyn/sim/units.h"
 #include "retarget_internal.h"
 
@@ -77,25 +78,6 @@ std::vector<std::string> leg_joints_at_limit(const mjModel& m, const mjtNum* qpo
   return out;
 }
 
-/// Geometry of the lowest point of a geom along the world z, m (z of its centre less its
-/// extent); +inf for planes and unsupported types.
-double geom_lowest_z(const mjModel& m, const mjData& d, int g) {
-  const Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>> r(d.geom_xmat + 9 * g);
-  const double* size = m.geom_size + 3 * g;
-  const double zc = d.geom_xpos[3 * g + 2];
-  switch (m.geom_type[g]) {
-    case mjGEOM_BOX:
-      return zc - std::abs(r(2, 0)) * size[0] - std::abs(r(2, 1)) * size[1] -
-             std::abs(r(2, 2)) * size[2];
-    case mjGEOM_CAPSULE:
-      return zc - std::abs(r(2, 2)) * size[1] - size[0];
-    case mjGEOM_SPHERE:
-      return zc - size[0];
-    default:
-      return std::numeric_limits<double>::infinity();
-  }
-}
-
 /// The IK site of each label.
 std::vector<int> label_sites(const sim::Model& model, const std::vector<std::string>& labels) {
   std::vector<int> site_of_label(labels.size());
@@ -109,7 +91,7 @@ std::vector<int> label_sites(const sim::Model& model, const std::vector<std::str
 void note_penetration(const mjModel& m, const mjData& d, int f, RetargetStats* st) {
   for (int g = 0; g < m.ngeom; ++g) {
     if (m.geom_bodyid[g] == 0) continue;  // the floor
-    const double low = geom_lowest_z(m, d, g);
+    const double low = sim::geom_lowest_z(m, d, g);
     if (-low > st->max_penetration_m) {
       st->max_penetration_m = -low;
       st->penetration_frame = f;

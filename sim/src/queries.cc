@@ -1,6 +1,8 @@
 #include "biodyn/sim/queries.h"
 
 #include <algorithm>
+#include <cmath>
+#include <limits>
 
 #include <string>
 
@@ -107,6 +109,22 @@ Eigen::Quaterniond joint_quaternion(const mjModel& m, const mjData& d, int joint
   if (type == mjJNT_FREE) return quat_at(d.qpos + adr + 3).normalized();
   throw InvalidArgument("joint_quaternion: joint " + std::to_string(joint) +
                         " is not a ball or free joint");
+}
+
+double geom_lowest_z(const mjModel& m, const mjData& d, int g) {
+  const mjtNum* R = d.geom_xmat + 9 * g;  // row-major: R[6..8] the world z row
+  const mjtNum* size = m.geom_size + 3 * g;
+  const double zc = d.geom_xpos[3 * g + 2];
+  switch (m.geom_type[g]) {
+    case mjGEOM_BOX:
+      return zc - std::abs(R[6]) * size[0] - std::abs(R[7]) * size[1] - std::abs(R[8]) * size[2];
+    case mjGEOM_CAPSULE:
+      return zc - std::abs(R[8]) * size[1] - size[0];
+    case mjGEOM_SPHERE:
+      return zc - size[0];
+    default:
+      return std::numeric_limits<double>::infinity();
+  }
 }
 
 double mechanical_energy(const mjModel& m, const mjData& d) {

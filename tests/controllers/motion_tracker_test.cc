@@ -90,10 +90,7 @@ TEST_CASE_METHOD(biodyn::testing::SimulationTest,
     for (int g = 0; g < m.ngeom; ++g) {
       if ((m.geom_bodyid[g] == rig.leg(0).foot || m.geom_bodyid[g] == rig.leg(0).toes) &&
           m.geom_type[g] == mjGEOM_BOX) {
-        const mjtNum* R = data->geom_xmat + 9 * g;
-        low = std::min(low, data->geom_xpos[3 * g + 2] - std::abs(R[6]) * m.geom_size[3 * g] -
-                                std::abs(R[7]) * m.geom_size[3 * g + 1] -
-                                std::abs(R[8]) * m.geom_size[3 * g + 2]);
+        low = std::min(low, sim::geom_lowest_z(m, *data, g));
       }
     }
     CHECK(low < controllers::TrackedMotion::kSwingClearance_m);

@@ -72,6 +72,10 @@ Eigen::Quaterniond relative_orientation(const mjModel& m, const mjData& d, int b
 /// Throws InvalidArgument for other joint types.
 Eigen::Quaterniond joint_quaternion(const mjModel& m, const mjData& d, int joint);
 
+/// World height of geom g's lowest point, m (after mj_kinematics): its centre less its extent
+/// along z for boxes, capsules and spheres; +inf for planes and other types.
+double geom_lowest_z(const mjModel& m, const mjData& d, int g);
+
 /// Total mechanical energy, J: kinetic (every body's translation and rotation about its CoM,
 /// plus the armature's 0.5*a*qvel^2, i.e. 0.5 qvel' M qvel) + gravitational potential + hinge/
 /// slide spring potential. Computed from cvel/xipos, so it needs mj_forward or mj_step1 first.
