@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # The house, drawn from the includes, and the rules it keeps (README, "Architecture"):
-#   apps/biodyn -> apps/viewer -> apps/scenarios -> controllers | mocap_io -> muscles -> models -> sim
+#   apps/biodyn -> apps/viewer -> apps/scenarios -> capture (mocap_io/capture) ->
+#   controllers | mocap_io -> muscles -> models -> sim
 #   1. layers: a file includes headers of its own module or of modules below it, nothing upward,
-#      and controllers and mocap_io not each other;
+#      and controllers and mocap_io not each other; OpenCV only in mocap_io/capture;
 #   2. no function longer than MAX_FUNCTION_LINES (pmccabe's line count, tests excluded);
 #   3. the sources are formatted as .clang-format says (clang-format --dry-run).
 # Prints the module graph it found. Exit 0 when every rule holds, 1 otherwise (each breach is
@@ -24,10 +25,11 @@ layers=$(grep -n '#include "biodyn/' $sources | awk -F: '
     if (path ~ /^apps\/scenarios\//) return "scenarios"
     if (path ~ /^apps\/viewer\//) return "viewer"
     if (path ~ /^apps\/biodyn\//) return "biodyn"
+    if (path ~ /^mocap_io\/capture\//) return "capture"
     split(path, part, "/"); return part[1]
   }
   BEGIN { layer["sim"] = 0; layer["models"] = 1; layer["muscles"] = 2; layer["controllers"] = 3
-          layer["mocap_io"] = 3; layer["scenarios"] = 4; layer["viewer"] = 5; layer["biodyn"] = 6 }
+          layer["mocap_io"] = 3; layer["capture"] = 3.5; layer["scenarios"] = 4; layer["viewer"] = 5; layer["biodyn"] = 6 }
   {
     from = module_of($1); inc = $0; sub(/^[^#]*#include /, "", inc)
     to = inc; sub(/^"biodyn\//, "", to); sub(/\/.*/, "", to)
@@ -45,6 +47,8 @@ layers=$(grep -n '#include "biodyn/' $sources | awk -F: '
   }')
 [ $? -ne 0 ] && status=1
 echo "$layers"
+opencv=$(grep -n '#include <opencv2/' $sources | grep -v '^mocap_io/capture/' | sed 's/$/: layers: OpenCV outside mocap_io\/capture/')
+[ -n "$opencv" ] && { echo "$opencv"; status=1; }
 
 # 2. Function length (pmccabe reads C++98 namespaces: `namespace a::b` is spelled a__b for it).
 if command -v pmccabe > /dev/null; then

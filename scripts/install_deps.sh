@@ -21,6 +21,8 @@ packages=(
   xvfb xauth xdotool                 # the viewer's tests: a virtual display, and a mouse to drag with
   clang-format pmccabe               # the house check (scripts/check_house.sh): format, function length
   chromium                           # tests open biodyn evaluate's HTML report in a real browser (headless)
+  libopencv-dev                      # optical capture (mocap_io/capture): images, blobs, calibration, video, V4L2
+  libceres-dev                       # optical capture: bundle adjustment of the camera rig
 )
 
 missing=()

@@ -41,6 +41,7 @@ json samcon_json(const scenarios::SamconParams& p) {
           {"sigma_knee_rad", p.sigma_knee_rad},
           {"sigma_ankle_rad", p.sigma_ankle_rad},
           {"sigma_trunk_rad", p.sigma_trunk_rad},
+          {"root_scale_m", p.root_scale_m},
           {"load_scale", p.load_scale}};
 }
 
@@ -212,6 +213,11 @@ Command add_mocap_track_command(CLI::App* mocap) {
   cmd->add_option("--children", o->samcon.children, "rollouts per kept state")
       ->capture_default_str();
   cmd->add_option("--seed", o->samcon.seed, "random seed of the offsets")->capture_default_str();
+  cmd->add_option("--root-scale", o->samcon.root_scale_m,
+                  "the root this far off the motion's (horizontally or in height) costs as much "
+                  "as 0.03 rad of joint error, m (smaller: the root path is held closer, the "
+                  "joints less so)")
+      ->capture_default_str();
   cmd->add_option("--load-scale", o->samcon.load_scale,
                   "the worst judged joint's load (motor + range stop) this far over tau_max "
                   "through a window, past its first 10 ms, costs as much as 0.03 rad of joint "

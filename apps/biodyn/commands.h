@@ -38,6 +38,9 @@ Command add_evaluate_command(CLI::App* app);
 /// `biodyn muscles curves`: the Hill curves, and one muscle's isometric force-angle curve.
 Command add_muscles_command(CLI::App* app);
 
+/// `biodyn capture synth|run`: optical marker capture (cmd_capture.cc).
+Command add_capture_command(CLI::App* app);
+
 /// `biodyn render`: a scenario filmed headless (MP4, PNG).
 Command add_render_command(CLI::App* app);
 /// `biodyn view`: the interactive viewer.

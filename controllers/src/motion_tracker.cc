@@ -15,23 +15,6 @@
 namespace biodyn::controllers {
 namespace {
 
-// The frame at or before t and the fraction towards the next, t clamped to the motion.
-void bracket(const std::vector<double>& times, double t, std::size_t* f0, double* alpha) {
-  if (t <= times.front()) {
-    *f0 = 0;
-    *alpha = 0;
-    return;
-  }
-  if (t >= times.back()) {
-    *f0 = times.size() - 2;
-    *alpha = 1;
-    return;
-  }
-  const auto it = std::upper_bound(times.begin(), times.end(), t);
-  *f0 = static_cast<std::size_t>(it - times.begin()) - 1;
-  *alpha = (t - times[*f0]) / (times[*f0 + 1] - times[*f0]);
-}
-
 Eigen::Quaterniond quat_at(const double* q) {
   return Eigen::Quaterniond(q[0], q[1], q[2], q[3]).normalized();
 }
@@ -212,36 +195,9 @@ std::size_t TrackedMotion::frame_at(double t_s) const {
 void motion_pose_at(const mjModel& m, const TrackedMotion& motion, double t_s, double* qpos) {
   std::size_t f0 = 0;
   double a = 0;
-  bracket(motion.times_s, t_s, &f0, &a);
-  const Eigen::Index r0 = static_cast<Eigen::Index>(f0), r1 = r0 + 1;
-  for (int j = 0; j < m.njnt; ++j) {
-    const int adr = m.jnt_qposadr[j];
-    const auto lerp = [&](int k) {
-      qpos[k] = (1 - a) * motion.qpos(r0, k) + a * motion.qpos(r1, k);
-    };
-    const auto slerp = [&](int k) {
-      const double q0[4] = {motion.qpos(r0, k), motion.qpos(r0, k + 1), motion.qpos(r0, k + 2),
-                            motion.qpos(r0, k + 3)};
-      const double q1[4] = {motion.qpos(r1, k), motion.qpos(r1, k + 1), motion.qpos(r1, k + 2),
-                            motion.qpos(r1, k + 3)};
-      const Eigen::Quaterniond q = quat_at(q0).slerp(a, quat_at(q1));
-      qpos[k] = q.w();
-      qpos[k + 1] = q.x();
-      qpos[k + 2] = q.y();
-      qpos[k + 3] = q.z();
-    };
-    switch (m.jnt_type[j]) {
-      case mjJNT_FREE:
-        for (int k = 0; k < 3; ++k) lerp(adr + k);
-        slerp(adr + 3);
-        break;
-      case mjJNT_BALL:
-        slerp(adr);
-        break;
-      default:
-        lerp(adr);
-    }
-  }
+  sim::bracket_time(motion.times_s, t_s, &f0, &a);
+  const Eigen::Index r0 = static_cast<Eigen::Index>(f0);
+  sim::interpolate_qpos(m, motion.qpos.row(r0), motion.qpos.row(r0 + 1), a, qpos);
 }
 
 void MotionTrackerParams::validate() const {
@@ -333,7 +289,7 @@ void MotionTracker::drive_feedback(const ControlInput& in, ControlFrame* frame) 
   // Feet: in stance while the motion has them on the floor now.
   std::size_t f0 = 0;
   double a = 0;
-  bracket(motion_->times_s, d.time, &f0, &a);
+  sim::bracket_time(motion_->times_s, d.time, &f0, &a);
   const std::size_t now = a < 1 ? f0 : f0 + 1;
   const std::array<bool, 2>& on = motion_->stance[now];
   for (int s = 0; s < 2; ++s) frame->set_stance(s, on[static_cast<std::size_t>(s)]);

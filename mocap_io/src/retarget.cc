@@ -386,4 +386,18 @@ std::optional<JointMap> first_fitting_builtin_map(const BvhMotion& motion,
   return std::nullopt;
 }
 
+Motion retarget_bvh_file(const std::string& path, const models::CharacterSpec& character) {
+  const BvhMotion bvh = read_bvh(path);
+  std::string tried;
+  if (const auto map = first_fitting_builtin_map(bvh, path, &tried)) {
+    RetargetOptions options;
+    options.source = path;
+    return retarget_bvh(bvh, *map, character, options).motion;
+  }
+  throw sim::InvalidArgument(path +
+                             ": no built-in joint map fits this BVH (retarget it with "
+                             "biodyn mocap retarget --map, then use its motion.csv):" +
+                             tried);
+}
+
 }  // namespace biodyn::mocap_io

@@ -111,6 +111,34 @@ Eigen::Quaterniond joint_quaternion(const mjModel& m, const mjData& d, int joint
                         " is not a ball or free joint");
 }
 
+void bracket_time(const std::vector<double>& times, double t, std::size_t* f0, double* alpha) {
+  if (t <= times.front()) {
+    *f0 = 0;
+    *alpha = 0;
+    return;
+  }
+  if (t >= times.back()) {
+    *f0 = times.size() - 2;
+    *alpha = 1;
+    return;
+  }
+  const auto it = std::upper_bound(times.begin(), times.end(), t);
+  *f0 = static_cast<std::size_t>(it - times.begin()) - 1;
+  *alpha = (t - times[*f0]) / (times[*f0 + 1] - times[*f0]);
+}
+
+double first_hit_m(const mjModel& m, const mjData& d, const Eigen::Vector3d& from_W,
+                   const Eigen::Vector3d& to_W) {
+  const Eigen::Vector3d along = to_W - from_W;
+  const double length = along.norm();
+  if (length <= 0) return std::numeric_limits<double>::infinity();
+  const Eigen::Vector3d unit = along / length;
+  int geom = -1;
+  // Every group, the static floor included; invisible geoms (alpha 0) are skipped by mj_ray.
+  const mjtNum hit = mj_ray(&m, &d, from_W.data(), unit.data(), nullptr, 1, -1, &geom);
+  return hit >= 0 && hit <= length ? hit : std::numeric_limits<double>::infinity();
+}
+
 double geom_lowest_z(const mjModel& m, const mjData& d, int g) {
   const mjtNum* R = d.geom_xmat + 9 * g;  // row-major: R[6..8] the world z row
   const mjtNum* size = m.geom_size + 3 * g;

@@ -69,7 +69,46 @@ void SceneRenderer::update_scene(const mjModel& model, mjData& data,
   camera_.distance = view_.distance_m;
   for (int k = 0; k < 3; ++k) camera_.lookat[k] = view_.lookat_W[k];
   mjv_updateScene(&model, &data, &options_, nullptr, &camera_, mjCAT_ALL, &scene_);
+  if (look_ == SceneLook::kOverlaysOnly) scene_.ngeom = 0;
   add_overlays(overlays);
+}
+
+void SceneRenderer::set_look(SceneLook look) {
+  look_ = look;
+  const mjtByte normal = look == SceneLook::kNormal ? 1 : 0;
+  scene_.flags[mjRND_SHADOW] = normal;
+  scene_.flags[mjRND_REFLECTION] = normal;
+  scene_.flags[mjRND_SKYBOX] = normal;
+  for (int g = 0; g < mjNGROUP; ++g) options_.sitegroup[g] = normal && g < 3 ? 1 : 0;
+}
+
+void SceneRenderer::use_pinhole(const PinholeView& v, int width, int height) {
+  if (!(v.f_px > 0) || width < 1 || height < 1 || !(v.near_m > 0) || !(v.far_m > v.near_m)) {
+    throw InvalidArgument(
+        "renderer: a pinhole needs f > 0, a positive size and 0 < near < far;"
+        " got f " +
+        std::to_string(v.f_px) + " px, " + std::to_string(width) + " x " + std::to_string(height) +
+        ", near " + std::to_string(v.near_m) + " m");
+  }
+  // glFrustum at the near plane n (mjr_render, 2.2.2): rows span [bottom, top], columns
+  // [center - hw, center + hw] with hw = (top - bottom) W / (2 H). Matching u = f x/z + cx with
+  // pixel centres at integers: top - bottom = H n / f, center = (W/2 - 1/2 - cx) n / f,
+  // top + bottom = (cy - H/2 + 1/2) 2 n / f (OpenCV's y is down, GL's up).
+  const double n = v.near_m, span = height * n / v.f_px;
+  const double center = (0.5 * width - 0.5 - v.cx_px) * n / v.f_px;
+  const double sum = (v.cy_px - 0.5 * height + 0.5) * 2 * n / v.f_px;
+  for (mjvGLCamera& c : scene_.camera) {
+    for (int k = 0; k < 3; ++k) {
+      c.pos[k] = static_cast<float>(v.p_WC[k]);
+      c.forward[k] = static_cast<float>(v.R_CW(2, k));
+      c.up[k] = static_cast<float>(-v.R_CW(1, k));
+    }
+    c.frustum_center = static_cast<float>(center);
+    c.frustum_top = static_cast<float>(0.5 * (sum + span));
+    c.frustum_bottom = static_cast<float>(0.5 * (sum - span));
+    c.frustum_near = static_cast<float>(n);
+    c.frustum_far = static_cast<float>(v.far_m);
+  }
 }
 
 void SceneRenderer::add_overlays(const std::vector<OverlayGeom>& overlays) {
@@ -104,6 +143,7 @@ void SceneRenderer::add_overlays(const std::vector<OverlayGeom>& overlays) {
         break;
     }
     g->category = mjCAT_DECOR;
+    g->emission = o.emission;
     ++scene_.ngeom;
   }
 }

@@ -13,25 +13,6 @@
 #include "fall_watch.h"
 
 namespace biodyn::scenarios {
-namespace {
-
-// A BVH retargeted onto `character` with the first built-in joint map that fits it.
-mocap_io::Motion retarget_with_builtin_map(const std::string& path,
-                                           const models::CharacterSpec& character) {
-  const mocap_io::BvhMotion bvh = mocap_io::read_bvh(path);
-  std::string tried;
-  if (const auto map = mocap_io::first_fitting_builtin_map(bvh, path, &tried)) {
-    mocap_io::RetargetOptions options;
-    options.source = path;
-    return mocap_io::retarget_bvh(bvh, *map, character, options).motion;
-  }
-  throw sim::InvalidArgument(path +
-                             ": no built-in joint map fits this BVH (retarget it with "
-                             "biodyn mocap retarget --map, then play motion.csv):" +
-                             tried);
-}
-
-}  // namespace
 
 struct MocapScenario::State : ScenarioState {
   CommonState common;
@@ -72,7 +53,7 @@ void MocapScenario::load_motion() {
   const mjModel& m = sim_->model();
   mocap_io::Motion motion;
   if (ext == "bvh") {
-    motion = retarget_with_builtin_map(path, config_.character);
+    motion = mocap_io::retarget_bvh_file(path, config_.character);
   } else {
     motion = mocap_io::read_motion_csv(path);
     mocap_io::check_motion_matches(motion, m, path);

@@ -16,6 +16,7 @@
 #include "biodyn/sim/errors.h"
 #include "biodyn/sim/model.h"
 #include "biodyn/sim/queries.h"
+#include "biodyn/sim/random.h"
 #include "biodyn/sim/simulation.h"
 
 namespace biodyn::scenarios {
@@ -29,43 +30,8 @@ constexpr double kCarry = 0.5;
 /// A path's cost: its last window's plus this fraction of the parent's (older windows fade).
 constexpr double kParentCostDecay = 0.5;
 
-/// SplitMix64 (Steele et al. 2014): a counter-based stream, the same on every platform.
-std::uint64_t splitmix(std::uint64_t x) {
-  x += 0x9e3779b97f4a7c15ULL;
-  x = (x ^ (x >> 30)) * 0xbf58476d1ce4e5b9ULL;
-  x = (x ^ (x >> 27)) * 0x94d049bb133111ebULL;
-  return x ^ (x >> 31);
-}
-
-/// Standard normal numbers from one key (Box-Muller on SplitMix64 uniforms; std's
-/// distributions are implementation-defined).
-class Normal {
- public:
-  explicit Normal(std::uint64_t key) : state_(key) {}
-  double next() {
-    if (has_spare_) {
-      has_spare_ = false;
-      return spare_;
-    }
-    const double u1 = (static_cast<double>(splitmix(state_++) >> 11) + 0.5) * 0x1.0p-53;
-    const double u2 = (static_cast<double>(splitmix(state_++) >> 11) + 0.5) * 0x1.0p-53;
-    const double r = std::sqrt(-2.0 * std::log(u1)), a = 2.0 * M_PI * u2;
-    spare_ = r * std::sin(a);
-    has_spare_ = true;
-    return r * std::cos(a);
-  }
-
- private:
-  std::uint64_t state_;
-  double spare_ = 0;
-  bool has_spare_ = false;
-};
-
 std::uint64_t sample_key(std::uint64_t seed, int window, int attempt, int parent, int child) {
-  std::uint64_t k = splitmix(seed);
-  for (const int v : {window, attempt, parent, child})
-    k = splitmix(k ^ static_cast<std::uint64_t>(v));
-  return k;
+  return sim::stream_key(seed, {window, attempt, parent, child});
 }
 
 /// Per DOF: the offsets' standard deviation (0 for the root and joints not sampled).
@@ -216,13 +182,13 @@ SamconResult run_samcon(const ScenarioConfig& config, const models::PhysicsOptio
       auto work = [&](Worker* w) {
         for (int j = next++; j < n; j = next++) {
           const int p = j / params.children, c = j % params.children;
-          Normal normal(sample_key(params.seed, window, attempt, p, c));
+          sim::RandomStream normal(sample_key(params.seed, window, attempt, p, c));
           Eigen::VectorXd& o = offsets[static_cast<size_t>(j)];
           // Around half the parent's offsets (a correction fades unless renewed); child 0 of
           // the first attempt takes exactly that (never worse than not sampling).
           const Eigen::VectorXd& mean = last[static_cast<size_t>(p)].offsets;
           for (int v = 0; v < m.nv; ++v) {
-            const double noise = sigma(v) > 0 ? widen * sigma(v) * normal.next() : 0.0;
+            const double noise = sigma(v) > 0 ? widen * sigma(v) * normal.normal() : 0.0;
             o(v) = kCarry * mean(v) + (c == 0 && attempt == 0 ? 0.0 : noise);
           }
           const double window_cost = rollout(w, *parents[static_cast<size_t>(p)], o, steps, params,

@@ -302,4 +302,9 @@ BvhMotion character_bvh(const models::Character& c, const mjModel& model,
 /// its body, or with fewer than 2 solved frames in a row.
 BvhMotion motion_bvh(const Motion& motion, const std::string& source);
 
+/// The BVH file at `path` retargeted onto `character` with the first built-in joint map that
+/// fits it (default options). Throws sim::InvalidArgument naming the file when it cannot be
+/// read or no built-in map fits (listing what was tried).
+Motion retarget_bvh_file(const std::string& path, const models::CharacterSpec& character);
+
 }  // namespace biodyn::mocap_io

@@ -76,6 +76,49 @@ Eigen::Quaterniond joint_quaternion(const mjModel& m, const mjData& d, int joint
 /// along z for boxes, capsules and spheres; +inf for planes and other types.
 double geom_lowest_z(const mjModel& m, const mjData& d, int g);
 
+/// m: how far from `from_W` towards `to_W` the first visible geom (any body's, the floor's) is
+/// hit, or +infinity when nothing is hit before `to_W` (mj_ray; needs mj_kinematics). A line of
+/// sight: a camera at `from_W` sees a point at `to_W`.
+double first_hit_m(const mjModel& m, const mjData& d, const Eigen::Vector3d& from_W,
+                   const Eigen::Vector3d& to_W);
+
+/// Where time t falls in increasing `times` (at least 2): the frame at or before it (`f0`) and
+/// the fraction `alpha` (0..1) of the way to the next; t is clamped to the ends. No allocation.
+void bracket_time(const std::vector<double>& times, double t, std::size_t* f0, double* alpha);
+
+/// The pose `alpha` (0..1) of the way from q0 to q1 (nq values each, indexable: a pointer or
+/// an Eigen row) into `out`: hinges, slides and the free root's position linearly, ball joints
+/// and the root's orientation by slerp of the normalised quaternions. No allocation.
+template <class Q0, class Q1>
+void interpolate_qpos(const mjModel& m, const Q0& q0, const Q1& q1, double alpha, double* out) {
+  const auto lerp = [&](int k) { out[k] = (1 - alpha) * q0[k] + alpha * q1[k]; };
+  const auto slerp = [&](int k) {
+    const Eigen::Quaterniond a =
+        Eigen::Quaterniond(q0[k], q0[k + 1], q0[k + 2], q0[k + 3]).normalized();
+    const Eigen::Quaterniond b =
+        Eigen::Quaterniond(q1[k], q1[k + 1], q1[k + 2], q1[k + 3]).normalized();
+    const Eigen::Quaterniond q = a.slerp(alpha, b);
+    out[k] = q.w();
+    out[k + 1] = q.x();
+    out[k + 2] = q.y();
+    out[k + 3] = q.z();
+  };
+  for (int j = 0; j < m.njnt; ++j) {
+    const int adr = m.jnt_qposadr[j];
+    switch (m.jnt_type[j]) {
+      case mjJNT_FREE:
+        for (int k = 0; k < 3; ++k) lerp(adr + k);
+        slerp(adr + 3);
+        break;
+      case mjJNT_BALL:
+        slerp(adr);
+        break;
+      default:
+        lerp(adr);
+    }
+  }
+}
+
 /// Total mechanical energy, J: kinetic (every body's translation and rotation about its CoM,
 /// plus the armature's 0.5*a*qvel^2, i.e. 0.5 qvel' M qvel) + gravitational potential + hinge/
 /// slide spring potential. Computed from cvel/xipos, so it needs mj_forward or mj_step1 first.

@@ -26,6 +26,7 @@ struct OverlayGeom {
   Eigen::Vector3d half_size_m = Eigen::Vector3d::Zero();  ///< box: half extents (its frame)
   double yaw_rad = 0;                                     ///< box: turned about z
   float rgba[4] = {1, 1, 1, 1};
+  float emission = 0;  ///< 0..1: light of its own (a retro-reflective marker under a ring light)
 };
 
 /// Recolours the geoms mjv_updateScene made in `scene` for objects of type `objtype` (e.g.
@@ -42,6 +43,25 @@ struct CameraView {
   double elevation_deg = -15;
   double distance_m = 3.5;
   Eigen::Vector3d lookat_W = Eigen::Vector3d(0, 0, 1);
+};
+
+/// An ideal pinhole camera (square pixels) for pixel-exact offscreen images: a calibrated
+/// camera's view. Frame C is OpenCV's (x right, y down, z along the optical axis); pixel
+/// (u, v) = (f x/z + cx, f y/z + cy), the top-left pixel's centre at (0, 0).
+struct PinholeView {
+  Eigen::Vector3d p_WC = Eigen::Vector3d::Zero();      ///< m, optical centre in the world
+  Eigen::Matrix3d R_CW = Eigen::Matrix3d::Identity();  ///< rotates world vectors into C
+  double f_px = 600, cx_px = 319.5, cy_px = 239.5;     ///< focal length and principal point
+  double near_m = 0.05, far_m = 50;                    ///< clipping planes
+};
+
+/// How model geoms are drawn.
+enum class SceneLook {
+  kNormal,  ///< the model's colours, lights, shadows and reflections (viewer, render)
+  /// An optical motion-capture camera's view: only the overlays (bright emissive marker
+  /// spheres) on black; no model geom, site, shadow, reflection or skybox. What the body hides
+  /// is decided by the caller (first_hit_m) before it adds the overlays.
+  kOverlaysOnly,
 };
 
 class SceneRenderer {
@@ -62,6 +82,12 @@ class SceneRenderer {
   /// Copies the drawable state of `data` into the scene (mjv_updateScene) and adds the
   /// overlays. Reads `data` only; call it under the physics lock, then render without it.
   void update_scene(const mjModel& model, mjData& data, const std::vector<OverlayGeom>& overlays);
+  /// Draws the scene as `look` says from the next update_scene on.
+  void set_look(SceneLook look);
+  /// Replaces the camera of the scene update_scene made by `view` (its image `width` x
+  /// `height` px): render_offscreen at that size then gives the pinhole's exact pixels.
+  /// Throws sim::InvalidArgument for a non-positive focal length, size or near plane.
+  void use_pinhole(const PinholeView& view, int width, int height);
   /// recolor_objects on the scene update_scene made (before rendering it).
   void recolor(mjtObj objtype, const std::vector<float>& rgba, float width_scale = 1.0f) {
     recolor_objects(objtype, rgba, &scene_, width_scale);
@@ -89,6 +115,7 @@ class SceneRenderer {
   mjrContext context_;
   CameraView view_;
   int follow_body_ = -1;
+  SceneLook look_ = SceneLook::kNormal;
   std::vector<std::uint8_t> flip_;  // one row, reused
 };
 

@@ -1,0 +1,452 @@
+// biodyn capture synth|run: optical marker capture (issue 27). Built only with the capture
+// module (OpenCV); without it the command says what to install.
+#include <filesystem>
+#include <iostream>
+#include <memory>
+#include <nlohmann/json.hpp>
+
+#include "biodyn/sim/errors.h"
+#include "cli_common.h"
+#include "commands.h"
+
+#ifdef BIODYN_HAVE_CAPTURE
+#include <chrono>
+#include <optional>
+#include <sstream>
+
+#include "biodyn/capture/blobs.h"
+#include "biodyn/capture/evaluation.h"
+#include "biodyn/capture/frame_source.h"
+#include "biodyn/capture/pipeline.h"
+#include "biodyn/capture/reconstruct.h"
+#include "biodyn/capture/synthetic.h"
+#include "biodyn/mocap_io/marker_data.h"
+#include "biodyn/mocap_io/motion_csv.h"
+#include "biodyn/mocap_io/retarget.h"
+#include "biodyn/mocap_io/trc.h"
+#include "biodyn/models/mjcf.h"
+#include "biodyn/sim/model.h"
+#include "biodyn/sim/queries.h"
+#include "biodyn/sim/simulation.h"
+#include "biodyn/viewer/headless_gl.h"
+#endif
+
+namespace biodyn::apps {
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+#ifdef BIODYN_HAVE_CAPTURE
+namespace {
+
+struct SynthOptions {
+  CharacterOptions body;
+  std::string motion, output, size = "656x491";
+  capture::SyntheticRigSpec rig;
+  capture::ImageFormation formation;
+  double marker_mm = 25, from_s = 0, duration_s = -1;
+  bool landscape = false, in_place = false;
+};
+
+// s: the in-place option removes the root's horizontal path averaged over this window (a
+// treadmill: the stride's sway stays, the progression goes).
+constexpr double kInPlaceWindow_s = 1.0;
+
+/// The motion on its body: a qpos CSV (its header's body unless the command line gives one) or
+/// a BVH retargeted onto the command line's body.
+mocap_io::Motion load_motion(const SynthOptions& o, models::CharacterSpec* spec,
+                             std::vector<std::string>* notes) {
+  std::string ext = fs::path(o.motion).extension().string();
+  for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  if (ext == ".bvh") {
+    *spec = o.body.to_spec();
+    return mocap_io::retarget_bvh_file(o.motion, *spec);
+  }
+  *spec = o.body.spec_for_motion(o.motion, notes);
+  return mocap_io::read_motion_csv(o.motion);
+}
+
+/// Per frame of the motion: the horizontal offset that puts its root where the cameras look:
+/// the mean root position moved to the target (or, in place, the root's 1 s running mean).
+std::vector<Eigen::Vector2d> root_offsets(const mocap_io::Motion& m, const mjModel& model,
+                                          const Eigen::Vector3d& target_W, bool in_place) {
+  const int n = m.frame_count(), x = model.jnt_qposadr[0];
+  std::vector<Eigen::Vector2d> offsets(static_cast<std::size_t>(n));
+  Eigen::Vector2d mean = Eigen::Vector2d::Zero();
+  for (int f = 0; f < n; ++f) mean += Eigen::Vector2d(m.qpos(f, x), m.qpos(f, x + 1));
+  mean /= std::max(n, 1);
+  for (int f = 0; f < n; ++f) {
+    Eigen::Vector2d centre = mean;
+    if (in_place) {
+      Eigen::Vector2d sum = Eigen::Vector2d::Zero();
+      int k = 0;
+      for (int g = 0; g < n; ++g) {
+        if (std::abs(m.times_s[g] - m.times_s[f]) > 0.5 * kInPlaceWindow_s) continue;
+        sum += Eigen::Vector2d(m.qpos(g, x), m.qpos(g, x + 1));
+        ++k;
+      }
+      centre = sum / k;
+    }
+    offsets[f] = target_W.head<2>() - centre;
+  }
+  return offsets;
+}
+
+int run_synth(const SynthOptions& o) {
+  check_outputs({{"-o", o.output, true}}, {o.motion});
+  models::CharacterSpec spec;
+  std::vector<std::string> notes;
+  const mocap_io::Motion motion = load_motion(o, &spec, &notes);
+  for (const std::string& n : notes) std::cout << "capture synth: note: " << n << "\n";
+  const models::Character character = models::generate_character(spec);
+  sim::Simulation sim(sim::Model::from_string(models::to_mjcf(character), "character"));
+  mjModel& m = sim.mutable_model();
+  mocap_io::check_motion_matches(motion, m, o.motion);
+  const mocap_io::Motion solved = mocap_io::longest_solved_span(motion);
+  if (solved.frame_count() < 2)
+    throw sim::InvalidArgument(o.motion + ": fewer than 2 solved frames");
+
+  capture::SyntheticRigSpec rig_spec = o.rig;
+  std::tie(rig_spec.width_px, rig_spec.height_px) = parse_size(o.size, "--size");
+  rig_spec.portrait = !o.landscape;
+  const capture::Rig rig = capture::make_synthetic_rig(rig_spec);
+  capture::ImageFormation formation = o.formation;
+  formation.marker_diameter_m = o.marker_mm / 1000;
+  std::vector<int> sites;
+  mocap_io::MarkerData truth;
+  truth.rate_hz = rig_spec.fps;
+  for (const models::Marker& mk : character.markers) {
+    sites.push_back(mj_name2id(&m, mjOBJ_SITE, ("marker_" + mk.name).c_str()));
+    truth.labels.push_back(mk.name);
+  }
+  const std::vector<Eigen::Vector2d> offsets =
+      root_offsets(solved, m, rig_spec.target_W, o.in_place);
+  const double t0 = solved.times_s.front() + o.from_s;
+  const double t_end =
+      o.duration_s > 0 ? std::min(solved.times_s.back(), t0 + o.duration_s) : solved.times_s.back();
+  if (!(t_end > t0))
+    throw sim::InvalidArgument("--from " + std::to_string(o.from_s) + " s: past the motion's end");
+  const int frames = static_cast<int>(std::floor((t_end - t0) * rig_spec.fps)) + 1;
+
+  viewer::HeadlessGl gl;
+  capture::SyntheticCameras cameras(m, rig, sites, formation);
+  std::vector<std::string> names;
+  for (const capture::Camera& c : rig.cameras) names.push_back(c.name);
+  capture::RecordedWriter writer(o.output, names, rig_spec.fps);
+  truth.positions_m.resize(frames, 3 * static_cast<int>(sites.size()));
+  std::vector<std::string> truth2d(rig.cameras.size(), "frame,marker,u_px,v_px,visible\n");
+  capture::FrameSet set;
+  std::vector<std::vector<capture::MarkerView>> views;
+  long visible = 0, out_of_view = 0;
+  ProgressBar bar("capture synth: " + std::to_string(frames) + " frames x " +
+                  std::to_string(rig.size()) + " cameras");
+  for (int f = 0; f < frames; ++f) {
+    const double t = t0 + f / rig_spec.fps;
+    std::size_t f0 = 0;
+    double a = 0;
+    sim::bracket_time(solved.times_s, t, &f0, &a);
+    const auto r0 = static_cast<Eigen::Index>(f0);
+    sim::interpolate_qpos(m, solved.qpos.row(r0), solved.qpos.row(r0 + 1), a, sim.data().qpos);
+    const Eigen::Vector2d shift = (1 - a) * offsets[f0] + a * offsets[f0 + 1];
+    sim.data().qpos[m.jnt_qposadr[0]] += shift.x();
+    sim.data().qpos[m.jnt_qposadr[0] + 1] += shift.y();
+    sim.forward();
+    set.index = f;
+    cameras.film(m, sim.data(), f, &set.images, &views);
+    set.times_s.assign(rig.cameras.size(), f / rig_spec.fps);
+    writer.add(set);
+    for (std::size_t k = 0; k < sites.size(); ++k) {
+      truth.positions_m.row(f).segment<3>(3 * static_cast<Eigen::Index>(k)) =
+          Eigen::Vector3d(sim.data().site_xpos + 3 * sites[k]).transpose();
+      int seen = 0;
+      for (std::size_t c = 0; c < rig.cameras.size(); ++c) {
+        const capture::MarkerView& v = views[c][k];
+        std::ostringstream line;
+        line.precision(9);
+        line << f << "," << truth.labels[k] << "," << v.uv_px.x() << "," << v.uv_px.y() << ","
+             << (v.visible ? 1 : 0) << "\n";
+        truth2d[c] += line.str();
+        seen += v.visible ? 1 : 0;
+        out_of_view += rig.cameras[c].in_image(v.uv_px) ? 0 : 1;
+      }
+      visible += seen >= 2 ? 1 : 0;
+    }
+    bar.update(static_cast<double>(f + 1) / frames);
+  }
+  bar.finish();
+  const fs::path dir(writer.partial_dir());
+  for (std::size_t c = 0; c < rig.cameras.size(); ++c)
+    write_file_atomically((dir / "truth" / (names[c] + ".csv")).string(), truth2d[c]);
+  mocap_io::write_trc((dir / "truth" / "markers.trc").string(), truth, "mm");
+  capture::write_rig((dir / "rig_truth.json").string(), rig);
+  const double marker_frames = static_cast<double>(frames) * static_cast<double>(sites.size());
+  const double seen_twice = static_cast<double>(visible) / marker_frames;
+  const double outside = static_cast<double>(out_of_view) / (marker_frames * rig.size());
+  const json extra = {
+      {"source", "synthetic"},
+      {"motion", o.motion},
+      {"motion_from_s", t0 - solved.times_s.front()},
+      {"in_place", o.in_place},
+      {"body", character_json(spec)},
+      {"markers", truth.labels},
+      {"marker_diameter_m", formation.marker_diameter_m},
+      {"noise_px", formation.noise_px},
+      {"sensor_noise_grey", formation.sensor_noise_grey},
+      {"exposure", formation.exposure},
+      {"seed", formation.seed},
+      {"rig_truth", "rig_truth.json"},
+      {"truth", {{"markers", "truth/markers.trc"}, {"views", "truth/<camera>.csv"}}},
+      {"markers_seen_by_2_cameras", seen_twice},
+      {"marker_views_outside_image", outside}};
+  writer.finish(extra.dump());
+  std::cout << "capture synth: " << frames << " frames from " << rig.size() << " cameras ("
+            << rig_spec.width_px << " x " << rig_spec.height_px << " px, " << rig_spec.fps
+            << " fps) in " << o.output << "; markers seen by >= 2 cameras: " << 100 * seen_twice
+            << "% of marker-frames\n";
+  if (outside > 0.01)
+    std::cout << "capture synth: WARNING: " << 100 * outside
+              << "% of marker views fall outside the images (the motion leaves the volume: "
+                 "--in-place keeps it on a treadmill)\n";
+  return kExitOk;
+}
+
+struct RunOptions {
+  std::string dir, rig_path, points_path, summary_path;
+  std::vector<std::string> live;
+  int live_frames = 0, threads = 0;
+  capture::BlobParams blobs;
+  capture::ReconstructionParams reconstruction;
+};
+
+/// A synthetic capture's truth: each marker's position per frame and each camera's views.
+struct Truth {
+  mocap_io::MarkerData markers;
+  std::vector<std::vector<std::vector<capture::MarkerView>>> views;  // [camera][frame][marker]
+};
+
+std::optional<Truth> read_truth(const std::string& dir, const std::vector<std::string>& cameras) {
+  const fs::path t = fs::path(dir) / "truth";
+  if (!fs::exists(t / "markers.trc")) return std::nullopt;
+  Truth truth;
+  truth.markers = mocap_io::read_trc((t / "markers.trc").string()).markers;
+  const int n = truth.markers.marker_count(), frames = truth.markers.frame_count();
+  for (const std::string& c : cameras) {
+    const std::string path = (t / (c + ".csv")).string();
+    const std::string text = sim::read_file(path);
+    std::vector<std::vector<capture::MarkerView>> per(frames, std::vector<capture::MarkerView>(n));
+    std::istringstream in(text);
+    std::string line;
+    std::getline(in, line);  // header
+    for (int row = 0; row < frames * n; ++row) {
+      if (!std::getline(in, line))
+        throw sim::InvalidArgument(path + ": fewer rows than frames x markers");
+      const std::vector<std::string> f = sim::split_fields(line, ',');
+      if (f.size() != 5)
+        throw sim::InvalidArgument(path + ": line " + std::to_string(row + 2) +
+                                   ": expected 5 fields");
+      capture::MarkerView& v = per[row / n][row % n];
+      v.uv_px = Eigen::Vector2d(std::stod(f[2]), std::stod(f[3]));
+      v.visible = f[4] == "1";
+    }
+    truth.views.push_back(std::move(per));
+  }
+  return truth;
+}
+
+int run_capture(const RunOptions& o) {
+  std::vector<OutputPath> outputs = {{"--points", o.points_path, false}};
+  if (!o.summary_path.empty()) outputs.push_back({"--summary", o.summary_path, false});
+  check_outputs(outputs, {o.dir});
+  const std::string rig_path = !o.rig_path.empty() ? o.rig_path
+                               : fs::exists(fs::path(o.dir) / "rig.json")
+                                   ? (fs::path(o.dir) / "rig.json").string()
+                                   : (fs::path(o.dir) / "rig_truth.json").string();
+  if (o.rig_path.empty() && !fs::exists(rig_path))
+    throw sim::InvalidArgument(o.dir +
+                               ": no rig.json (a calibration) or rig_truth.json (a synthetic "
+                               "capture's) in it; name the rig with --rig");
+  const capture::Rig rig = capture::read_rig(rig_path);
+  std::vector<std::string> names;
+  for (const capture::Camera& c : rig.cameras) names.push_back(c.name);
+  std::unique_ptr<capture::FrameSource> source =
+      o.live.empty() ? capture::open_recorded(o.dir, names)
+                     : capture::open_live(o.live, rig.cameras.front().fps, o.live_frames);
+  if (source->camera_count() != rig.size())
+    throw sim::InvalidArgument(rig_path + ": " + std::to_string(rig.size()) +
+                               " cameras, the source has " +
+                               std::to_string(source->camera_count()));
+  const std::optional<Truth> truth = o.live.empty() ? read_truth(o.dir, names) : std::nullopt;
+  capture::set_image_threads(o.threads);
+  capture::CapturePipeline pipeline(rig, o.blobs, o.reconstruction);
+  std::vector<capture::Point3> points;
+  capture::CaptureScore score;
+  std::ostringstream csv;
+  csv << "frame,time_s,point,x_m,y_m,z_m,views,residual_px\n";
+  csv.precision(9);
+  double read_s = 0, process_s = 0;
+  long point_total = 0, dropped = 0;
+  int frames = 0;
+  capture::FrameSet set;
+  const int total = source->frame_count();
+  ProgressBar bar("capture run: " +
+                  (total > 0 ? std::to_string(total) + " frames" : std::string("live")));
+  using clock = std::chrono::steady_clock;
+  while (true) {
+    const auto t0 = clock::now();
+    if (!source->next(&set)) break;
+    const auto t1 = clock::now();
+    pipeline.process(set, &points);
+    const auto t2 = clock::now();
+    read_s += std::chrono::duration<double>(t1 - t0).count();
+    process_s += std::chrono::duration<double>(t2 - t1).count();
+    for (int d : set.dropped_before) dropped += d;
+    for (std::size_t p = 0; p < points.size(); ++p) {
+      const capture::Point3& pt = points[p];
+      csv << set.index << "," << set.times_s.front() << "," << p << "," << pt.p_W.x() << ","
+          << pt.p_W.y() << "," << pt.p_W.z() << "," << pt.views.size() << "," << pt.residual_px
+          << "\n";
+    }
+    point_total += static_cast<long>(points.size());
+    if (truth && set.index < truth->markers.frame_count()) {
+      std::vector<Eigen::Vector3d> truth_W;
+      std::vector<int> seen(truth->markers.marker_count(), 0);
+      for (int k = 0; k < truth->markers.marker_count(); ++k) {
+        truth_W.push_back(truth->markers.position(set.index, k));
+        for (int c = 0; c < rig.size(); ++c)
+          seen[k] += truth->views[c][set.index][k].visible ? 1 : 0;
+      }
+      for (int c = 0; c < rig.size(); ++c)
+        capture::score_detection(pipeline.blobs()[c], truth->views[c][set.index], &score);
+      capture::score_points(points, truth_W, seen, &score);
+    }
+    ++frames;
+    if (total > 0) bar.update(static_cast<double>(frames) / total);
+  }
+  bar.finish();
+  write_file_atomically(o.points_path, csv.str());
+  json summary = {{"capture", o.dir},
+                  {"rig", rig_path},
+                  {"rig_source", rig.source},
+                  {"cameras", rig.size()},
+                  {"frames", frames},
+                  {"dropped_frames", dropped},
+                  {"points_per_frame", frames ? static_cast<double>(point_total) / frames : 0.0},
+                  {"read_s", read_s},
+                  {"process_s", process_s},
+                  {"process_frames_per_s", frames / std::max(process_s, 1e-9)},
+                  {"labelled", false},
+                  {"about", "unlabelled 3D points (labelling: not built yet)"}};
+  std::cout << "capture run: " << frames << " frames, " << rig.size() << " cameras (" << rig_path
+            << "): " << summary["points_per_frame"].get<double>()
+            << " points per frame; processing " << summary["process_frames_per_s"].get<double>()
+            << " frames/s (reading the images " << frames / std::max(read_s, 1e-9)
+            << " frames/s)\n";
+  if (dropped > 0)
+    std::cout << "capture run: WARNING: " << dropped << " frames dropped by the cameras' clocks\n";
+  if (truth) {
+    summary["truth"] = {{"detection_recall", score.detection_recall()},
+                        {"extra_blobs", score.extra_blobs},
+                        {"point_recall", score.point_recall()},
+                        {"rms_mm", 1000 * score.rms_m()},
+                        {"worst_mm", 1000 * score.worst_m},
+                        {"ghost_points", score.ghost_points}};
+    std::cout << "capture run: against the truth: detection recall "
+              << 100 * score.detection_recall() << "% of visible marker views, 3D points found "
+              << 100 * score.point_recall() << "% of markers seen by >= 2 cameras, RMS "
+              << 1000 * score.rms_m() << " mm (worst " << 1000 * score.worst_m << " mm), "
+              << score.ghost_points << " ghost points\n";
+  }
+  if (!o.summary_path.empty()) write_file_atomically(o.summary_path, json_text(summary, 2));
+  return kExitOk;
+}
+
+}  // namespace
+#endif  // BIODYN_HAVE_CAPTURE
+
+Command add_capture_command(CLI::App* app) {
+  CLI::App* cmd = app->add_subcommand(
+      "capture", "Optical marker capture: synthetic cameras, camera images to 3D markers");
+#ifdef BIODYN_HAVE_CAPTURE
+  cmd->require_subcommand(1);
+  auto s = std::make_shared<SynthOptions>();
+  CLI::App* synth = cmd->add_subcommand(
+      "synth", "Film a motion's markers with virtual cameras: images, timestamps, ground truth");
+  synth->add_option("--motion", s->motion, "qpos CSV (mocap ik/retarget/walk) or BVH")->required();
+  s->body.add_to(synth);
+  synth->add_option("--cameras", s->rig.cameras, "cameras on a ring around the volume")
+      ->capture_default_str();
+  synth
+      ->add_option("--distance", s->rig.distance_m,
+                   "cameras' horizontal distance from the volume's axis, m")
+      ->capture_default_str();
+  synth->add_option("--size", s->size, "image size WIDTHxHEIGHT, px")->capture_default_str();
+  synth->add_option("--fps", s->rig.fps, "frames per second")->capture_default_str();
+  synth->add_flag("--landscape", s->landscape,
+                  "cameras not rolled (the image's long side horizontal)");
+  synth
+      ->add_option("--rig-seed", s->rig.jitter_seed,
+                   "0: an even ring; otherwise each camera's place and aim jittered from this seed")
+      ->capture_default_str();
+  synth->add_option("--k1", s->rig.k1, "radial distortion k1 of every lens")->capture_default_str();
+  synth->add_option("--k2", s->rig.k2, "radial distortion k2")->capture_default_str();
+  synth
+      ->add_option("--noise-px", s->formation.noise_px,
+                   "each marker's image position noise (SD), px")
+      ->capture_default_str();
+  synth
+      ->add_option("--sensor-noise", s->formation.sensor_noise_grey,
+                   "per-pixel noise (SD), grey levels")
+      ->capture_default_str();
+  synth
+      ->add_option("--exposure", s->formation.exposure,
+                   "brightness gain (markers at 255 x exposure)")
+      ->capture_default_str();
+  synth->add_option("--marker-mm", s->marker_mm, "marker diameter, mm")->capture_default_str();
+  synth->add_option("--seed", s->formation.seed, "the noises' random seed")->capture_default_str();
+  synth->add_option("--from", s->from_s, "start this far into the motion, s")
+      ->capture_default_str();
+  synth->add_option("--duration", s->duration_s,
+                    "film this long, s (default: to the motion's end)");
+  synth->add_flag("--in-place", s->in_place,
+                  "remove the root's progression (its 1 s running mean): a walk on a treadmill");
+  synth->add_option("-o,--output", s->output, "capture folder to write (must not exist)")
+      ->required();
+  auto r = std::make_shared<RunOptions>();
+  CLI::App* run = cmd->add_subcommand(
+      "run", "Camera images to 3D markers: blobs, epipolar matching, triangulation");
+  run->add_option("dir", r->dir, "recorded capture folder (capture synth writes one)")->required();
+  run->add_option(
+      "--rig", r->rig_path,
+      "camera rig JSON (default: DIR/rig.json, else the synthetic truth DIR/rig_truth.json)");
+  run->add_option("--live", r->live,
+                  "live cameras instead: V4L2 devices (/dev/video0 or 0) or "
+                  "video files played in real time, in the rig's order");
+  run->add_option("--live-frames", r->live_frames,
+                  "stop a live capture after this many frames (0: never)")
+      ->capture_default_str();
+  run->add_option("--threshold", r->blobs.threshold_grey,
+                  "grey levels above the background that make a marker")
+      ->capture_default_str();
+  run->add_option("--min-views", r->reconstruction.min_views, "cameras a 3D point needs")
+      ->capture_default_str();
+  run->add_option("--epipolar-gate", r->reconstruction.epipolar_gate_px, "px")
+      ->capture_default_str();
+  run->add_option("--threads", r->threads, "threads for the cameras' images (0: OpenCV's default)")
+      ->capture_default_str();
+  run->add_option("--points", r->points_path, "CSV of the 3D points per frame")->required();
+  run->add_option("--summary", r->summary_path, "JSON summary to write");
+  return {cmd, [s, synth, r, run]() {
+            if (synth->parsed()) return run_synth(*s);
+            if (run->parsed()) return run_capture(*r);
+            return kExitBadInput;
+          }};
+#else
+  cmd->allow_extras();
+  return {cmd, []() -> int {
+            throw sim::InvalidArgument(
+                "this biodyn was built without optical capture (OpenCV 4 missing: apt-get "
+                "install libopencv-dev libceres-dev, then rebuild)");
+          }};
+#endif
+}
+
+}  // namespace biodyn::apps

@@ -1,0 +1,72 @@
+#pragma once
+/// Unlabelled 3D markers from the blobs of several calibrated cameras (the thesis's multi-view
+/// stage): blob pairs matched along epipolar lines within a pixel gate, triangulated, supported
+/// by the other cameras whose blobs lie near the point's projection, refined by least squares
+/// over every supporting view, and the worst view dropped while the point's reprojection error
+/// is too large. Points seen by more cameras are taken first; a blob belongs to one point.
+
+#include <Eigen/Core>
+#include <utility>
+#include <vector>
+
+#include "biodyn/capture/blobs.h"
+#include "biodyn/capture/camera.h"
+
+namespace biodyn::capture {
+
+struct ReconstructionParams {
+  /// px: two blobs of a camera pair match when each lies this close to the other's epipolar
+  /// line
+  double epipolar_gate_px = 2.0;
+  /// px: another camera supports a point when one of its blobs lies this close to the point's
+  /// projection
+  double support_gate_px = 2.5;
+  int min_views = 2;  ///< cameras a point needs (2: any pair; 3: fewer ghost points)
+  /// px: a point's views whose reprojection error exceeds this are dropped, worst first, while
+  /// min_views remain; a point whose error stays above it is dropped
+  double max_residual_px = 1.5;
+  /// A point must lie in this box of the world (m): the capture volume with room to spare.
+  Eigen::Vector3d volume_min_W = Eigen::Vector3d(-5, -5, -0.2);
+  Eigen::Vector3d volume_max_W = Eigen::Vector3d(5, 5, 3.0);
+  void validate() const;  ///< throws sim::InvalidArgument naming the field
+};
+
+/// A reconstructed (unlabelled) marker.
+struct Point3 {
+  Eigen::Vector3d p_W = Eigen::Vector3d::Zero();  ///< m
+  std::vector<std::pair<int, int>> views;         ///< (camera, blob index) that see it
+  double residual_px = 0;                         ///< RMS reprojection error over its views
+};
+
+/// Reconstructs frames of one rig. Keeps its scratch between frames.
+class Reconstructor {
+ public:
+  /// Throws sim::InvalidArgument for bad params or a rig of fewer than 2 cameras.
+  Reconstructor(const Rig& rig, const ReconstructionParams& params = {});
+  /// The points of one frame: `blobs[c]` are camera c's. Throws sim::InvalidArgument if there
+  /// are not as many blob lists as cameras.
+  void reconstruct(const std::vector<std::vector<Blob>>& blobs, std::vector<Point3>* points);
+  const Rig& rig() const { return rig_; }
+
+ private:
+  struct Candidate {
+    Eigen::Vector3d p_W;
+    std::vector<std::pair<int, int>> views;
+    double residual_px;
+  };
+  /// Least-squares point of `views` (normalised coordinates of each camera's blobs); its RMS
+  /// reprojection error in pixels into `residual_px`. False if it is behind a camera.
+  bool triangulate(const std::vector<std::pair<int, int>>& views, Eigen::Vector3d* p_W,
+                   double* residual_px) const;
+  void gather_support(Candidate* c) const;
+  bool refine(Candidate* c) const;
+
+  Rig rig_;
+  ReconstructionParams params_;
+  std::vector<Eigen::Matrix3d> essential_;  ///< [i * n + j]: x_j^T E x_i = 0, normalised coords
+  std::vector<std::vector<Eigen::Vector2d>> normalised_;  ///< per camera, per blob
+  std::vector<std::vector<char>> used_;
+  std::vector<Candidate> candidates_;
+};
+
+}  // namespace biodyn::capture

@@ -1,0 +1,116 @@
+// Marker blobs in camera images (blobs.h).
+#include "biodyn/capture/blobs.h"
+
+#include <algorithm>
+#include <cmath>
+#include <opencv2/imgproc.hpp>
+#include <string>
+
+#include "biodyn/sim/errors.h"
+
+namespace biodyn::capture {
+
+void BlobParams::validate() const {
+  const auto bad = [](const char* field, const std::string& why) {
+    throw sim::InvalidArgument(std::string("blob detection: ") + field + ": " + why);
+  };
+  if (threshold_grey < 1 || threshold_grey > 254)
+    bad("threshold_grey", "must be 1 .. 254, got " + std::to_string(threshold_grey));
+  if (!(weight_floor_grey >= 0) || weight_floor_grey >= threshold_grey)
+    bad("weight_floor_grey",
+        "must be in [0, threshold_grey), got " + std::to_string(weight_floor_grey));
+  if (!(min_area_px >= 1) || !(max_area_px >= min_area_px))
+    bad("min_area_px/max_area_px", "need 1 <= min <= max, got " + std::to_string(min_area_px) +
+                                       ", " + std::to_string(max_area_px));
+  if (!(min_roundness >= 0) || min_roundness > 1)
+    bad("min_roundness", "must be in [0, 1], got " + std::to_string(min_roundness));
+  if (opening_radius_px < 0 || opening_radius_px > 10)
+    bad("opening_radius_px", "must be 0 .. 10, got " + std::to_string(opening_radius_px));
+}
+
+BlobDetector::BlobDetector(const BlobParams& params) : params_(params) {
+  params_.validate();
+  if (params_.opening_radius_px > 0) {
+    const int d = 2 * params_.opening_radius_px + 1;
+    kernel_ = cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(d, d));
+  }
+}
+
+void BlobDetector::set_background(const cv::Mat& grey) {
+  if (grey.type() != CV_8UC1)
+    throw sim::InvalidArgument("blob detection: the background must be an 8-bit grey image");
+  grey.copyTo(background_);
+}
+
+void BlobDetector::detect(const cv::Mat& grey, std::vector<Blob>* blobs, int* rejected) {
+  if (grey.type() != CV_8UC1)
+    throw sim::InvalidArgument("blob detection: an image must be 8-bit grey (one channel)");
+  if (!background_.empty() && background_.size() != grey.size())
+    throw sim::InvalidArgument("blob detection: the image is " + std::to_string(grey.cols) + " x " +
+                               std::to_string(grey.rows) + ", its background " +
+                               std::to_string(background_.cols) + " x " +
+                               std::to_string(background_.rows));
+  if (background_.empty())
+    grey.copyTo(foreground_);
+  else
+    cv::subtract(grey, background_, foreground_);  // saturates at 0
+  cv::threshold(foreground_, mask_, params_.threshold_grey, 255, cv::THRESH_BINARY);
+  if (!kernel_.empty()) cv::morphologyEx(mask_, mask_, cv::MORPH_OPEN, kernel_);
+  const int n = cv::connectedComponentsWithStats(mask_, labels_, stats_, centroids_, 8, CV_32S);
+  blobs->clear();
+  int refused = 0;
+  for (int label = 1; label < n; ++label) {
+    const double area = stats_.at<int>(label, cv::CC_STAT_AREA);
+    if (area < params_.min_area_px || area > params_.max_area_px) {
+      ++refused;
+      continue;
+    }
+    // Weighted moments over the component's box grown by one pixel: the anti-aliased rim under
+    // the threshold carries weight too; pixels of another component do not.
+    const int x0 = std::max(0, stats_.at<int>(label, cv::CC_STAT_LEFT) - 1);
+    const int y0 = std::max(0, stats_.at<int>(label, cv::CC_STAT_TOP) - 1);
+    const int x1 = std::min(grey.cols, stats_.at<int>(label, cv::CC_STAT_LEFT) +
+                                           stats_.at<int>(label, cv::CC_STAT_WIDTH) + 1);
+    const int y1 = std::min(grey.rows, stats_.at<int>(label, cv::CC_STAT_TOP) +
+                                           stats_.at<int>(label, cv::CC_STAT_HEIGHT) + 1);
+    double w = 0, su = 0, sv = 0, suu = 0, svv = 0, suv = 0, peak = 0;
+    for (int y = y0; y < y1; ++y) {
+      const std::uint8_t* row = foreground_.ptr<std::uint8_t>(y);
+      const int* lab = labels_.ptr<int>(y);
+      for (int x = x0; x < x1; ++x) {
+        if (lab[x] != 0 && lab[x] != label) continue;
+        const double wi = std::max(0.0, row[x] - params_.weight_floor_grey);
+        w += wi;
+        su += wi * x;
+        sv += wi * y;
+        suu += wi * x * x;
+        svv += wi * y * y;
+        suv += wi * x * y;
+        peak = std::max(peak, static_cast<double>(row[x]));
+      }
+    }
+    if (w <= 0) {
+      ++refused;
+      continue;
+    }
+    Blob b;
+    b.uv_px = Eigen::Vector2d(su / w, sv / w);
+    const double cuu = suu / w - b.uv_px.x() * b.uv_px.x();
+    const double cvv = svv / w - b.uv_px.y() * b.uv_px.y();
+    const double cuv = suv / w - b.uv_px.x() * b.uv_px.y();
+    const double mean = 0.5 * (cuu + cvv);
+    const double spread = std::sqrt(std::max(0.0, 0.25 * (cuu - cvv) * (cuu - cvv) + cuv * cuv));
+    const double major = mean + spread, minor = std::max(0.0, mean - spread);
+    b.roundness = major > 0 ? std::sqrt(minor / major) : 1.0;
+    b.area_px = area;
+    b.peak_grey = peak;
+    if (area >= params_.min_area_for_shape_px && b.roundness < params_.min_roundness) {
+      ++refused;
+      continue;
+    }
+    blobs->push_back(b);
+  }
+  if (rejected != nullptr) *rejected = refused;
+}
+
+}  // namespace biodyn::capture
