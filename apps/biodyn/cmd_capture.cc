@@ -45,7 +45,67 @@ struct SynthOptions {
   capture::ImageFormation formation;
   double marker_mm = 25, from_s = 0, duration_s = -1;
   bool landscape = false, in_place = false;
+  int wand_frames = 1200;  ///< calibration recordings: the wand wave's frames at kCalibrationFps
 };
+
+// Hz: the calibration recordings keep a frame in five of a 100 Hz camera (a minute of waving
+// in 1200 frames).
+constexpr double kCalibrationFps = 20;
+// Frames of the still L-frame recording.
+constexpr int kLFrameFrames = 20;
+// The nominal lenses' focal length error (a lens spec's tolerance), a fraction.
+constexpr double kNominalFocalError = 0.03;
+
+/// The calibration recordings of a synthetic capture, filmed by its rig with nothing else in
+/// view: DIR/calibration/wand (the wand waved), DIR/calibration/lframe (the L-frame on the
+/// floor), DIR/calibration/nominal.json (the lenses a lab would start from).
+void film_calibration(const capture::Rig& rig, const capture::SyntheticRigSpec& spec,
+                      const capture::ImageFormation& formation, int wand_frames,
+                      const fs::path& dir) {
+  sim::Simulation empty(sim::Model::from_string("<mujoco/>", "empty scene"));
+  capture::SyntheticCameras cameras(empty.mutable_model(), rig, {}, formation);
+  std::vector<std::string> names;
+  for (const capture::Camera& c : rig.cameras) names.push_back(c.name);
+  const capture::Wand wand;
+  const capture::LFrame lframe;
+  const auto wave = capture::wand_wave(wand, spec, wand_frames, kCalibrationFps, formation.seed);
+  capture::FrameSet set;
+  std::vector<std::vector<capture::MarkerView>> views;
+  ProgressBar bar("capture synth: calibration (wand " + std::to_string(wand_frames) +
+                  " frames, L-frame)");
+  for (const char* what : {"wand", "lframe"}) {
+    const bool is_wand = std::string(what) == "wand";
+    capture::RecordedWriter writer((dir / "calibration" / what).string(), names, kCalibrationFps);
+    const int frames = is_wand ? wand_frames : kLFrameFrames;
+    for (int f = 0; f < frames; ++f) {
+      std::vector<Eigen::Vector3d> points;
+      if (is_wand) {
+        points.assign(wave[f].begin(), wave[f].end());
+      } else {
+        for (const Eigen::Vector3d& p : lframe.points_W()) points.push_back(p);
+      }
+      set.index = f;
+      cameras.film_points(empty.model(), empty.data(), points, is_wand ? f : wand_frames + f,
+                          &set.images, &views);
+      set.times_s.assign(rig.cameras.size(), f / kCalibrationFps);
+      writer.add(set);
+      bar.update(static_cast<double>(f + 1 + (is_wand ? 0 : wand_frames)) /
+                 (wand_frames + kLFrameFrames));
+    }
+    const json about = is_wand ? json{{"source", "synthetic"},
+                                      {"wand", {{"ab_m", wand.ab_m}, {"ac_m", wand.ac_m}}}}
+                               : json{{"source", "synthetic"},
+                                      {"lframe",
+                                       {{"x1_m", lframe.x1_m},
+                                        {"x2_m", lframe.x2_m},
+                                        {"y_m", lframe.y_m},
+                                        {"height_m", lframe.height_m}}}};
+    writer.finish(about.dump());
+  }
+  bar.finish();
+  capture::write_rig((dir / "calibration" / "nominal.json").string(),
+                     capture::nominal_rig(rig, kNominalFocalError, formation.seed));
+}
 
 // s: the in-place option removes the root's horizontal path averaged over this window (a
 // treadmill: the stride's sway stays, the progression goes).
@@ -174,6 +234,7 @@ int run_synth(const SynthOptions& o) {
   }
   bar.finish();
   const fs::path dir(writer.partial_dir());
+  film_calibration(rig, rig_spec, formation, o.wand_frames, dir);
   for (std::size_t c = 0; c < rig.cameras.size(); ++c)
     write_file_atomically((dir / "truth" / (names[c] + ".csv")).string(), truth2d[c]);
   mocap_io::write_trc((dir / "truth" / "markers.trc").string(), truth, "mm");
@@ -359,6 +420,120 @@ int run_capture(const RunOptions& o) {
   return kExitOk;
 }
 
+struct CalibrateOptions {
+  std::string dir, nominal_path, output;
+  capture::Wand wand;
+  capture::LFrame lframe;
+  capture::BlobParams blobs;
+  capture::CalibrationParams params;
+};
+
+/// The wand in every camera's images of a recorded wave.
+capture::WandObservations observe_wand(capture::FrameSource* source, const capture::Wand& wand,
+                                       const capture::BlobParams& params) {
+  const int n = source->camera_count();
+  capture::WandObservations seen;
+  seen.abc_px.resize(n);
+  seen.seen.resize(n);
+  std::vector<capture::BlobDetector> detectors(n, capture::BlobDetector(params));
+  std::vector<capture::Blob> blobs;
+  capture::FrameSet set;
+  while (source->next(&set)) {
+    for (int c = 0; c < n; ++c) {
+      detectors[c].detect(set.images[c], &blobs);
+      std::array<Eigen::Vector2d, 3> abc;
+      const bool ok = capture::identify_wand(blobs, wand, &abc);
+      seen.abc_px[c].push_back(abc);
+      seen.seen[c].push_back(ok ? 1 : 0);
+    }
+  }
+  return seen;
+}
+
+int run_calibrate(const CalibrateOptions& o) {
+  const fs::path dir(o.dir), cal = dir / "calibration";
+  const std::string nominal_path =
+      o.nominal_path.empty() ? (cal / "nominal.json").string() : o.nominal_path;
+  const std::string output = o.output.empty() ? (dir / "rig.json").string() : o.output;
+  check_outputs({{"-o", output, false}}, {nominal_path});
+  const capture::Rig nominal = capture::read_rig(nominal_path);
+  std::vector<std::string> names;
+  for (const capture::Camera& c : nominal.cameras) names.push_back(c.name);
+  const auto t0 = std::chrono::steady_clock::now();
+  auto wand_source = capture::open_recorded((cal / "wand").string(), names);
+  const capture::WandObservations seen = observe_wand(wand_source.get(), o.wand, o.blobs);
+  capture::CalibrationReport report;
+  capture::Rig rig = capture::calibrate_from_wand(nominal, seen, o.wand, o.params, &report);
+  // The L-frame, reconstructed with the calibrated rig, sets the lab frame.
+  auto lframe_source = capture::open_recorded((cal / "lframe").string(), names);
+  // Before the alignment the world is a camera's frame: no lab volume to keep points in.
+  capture::ReconstructionParams anywhere;
+  anywhere.volume_min_W = Eigen::Vector3d::Constant(-1e3);
+  anywhere.volume_max_W = Eigen::Vector3d::Constant(1e3);
+  capture::CapturePipeline pipeline(rig, o.blobs, anywhere);
+  std::vector<std::vector<capture::Point3>> lframe_points;
+  capture::FrameSet set;
+  while (lframe_source->next(&set)) {
+    lframe_points.emplace_back();
+    pipeline.process(set, &lframe_points.back());
+  }
+  double fit_m = 0;
+  capture::align_to_lframe(lframe_points, o.lframe, &rig, &fit_m);
+  report.lframe_fit_rms_mm = 1000 * fit_m;
+  const double wall_s =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  capture::write_rig(output, rig);
+  json cams = json::array();
+  std::cout << "capture calibrate: " << rig.size() << " cameras from " << seen.frames()
+            << " wand frames (" << report.frames_used << " seen by >= 2 cameras), "
+            << report.iterations << " bundle-adjustment iterations, " << wall_s << " s\n";
+  const fs::path truth_path = dir / "rig_truth.json";
+  const std::optional<capture::Rig> truth =
+      fs::exists(truth_path) ? std::optional<capture::Rig>(capture::read_rig(truth_path.string()))
+                             : std::nullopt;
+  double worst_centre_mm = 0;
+  for (int c = 0; c < rig.size(); ++c) {
+    const capture::Camera& cam = rig.cameras[c];
+    json j = {{"name", cam.name},
+              {"reprojection_rms_px", report.reprojection_rms_px[c]},
+              {"wand_views", report.wand_views[c]}};
+    std::cout << "  " << cam.name << ": reprojection RMS " << report.reprojection_rms_px[c]
+              << " px over " << report.wand_views[c] << " wand views";
+    if (truth && truth->find(cam.name) >= 0) {
+      const capture::Camera& t = truth->cameras[truth->find(cam.name)];
+      const double centre_mm = 1000 * (cam.p_WC - t.p_WC).norm();
+      const double focal_pct = 100 * (cam.K.fx_px / t.K.fx_px - 1);
+      worst_centre_mm = std::max(worst_centre_mm, centre_mm);
+      j["truth"] = {{"centre_error_mm", centre_mm}, {"focal_error_percent", focal_pct}};
+      std::cout << "; against the truth: centre " << centre_mm << " mm off, focal length "
+                << focal_pct << "%";
+    }
+    std::cout << "\n";
+    cams.push_back(j);
+  }
+  std::cout << "capture calibrate: wand length (A to C, triangulated) RMS error "
+            << report.wand_ac_rms_mm << " mm; L-frame fit " << report.lframe_fit_rms_mm
+            << " mm; wrote " << output << "\n";
+  if (truth)
+    std::cout << "capture calibrate: against the truth: camera centres within " << worst_centre_mm
+              << " mm\n";
+  json summary = {{"rig", output},
+                  {"nominal", nominal_path},
+                  {"wand", {{"ab_m", o.wand.ab_m}, {"ac_m", o.wand.ac_m}}},
+                  {"wand_frames", seen.frames()},
+                  {"wand_frames_used", report.frames_used},
+                  {"wand_ac_rms_mm", report.wand_ac_rms_mm},
+                  {"lframe_fit_rms_mm", report.lframe_fit_rms_mm},
+                  {"iterations", report.iterations},
+                  {"solver", report.solver},
+                  {"wall_s", wall_s},
+                  {"cameras", cams}};
+  if (truth) summary["truth_worst_centre_error_mm"] = worst_centre_mm;
+  write_file_atomically((fs::path(output).parent_path() / "calibration_report.json").string(),
+                        json_text(summary, 2));
+  return kExitOk;
+}
+
 }  // namespace
 #endif  // BIODYN_HAVE_CAPTURE
 
@@ -408,6 +583,10 @@ Command add_capture_command(CLI::App* app) {
                     "film this long, s (default: to the motion's end)");
   synth->add_flag("--in-place", s->in_place,
                   "remove the root's progression (its 1 s running mean): a walk on a treadmill");
+  synth
+      ->add_option("--wand-frames", s->wand_frames,
+                   "frames of the calibration wand's wave (at 20 fps; 1200: a minute)")
+      ->capture_default_str();
   synth->add_option("-o,--output", s->output, "capture folder to write (must not exist)")
       ->required();
   auto r = std::make_shared<RunOptions>();
@@ -434,8 +613,22 @@ Command add_capture_command(CLI::App* app) {
       ->capture_default_str();
   run->add_option("--points", r->points_path, "CSV of the 3D points per frame")->required();
   run->add_option("--summary", r->summary_path, "JSON summary to write");
-  return {cmd, [s, synth, r, run]() {
+  auto k = std::make_shared<CalibrateOptions>();
+  CLI::App* calibrate = cmd->add_subcommand(
+      "calibrate",
+      "The rig from DIR/calibration: a wand wave (poses, lenses, bundle adjustment) and "
+      "an L-frame (the lab frame); writes DIR/rig.json");
+  calibrate->add_option("dir", k->dir, "capture folder with calibration/wand, calibration/lframe")
+      ->required();
+  calibrate->add_option("--nominal", k->nominal_path,
+                        "rig JSON with each camera's image size and lens guess (default: "
+                        "DIR/calibration/nominal.json)");
+  calibrate->add_option("--wand-ab", k->wand.ab_m, "wand: A to B, m")->capture_default_str();
+  calibrate->add_option("--wand-ac", k->wand.ac_m, "wand: A to C, m")->capture_default_str();
+  calibrate->add_option("-o,--output", k->output, "rig JSON to write (default: DIR/rig.json)");
+  return {cmd, [s, synth, r, run, k, calibrate]() {
             if (synth->parsed()) return run_synth(*s);
+            if (calibrate->parsed()) return run_calibrate(*k);
             if (run->parsed()) return run_capture(*r);
             return kExitBadInput;
           }};

@@ -24,6 +24,8 @@ void BlobParams::validate() const {
                                        ", " + std::to_string(max_area_px));
   if (!(min_roundness >= 0) || min_roundness > 1)
     bad("min_roundness", "must be in [0, 1], got " + std::to_string(min_roundness));
+  if (border_px < 0 || border_px > 100)
+    bad("border_px", "must be 0 .. 100, got " + std::to_string(border_px));
   if (opening_radius_px < 0 || opening_radius_px > 10)
     bad("opening_radius_px", "must be 0 .. 10, got " + std::to_string(opening_radius_px));
 }
@@ -61,7 +63,14 @@ void BlobDetector::detect(const cv::Mat& grey, std::vector<Blob>* blobs, int* re
   int refused = 0;
   for (int label = 1; label < n; ++label) {
     const double area = stats_.at<int>(label, cv::CC_STAT_AREA);
-    if (area < params_.min_area_px || area > params_.max_area_px) {
+    const int left = stats_.at<int>(label, cv::CC_STAT_LEFT),
+              top = stats_.at<int>(label, cv::CC_STAT_TOP);
+    const int right = left + stats_.at<int>(label, cv::CC_STAT_WIDTH) - 1;
+    const int bottom = top + stats_.at<int>(label, cv::CC_STAT_HEIGHT) - 1;
+    const int margin = params_.border_px;
+    const bool at_border = left < margin || top < margin || right > grey.cols - 1 - margin ||
+                           bottom > grey.rows - 1 - margin;
+    if (area < params_.min_area_px || area > params_.max_area_px || at_border) {
       ++refused;
       continue;
     }

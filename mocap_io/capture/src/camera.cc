@@ -2,6 +2,7 @@
 #include "biodyn/capture/camera.h"
 
 #include <Eigen/LU>
+#include <algorithm>
 #include <cmath>
 #include <nlohmann/json.hpp>
 #include <set>
@@ -47,11 +48,30 @@ void Intrinsics::validate(const std::string& where) const {
   }
 }
 
+void Intrinsics::to_array(double* k) const {
+  const double v[kLensParams] = {fx_px, fy_px, cx_px, cy_px, k1, k2, p1, p2, k3};
+  std::copy(v, v + kLensParams, k);
+}
+
+void Intrinsics::from_array(const double* k) {
+  fx_px = k[0];
+  fy_px = k[1];
+  cx_px = k[2];
+  cy_px = k[3];
+  k1 = k[4];
+  k2 = k[5];
+  p1 = k[6];
+  p2 = k[7];
+  k3 = k[8];
+}
+
 Eigen::Vector2d Camera::project(const Eigen::Vector3d& p_W, bool* in_front) const {
   const Eigen::Vector3d p_C = to_camera(p_W);
   if (in_front != nullptr) *in_front = p_C.z() > 0;
+  double k[kLensParams];
+  K.to_array(k);
   Eigen::Vector2d uv;
-  distort_to_pixels(K, p_C.x() / p_C.z(), p_C.y() / p_C.z(), &uv.x(), &uv.y());
+  distort_to_pixels(k, p_C.x() / p_C.z(), p_C.y() / p_C.z(), &uv.x(), &uv.y());
   return uv;
 }
 
@@ -64,9 +84,11 @@ Eigen::Vector2d Camera::undistort(const Eigen::Vector2d& uv_px) const {
   // Newton's method on distort(x) = uv, from the undistorted guess; the 2 x 2 Jacobian by
   // central differences (the model is smooth and cheap).
   Eigen::Vector2d x((uv_px.x() - K.cx_px) / K.fx_px, (uv_px.y() - K.cy_px) / K.fy_px);
+  double k[kLensParams];
+  K.to_array(k);
   auto distort = [&](const Eigen::Vector2d& p) {
     Eigen::Vector2d out;
-    distort_to_pixels(K, p.x(), p.y(), &out.x(), &out.y());
+    distort_to_pixels(k, p.x(), p.y(), &out.x(), &out.y());
     return out;
   };
   constexpr double h = 1e-7;
@@ -74,10 +96,10 @@ Eigen::Vector2d Camera::undistort(const Eigen::Vector2d& uv_px) const {
     const Eigen::Vector2d r = distort(x) - uv_px;
     if (r.norm() < kUndistortTolerance_px) break;
     Eigen::Matrix2d J;
-    for (int k = 0; k < 2; ++k) {
+    for (int axis = 0; axis < 2; ++axis) {
       Eigen::Vector2d e = Eigen::Vector2d::Zero();
-      e[k] = h;
-      J.col(k) = (distort(x + e) - distort(x - e)) / (2 * h);
+      e[axis] = h;
+      J.col(axis) = (distort(x + e) - distort(x - e)) / (2 * h);
     }
     x -= J.partialPivLu().solve(r);
   }

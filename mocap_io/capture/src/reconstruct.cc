@@ -64,15 +64,16 @@ Reconstructor::Reconstructor(const Rig& rig, const ReconstructionParams& params)
   used_.resize(n);
 }
 
-bool Reconstructor::triangulate(const std::vector<std::pair<int, int>>& views, Eigen::Vector3d* p_W,
-                                double* residual_px) const {
+bool triangulate_normalised(const Rig& rig,
+                            const std::vector<std::pair<int, Eigen::Vector2d>>& views,
+                            Eigen::Vector3d* p_W, double* residual_px) {
+  if (views.size() < 2) return false;
   // Linear first (each view: x (r3 . (X - C)) = r1 . (X - C), same for y), then Gauss-Newton on
   // the reprojection error in pixels.
   Eigen::Matrix3d AtA = Eigen::Matrix3d::Zero();
   Eigen::Vector3d Atb = Eigen::Vector3d::Zero();
-  for (const auto& [c, b] : views) {
-    const Camera& cam = rig_.cameras[c];
-    const Eigen::Vector2d& x = normalised_[c][b];
+  for (const auto& [c, x] : views) {
+    const Camera& cam = rig.cameras[c];
     for (int k = 0; k < 2; ++k) {
       const Eigen::Vector3d row = x[k] * cam.R_CW.row(2).transpose() - cam.R_CW.row(k).transpose();
       AtA += row * row.transpose();
@@ -83,12 +84,12 @@ bool Reconstructor::triangulate(const std::vector<std::pair<int, int>>& views, E
   for (int it = 0; it < kGaussNewtonIterations; ++it) {
     Eigen::Matrix3d H = Eigen::Matrix3d::Zero();
     Eigen::Vector3d g = Eigen::Vector3d::Zero();
-    for (const auto& [c, b] : views) {
-      const Camera& cam = rig_.cameras[c];
+    for (const auto& [c, x] : views) {
+      const Camera& cam = rig.cameras[c];
       const Eigen::Vector3d q = cam.R_CW * (X - cam.p_WC);
       if (q.z() <= 0) return false;
       const double f = cam.K.fx_px;
-      const Eigen::Vector2d r = f * (q.head<2>() / q.z() - normalised_[c][b]);
+      const Eigen::Vector2d r = f * (q.head<2>() / q.z() - x);
       Eigen::Matrix<double, 2, 3> J;
       J.row(0) = f / q.z() * (cam.R_CW.row(0) - q.x() / q.z() * cam.R_CW.row(2));
       J.row(1) = f / q.z() * (cam.R_CW.row(1) - q.y() / q.z() * cam.R_CW.row(2));
@@ -98,15 +99,22 @@ bool Reconstructor::triangulate(const std::vector<std::pair<int, int>>& views, E
     X -= H.ldlt().solve(g);
   }
   double sum2 = 0;
-  for (const auto& [c, b] : views) {
-    const Camera& cam = rig_.cameras[c];
+  for (const auto& [c, x] : views) {
+    const Camera& cam = rig.cameras[c];
     const Eigen::Vector3d q = cam.R_CW * (X - cam.p_WC);
     if (q.z() <= 0) return false;
-    sum2 += (cam.K.fx_px * (q.head<2>() / q.z() - normalised_[c][b])).squaredNorm();
+    sum2 += (cam.K.fx_px * (q.head<2>() / q.z() - x)).squaredNorm();
   }
   *p_W = X;
   *residual_px = std::sqrt(sum2 / static_cast<double>(views.size()));
   return true;
+}
+
+bool Reconstructor::triangulate(const std::vector<std::pair<int, int>>& views, Eigen::Vector3d* p_W,
+                                double* residual_px) const {
+  scratch_.clear();
+  for (const auto& [c, b] : views) scratch_.emplace_back(c, normalised_[c][b]);
+  return triangulate_normalised(rig_, scratch_, p_W, residual_px);
 }
 
 void Reconstructor::gather_support(Candidate* c) const {

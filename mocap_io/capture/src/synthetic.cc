@@ -110,6 +110,58 @@ Rig make_synthetic_rig(const SyntheticRigSpec& spec) {
   return rig;
 }
 
+std::vector<std::array<Eigen::Vector3d, 3>> wand_wave(const Wand& wand,
+                                                      const SyntheticRigSpec& spec, int frames,
+                                                      double fps, std::uint64_t seed) {
+  wand.validate();
+  spec.validate();
+  sim::RandomStream r(sim::stream_key(seed, {-7}));
+  // Incommensurate frequencies (rad/s) and random phases: the path does not repeat.
+  double w[5], phase[5];
+  for (int k = 0; k < 5; ++k) {
+    w[k] = 0.9 + 1.4 * r.uniform();
+    phase[k] = 2 * M_PI * r.uniform();
+  }
+  const double reach = spec.volume_radius_m;
+  const double low = 0.2, high = spec.volume_top_m - 0.2;
+  const std::array<double, 3> offsets = wand.offsets_m();
+  std::vector<std::array<Eigen::Vector3d, 3>> out(static_cast<std::size_t>(frames));
+  for (int f = 0; f < frames; ++f) {
+    const double t = f / fps;
+    const Eigen::Vector3d mid(
+        spec.target_W.x() + reach * std::sin(w[0] * t + phase[0]),
+        spec.target_W.y() + reach * std::sin(w[1] * t + phase[1]),
+        0.5 * (low + high) + 0.5 * (high - low) * std::sin(w[2] * t + phase[2]));
+    const double azimuth = w[3] * t + phase[3], elevation = 1.2 * std::sin(w[4] * t + phase[4]);
+    const Eigen::Vector3d d(std::cos(elevation) * std::cos(azimuth),
+                            std::cos(elevation) * std::sin(azimuth), std::sin(elevation));
+    const Eigen::Vector3d a = mid - 0.5 * wand.ac_m * d;
+    for (int m = 0; m < 3; ++m) out[f][m] = a + offsets[m] * d;
+  }
+  return out;
+}
+
+Rig nominal_rig(const Rig& truth, double focal_error, std::uint64_t seed) {
+  Rig rig = truth;
+  rig.source = "nominal lenses";
+  rig.reprojection_rms_px.clear();
+  for (int i = 0; i < rig.size(); ++i) {
+    Camera& c = rig.cameras[i];
+    sim::RandomStream r(sim::stream_key(seed, {-11, i}));
+    const double f = c.K.fx_px * (1 + focal_error * r.normal());
+    const int w = c.K.width_px, h = c.K.height_px;
+    c.K = Intrinsics{};
+    c.K.width_px = w;
+    c.K.height_px = h;
+    c.K.fx_px = c.K.fy_px = f;
+    c.K.cx_px = 0.5 * w - 0.5;
+    c.K.cy_px = 0.5 * h - 0.5;
+    c.R_CW = Eigen::Matrix3d::Identity();
+    c.p_WC = Eigen::Vector3d::Zero();
+  }
+  return rig;
+}
+
 void ImageFormation::validate() const {
   if (!(marker_diameter_m > 0) || marker_diameter_m > 0.2)
     bad("marker_diameter_m", "must be in (0, 0.2] m", marker_diameter_m);
@@ -205,10 +257,20 @@ SyntheticCameras::~SyntheticCameras() = default;
 void SyntheticCameras::film(const mjModel& model, mjData& data, int frame,
                             std::vector<cv::Mat>* images,
                             std::vector<std::vector<MarkerView>>* views) {
+  site_points_.resize(impl_->sites.size());
+  for (std::size_t k = 0; k < impl_->sites.size(); ++k)
+    site_points_[k] = Eigen::Vector3d(data.site_xpos + 3 * impl_->sites[k]);
+  film_points(model, data, site_points_, frame, images, views);
+}
+
+void SyntheticCameras::film_points(const mjModel& model, mjData& data,
+                                   const std::vector<Eigen::Vector3d>& points_W, int frame,
+                                   std::vector<cv::Mat>* images,
+                                   std::vector<std::vector<MarkerView>>* views) {
   Impl& im = *impl_;
   const ImageFormation& fm = im.formation;
   const double radius = 0.5 * fm.marker_diameter_m;
-  const int n = static_cast<int>(im.sites.size());
+  const int n = static_cast<int>(points_W.size());
   images->resize(rig_.cameras.size());
   views->assign(rig_.cameras.size(), std::vector<MarkerView>(n));
   for (int ci = 0; ci < rig_.size(); ++ci) {
@@ -216,7 +278,7 @@ void SyntheticCameras::film(const mjModel& model, mjData& data, int frame,
     const CanvasMap& cm = im.canvases[ci];
     im.overlays.clear();
     for (int k = 0; k < n; ++k) {
-      const Eigen::Vector3d p_W(data.site_xpos + 3 * im.sites[k]);
+      const Eigen::Vector3d& p_W = points_W[k];
       bool in_front = false;
       MarkerView& view = (*views)[ci][k];
       view.uv_px = cam.project(p_W, &in_front);

@@ -18,7 +18,7 @@ TEST_CASE("biodyn capture synth films a walk, capture run finds its markers in 3
   REQUIRE(r.exit_code == 0);
   r = run_biodyn(
       "capture synth --motion walk.csv --cameras 4 --rig-seed 3 --from 1 --duration 0.3 "
-      "--in-place --noise-px 0.2 -o cap",
+      "--in-place --wand-frames 300 -o cap",
       dir);
   INFO(r.out << r.err);
   REQUIRE(r.exit_code == 0);
@@ -31,12 +31,26 @@ TEST_CASE("biodyn capture synth films a walk, capture run finds its markers in 3
   CHECK_FALSE(fs::exists(dir / "cap.partial"));
   CHECK(meta["marker_views_outside_image"] == 0.0);
 
+  CHECK(fs::exists(dir / "cap" / "calibration" / "wand" / "cam01" / "000299.png"));
+  CHECK(fs::exists(dir / "cap" / "calibration" / "nominal.json"));
+
+  // The rig from the wand and the L-frame, checked against the truth beside it.
+  r = run_biodyn("capture calibrate cap", dir);
+  INFO(r.out << r.err);
+  REQUIRE(r.exit_code == 0);
+  const nlohmann::json cal = nlohmann::json::parse(slurp(dir / "cap" / "calibration_report.json"));
+  for (const auto& c : cal["cameras"]) CHECK(c["reprojection_rms_px"].get<double>() < 0.3);
+  // 4 cameras and a 15 s wave (300 frames): measured 3.2 mm on rig seed 1 (a minute's wave:
+  // ~1 mm, capture_test "Calibration*").
+  CHECK(cal["truth_worst_centre_error_mm"].get<double>() < 5);
+  CHECK(cal["wand_ac_rms_mm"].get<double>() < 1);
+
   r = run_biodyn("capture run cap --points points.csv --summary run.json", dir);
   INFO(r.out << r.err);
   REQUIRE(r.exit_code == 0);
   const nlohmann::json s = nlohmann::json::parse(slurp(dir / "run.json"));
   CHECK(s["frames"] == 31);
-  CHECK(s["rig_source"] == "synthetic truth");
+  CHECK(s["rig_source"] == "wand calibration");
   CHECK(s["truth"]["detection_recall"].get<double>() >= 0.99);
   CHECK(s["truth"]["point_recall"].get<double>() >= 0.97);
   CHECK(s["truth"]["rms_mm"].get<double>() < 1.5);
@@ -45,7 +59,8 @@ TEST_CASE("biodyn capture synth films a walk, capture run finds its markers in 3
   CHECK(points.rfind("frame,time_s,point,x_m,y_m,z_m,views,residual_px\n", 0) == 0);
 
   // The same capture again into the same folder is refused; nothing is overwritten.
-  r = run_biodyn("capture synth --motion walk.csv --cameras 4 --duration 0.1 -o cap", dir);
+  r = run_biodyn(
+      "capture synth --motion walk.csv --cameras 4 --duration 0.1 --wand-frames 30 -o cap", dir);
   CHECK(r.exit_code == 2);
   CHECK(r.err.find("already exists") != std::string::npos);
   // A folder that is not a capture names what it misses.
@@ -53,7 +68,7 @@ TEST_CASE("biodyn capture synth films a walk, capture run finds its markers in 3
   r = run_biodyn("capture run empty --points p.csv", dir);
   CHECK(r.exit_code == 2);
   CHECK(r.err.find("rig") != std::string::npos);
-  r = run_biodyn("capture run empty --rig cap/rig_truth.json --points p.csv", dir);
+  r = run_biodyn("capture run empty --rig cap/rig.json --points p.csv", dir);
   CHECK(r.exit_code == 2);
   CHECK(r.err.find("capture.json") != std::string::npos);
   CHECK_FALSE(fs::exists(dir / "p.csv"));

@@ -24,6 +24,9 @@ struct BlobParams {
   /// px: erosion then dilation (an opening) with this radius before the components are found;
   /// 0: none (markers of a few pixels would vanish).
   int opening_radius_px = 0;
+  /// px: a blob within this distance of the image border is refused (part of the marker may be
+  /// outside the image: its centroid would be pulled inwards).
+  int border_px = 1;
   void validate() const;  ///< throws sim::InvalidArgument naming the field
 };
 

@@ -21,18 +21,25 @@ struct Intrinsics {
   /// Brown–Conrady distortion, OpenCV's order: radial k1, k2, tangential p1, p2, radial k3.
   double k1 = 0, k2 = 0, p1 = 0, p2 = 0, k3 = 0;
   void validate(const std::string& where) const;  ///< throws sim::InvalidArgument naming `where`
+  /// fx fy cx cy k1 k2 p1 p2 k3 into `k` (kLensParams values); from_array is its inverse.
+  void to_array(double* k) const;
+  void from_array(const double* k);
 };
 
-/// Applies the distortion of `K` to the normalised image point (x, y) = (X/Z, Y/Z) and returns
-/// pixels. A template so that Ceres can differentiate it (bundle adjustment).
+/// Number of lens parameters (Intrinsics::to_array): fx fy cx cy k1 k2 p1 p2 k3.
+inline constexpr int kLensParams = 9;
+
+/// Applies the lens `k` (kLensParams values, Intrinsics::to_array's order) to the normalised
+/// image point (x, y) = (X/Z, Y/Z) and returns pixels. A template so that Ceres can
+/// differentiate it (bundle adjustment).
 template <typename T>
-void distort_to_pixels(const Intrinsics& K, const T& x, const T& y, T* u, T* v) {
+void distort_to_pixels(const T* k, const T& x, const T& y, T* u, T* v) {
   const T r2 = x * x + y * y;
-  const T radial = T(1) + r2 * (T(K.k1) + r2 * (T(K.k2) + r2 * T(K.k3)));
-  const T xd = x * radial + T(2 * K.p1) * x * y + T(K.p2) * (r2 + T(2) * x * x);
-  const T yd = y * radial + T(K.p1) * (r2 + T(2) * y * y) + T(2 * K.p2) * x * y;
-  *u = T(K.fx_px) * xd + T(K.cx_px);
-  *v = T(K.fy_px) * yd + T(K.cy_px);
+  const T radial = T(1) + r2 * (k[4] + r2 * (k[5] + r2 * k[8]));
+  const T xd = x * radial + T(2) * k[6] * x * y + k[7] * (r2 + T(2) * x * x);
+  const T yd = y * radial + k[6] * (r2 + T(2) * y * y) + T(2) * k[7] * x * y;
+  *u = k[0] * xd + k[2];
+  *v = k[1] * yd + k[3];
 }
 
 /// One camera of a rig.

@@ -38,6 +38,14 @@ struct Point3 {
   double residual_px = 0;                         ///< RMS reprojection error over its views
 };
 
+/// The least-squares point seen along `views` (camera index, normalised image point (X/Z, Y/Z):
+/// Camera::undistort of its pixel): linear, then Gauss–Newton on the reprojection error. Its RMS
+/// reprojection error in pixels goes to `residual_px`. False if fewer than 2 views or the point
+/// is behind a camera.
+bool triangulate_normalised(const Rig& rig,
+                            const std::vector<std::pair<int, Eigen::Vector2d>>& views,
+                            Eigen::Vector3d* p_W, double* residual_px);
+
 /// Reconstructs frames of one rig. Keeps its scratch between frames.
 class Reconstructor {
  public:
@@ -66,6 +74,7 @@ class Reconstructor {
   std::vector<Eigen::Matrix3d> essential_;  ///< [i * n + j]: x_j^T E x_i = 0, normalised coords
   std::vector<std::vector<Eigen::Vector2d>> normalised_;  ///< per camera, per blob
   std::vector<std::vector<char>> used_;
+  mutable std::vector<std::pair<int, Eigen::Vector2d>> scratch_;
   std::vector<Candidate> candidates_;
 };
 

@@ -20,6 +20,7 @@
 #include <string>
 #include <vector>
 
+#include "biodyn/capture/calibration.h"
 #include "biodyn/capture/camera.h"
 
 namespace biodyn::capture {
@@ -50,6 +51,18 @@ struct SyntheticRigSpec {
 /// to spare (a lab sets each camera's zoom), the principal point at the image centre. Throws
 /// sim::InvalidArgument from validate().
 Rig make_synthetic_rig(const SyntheticRigSpec& spec);
+
+/// A calibration wand waved through the volume of `spec` for `frames` frames at `fps`: its
+/// markers A, B, C per frame (m). The wand's middle follows a smooth seeded path filling the
+/// volume (heights 0.2 m to the volume's top less 0.2 m) and turns through every direction.
+std::vector<std::array<Eigen::Vector3d, 3>> wand_wave(const Wand& wand,
+                                                      const SyntheticRigSpec& spec, int frames,
+                                                      double fps, std::uint64_t seed);
+
+/// The lens a lab would start a calibration from: each camera's focal length off by a seeded
+/// error of `focal_error` (standard deviation, a fraction: a lens's spec), the principal point
+/// at the image centre, no distortion; poses unknown (identity at the origin).
+Rig nominal_rig(const Rig& truth, double focal_error, std::uint64_t seed);
 
 /// What the virtual cameras do to the light (applied after rendering).
 struct ImageFormation {
@@ -87,10 +100,16 @@ class SyntheticCameras {
   /// gives the same images whatever was filmed before.
   void film(const mjModel& model, mjData& data, int frame, std::vector<cv::Mat>* images,
             std::vector<std::vector<MarkerView>>* views);
+  /// As film(), for markers at `points_W` (m) instead of the model's sites: props such as a
+  /// calibration wand. The model's geoms still hide them (an empty model hides nothing).
+  void film_points(const mjModel& model, mjData& data, const std::vector<Eigen::Vector3d>& points_W,
+                   int frame, std::vector<cv::Mat>* images,
+                   std::vector<std::vector<MarkerView>>* views);
 
  private:
   struct Impl;
   std::unique_ptr<Impl> impl_;
+  std::vector<Eigen::Vector3d> site_points_;
   Rig rig_;
 };
 
