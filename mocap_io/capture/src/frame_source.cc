@@ -160,7 +160,7 @@ class RecordedSource final : public FrameSource {
       if (cam.path.empty())
         throw sim::InvalidArgument(dir_ + ": camera \"" + name +
                                    "\" has no image folder and no video (.mp4, .avi, .mkv, .mov)");
-      if (!cam.video.open(cam.path))
+      if (!cam.video.open(cam.path, cv::CAP_FFMPEG))
         throw sim::InvalidArgument(cam.path + ": OpenCV cannot read this video");
       const fs::path stamps = fs::path(dir_) / (name + "_timestamps.csv");
       if (fs::exists(stamps)) {
@@ -241,8 +241,10 @@ class LiveSource final : public FrameSource {
       return;
     }
     const int behind = static_cast<int>(std::floor((now - due) * fps_));
-    for (int k = 0; k < behind && captures_[c]->grab(); ++k) ++played_[c];
-    *dropped = behind;
+    int skipped = 0;
+    while (skipped < behind && captures_[c]->grab()) ++skipped;
+    played_[c] += skipped;
+    *dropped = skipped;
   }
 
   std::vector<std::string> names_;
