@@ -153,6 +153,11 @@ std::vector<Eigen::Vector2d> root_offsets(const mocap_io::Motion& m, const mjMod
 
 int run_synth(const SynthOptions& o) {
   check_outputs({{"-o", o.output, true}}, {o.motion});
+  if (o.wand_frames < 30 || o.wand_frames > 100000)
+    throw sim::InvalidArgument(
+        "--wand-frames: must be 30 .. 100000 (a calibration needs the "
+        "wand seen from many places), got " +
+        std::to_string(o.wand_frames));
   models::CharacterSpec spec;
   std::vector<std::string> notes;
   const mocap_io::Motion motion = load_motion(o, &spec, &notes);

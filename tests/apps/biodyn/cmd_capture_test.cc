@@ -63,6 +63,10 @@ TEST_CASE("biodyn capture synth films a walk, capture run finds its markers in 3
       "capture synth --motion walk.csv --cameras 4 --duration 0.1 --wand-frames 30 -o cap", dir);
   CHECK(r.exit_code == 2);
   CHECK(r.err.find("already exists") != std::string::npos);
+  r = run_biodyn("capture synth --motion walk.csv --wand-frames 5 -o cap2", dir);
+  CHECK(r.exit_code == 2);
+  CHECK(r.err.find("--wand-frames") != std::string::npos);
+  CHECK_FALSE(fs::exists(dir / "cap2"));
   // A folder that is not a capture names what it misses.
   fs::create_directories(dir / "empty");
   r = run_biodyn("capture run empty --points p.csv", dir);
