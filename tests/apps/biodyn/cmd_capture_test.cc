@@ -1,6 +1,6 @@
-// `biodyn capture synth` then `biodyn capture run` as a user runs them (issue 27): a walk
-// filmed by 4 synthetic cameras, its markers found again in 3D against the truth written
-// beside the images; bad inputs refused in one line.
+// `biodyn capture synth`, `capture calibrate` and `capture run` as a user runs them (issue 27):
+// a walk and the calibration wand filmed by 4 synthetic cameras, the rig calibrated and checked
+// against the truth, the markers found again in 3D; bad inputs refused in one line.
 #include <filesystem>
 #include <nlohmann/json.hpp>
 
@@ -11,8 +11,8 @@ namespace fs = std::filesystem;
 using biodyn::testing::run_biodyn;
 using biodyn::testing::slurp;
 
-TEST_CASE("biodyn capture synth films a walk, capture run finds its markers in 3D",
-          "[apps][capture]") {
+TEST_CASE("biodyn capture synth films a walk, calibrate finds the rig, run finds the markers in 3D",
+          "[apps][capture][slow]") {
   const fs::path dir = biodyn::testing::fresh_dir("capture_test", "walk");
   auto r = run_biodyn("walk --duration 1.5 --motion-out walk.csv", dir);
   REQUIRE(r.exit_code == 0);
