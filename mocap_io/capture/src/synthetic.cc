@@ -186,7 +186,7 @@ struct SyntheticCameras::Impl {
   std::unique_ptr<sim::SceneRenderer> renderer;
   std::vector<std::uint8_t> rgb;
   std::vector<sim::OverlayGeom> overlays;
-  cv::Mat canvas, warped, noise;
+  cv::Mat canvas, warped, noise, sensor;
 };
 
 namespace {
@@ -313,10 +313,10 @@ void SyntheticCameras::film_points(const mjModel& model, mjData& data,
     cv::remap(im.canvas, im.warped, cm.map_x, cm.map_y, cv::INTER_LINEAR, cv::BORDER_CONSTANT, 0);
     im.warped.convertTo(im.noise, CV_32F, fm.exposure);
     if (fm.sensor_noise_grey > 0) {
-      cv::Mat sensor(im.noise.size(), CV_32F);
+      im.sensor.create(im.noise.size(), CV_32F);  // reused: no allocation once warm
       cv::RNG rng(sim::stream_key(fm.seed, {frame, ci, -1}));
-      rng.fill(sensor, cv::RNG::NORMAL, 0.0, fm.sensor_noise_grey);
-      im.noise += sensor;
+      rng.fill(im.sensor, cv::RNG::NORMAL, 0.0, fm.sensor_noise_grey);
+      im.noise += im.sensor;
     }
     im.noise.convertTo((*images)[ci], CV_8U);  // rounds and saturates to 0..255
   }
