@@ -191,8 +191,16 @@ class LiveSource final : public FrameSource {
       const bool index = !d.empty() && d.find_first_not_of("0123456789") == std::string::npos;
       const bool device = index || d.rfind("/dev/", 0) == 0;
       files_.push_back(!device);
-      const bool ok = index ? cap->open(std::stoi(d), cv::CAP_V4L2)
-                            : cap->open(d, device ? cv::CAP_V4L2 : cv::CAP_ANY);
+      // A file is opened through FFmpeg alone: letting OpenCV probe every backend on a missing
+      // or odd file leaks inside some of them (libusb) and prints their errors. A URL
+      // (rtsp://, a GStreamer pipeline) goes to whichever backend takes it.
+      const bool url = d.find("://") != std::string::npos;
+      if (!device && !url && !fs::exists(d))
+        throw sim::InvalidArgument("live capture: \"" + d +
+                                   "\" is neither a V4L2 device (a number or /dev/...) nor a file");
+      const bool ok =
+          index ? cap->open(std::stoi(d), cv::CAP_V4L2)
+                : cap->open(d, device ? cv::CAP_V4L2 : (url ? cv::CAP_ANY : cv::CAP_FFMPEG));
       if (!ok)
         throw sim::InvalidArgument("live capture: cannot open \"" + d + "\"" +
                                    (device ? " (a V4L2 device)" : ""));
