@@ -8,6 +8,9 @@
 #include "biodyn/sim/errors.h"
 #include "cli_common.h"
 #include "commands.h"
+#ifdef BIODYN_HAVE_CAPTURE
+#include "cmd_capture_label.h"
+#endif
 
 #ifdef BIODYN_HAVE_CAPTURE
 #include <chrono>
@@ -20,10 +23,12 @@
 #include "biodyn/capture/pipeline.h"
 #include "biodyn/capture/reconstruct.h"
 #include "biodyn/capture/synthetic.h"
+#include "biodyn/capture/t_pose.h"
 #include "biodyn/mocap_io/marker_data.h"
 #include "biodyn/mocap_io/motion_csv.h"
 #include "biodyn/mocap_io/retarget.h"
 #include "biodyn/mocap_io/trc.h"
+#include "biodyn/models/body_file.h"
 #include "biodyn/models/mjcf.h"
 #include "biodyn/sim/model.h"
 #include "biodyn/sim/queries.h"
@@ -44,6 +49,7 @@ struct SynthOptions {
   capture::SyntheticRigSpec rig;
   capture::ImageFormation formation;
   double marker_mm = 25, from_s = 0, duration_s = -1;
+  double t_pose_s = 0.5;  ///< s held in a T-pose before the motion (0: none)
   bool landscape = false, in_place = false;
   int wand_frames = 1200;  ///< calibration recordings: the wand wave's frames at kCalibrationFps
 };
@@ -151,6 +157,31 @@ std::vector<Eigen::Vector2d> root_offsets(const mocap_io::Motion& m, const mjMod
   return offsets;
 }
 
+// s: the T-pose lead-in moves from the T-pose into the motion's first frame over this time.
+constexpr double kTPoseBlend_s = 1.0;
+
+/// The part of `solved` that --from and --duration select, led in from a T-pose held
+/// --t-pose seconds where it begins (a capture starts so: the labelling finds the subject).
+mocap_io::Motion lead_in_from_t_pose(const mjModel& m, const mocap_io::Motion& solved,
+                                     const SynthOptions& o) {
+  const double t0 = solved.times_s.front() + o.from_s;
+  const double t_end =
+      o.duration_s > 0 ? std::min(solved.times_s.back(), t0 + o.duration_s) : solved.times_s.back();
+  mocap_io::Motion part;
+  part.columns = solved.columns;
+  part.comments = solved.comments;
+  std::vector<Eigen::Index> rows;
+  for (int f = 0; f < solved.frame_count(); ++f) {
+    if (solved.times_s[f] < t0 - 1e-9 || solved.times_s[f] > t_end + 1e-9) continue;
+    rows.push_back(f);
+    part.times_s.push_back(solved.times_s[f]);
+  }
+  if (rows.size() < 2)
+    throw sim::InvalidArgument("--from " + std::to_string(o.from_s) + " s: past the motion's end");
+  part.qpos = solved.qpos(rows, Eigen::all);
+  return capture::with_t_pose_lead_in(m, part, o.t_pose_s, kTPoseBlend_s);
+}
+
 int run_synth(const SynthOptions& o) {
   check_outputs({{"-o", o.output, true}}, {o.motion});
   if (o.wand_frames < 30 || o.wand_frames > 100000)
@@ -166,9 +197,12 @@ int run_synth(const SynthOptions& o) {
   sim::Simulation sim(sim::Model::from_string(models::to_mjcf(character), "character"));
   mjModel& m = sim.mutable_model();
   mocap_io::check_motion_matches(motion, m, o.motion);
-  const mocap_io::Motion solved = mocap_io::longest_solved_span(motion);
+  mocap_io::Motion solved = mocap_io::longest_solved_span(motion);
   if (solved.frame_count() < 2)
     throw sim::InvalidArgument(o.motion + ": fewer than 2 solved frames");
+  if (!(o.t_pose_s >= 0 && o.t_pose_s <= 60))
+    throw sim::InvalidArgument("--t-pose: must be 0 .. 60 s, got " + std::to_string(o.t_pose_s));
+  if (o.t_pose_s > 0) solved = lead_in_from_t_pose(m, solved, o);
 
   capture::SyntheticRigSpec rig_spec = o.rig;
   std::tie(rig_spec.width_px, rig_spec.height_px) = parse_size(o.size, "--size");
@@ -185,9 +219,10 @@ int run_synth(const SynthOptions& o) {
   }
   const std::vector<Eigen::Vector2d> offsets =
       root_offsets(solved, m, rig_spec.target_W, o.in_place);
-  const double t0 = solved.times_s.front() + o.from_s;
-  const double t_end =
-      o.duration_s > 0 ? std::min(solved.times_s.back(), t0 + o.duration_s) : solved.times_s.back();
+  const double t0 = solved.times_s.front() + (o.t_pose_s > 0 ? 0 : o.from_s);
+  const double t_end = o.duration_s > 0 && o.t_pose_s == 0
+                           ? std::min(solved.times_s.back(), t0 + o.duration_s)
+                           : solved.times_s.back();
   if (!(t_end > t0))
     throw sim::InvalidArgument("--from " + std::to_string(o.from_s) + " s: past the motion's end");
   const int frames = static_cast<int>(std::floor((t_end - t0) * rig_spec.fps)) + 1;
@@ -198,6 +233,10 @@ int run_synth(const SynthOptions& o) {
   for (const capture::Camera& c : rig.cameras) names.push_back(c.name);
   capture::RecordedWriter writer(o.output, names, rig_spec.fps);
   truth.positions_m.resize(frames, 3 * static_cast<int>(sites.size()));
+  mocap_io::Motion filmed;  // the poses as filmed (the root moved into the volume)
+  filmed.columns = mocap_io::qpos_names(m);
+  filmed.qpos.resize(frames, m.nq);
+  mocap_io::set_motion_body(&filmed, spec);
   std::vector<std::string> truth2d(rig.cameras.size(), "frame,marker,u_px,v_px,visible\n");
   capture::FrameSet set;
   std::vector<std::vector<capture::MarkerView>> views;
@@ -215,6 +254,8 @@ int run_synth(const SynthOptions& o) {
     sim.data().qpos[m.jnt_qposadr[0]] += shift.x();
     sim.data().qpos[m.jnt_qposadr[0] + 1] += shift.y();
     sim.forward();
+    filmed.times_s.push_back(f / rig_spec.fps);
+    for (int i = 0; i < m.nq; ++i) filmed.qpos(f, i) = sim.data().qpos[i];
     set.index = f;
     cameras.film(m, sim.data(), f, &set.images, &views);
     set.times_s.assign(rig.cameras.size(), f / rig_spec.fps);
@@ -243,6 +284,8 @@ int run_synth(const SynthOptions& o) {
   for (std::size_t c = 0; c < rig.cameras.size(); ++c)
     write_file_atomically((dir / "truth" / (names[c] + ".csv")).string(), truth2d[c]);
   mocap_io::write_trc((dir / "truth" / "markers.trc").string(), truth, "mm");
+  write_file_atomically((dir / "truth" / "motion.csv").string(),
+                        mocap_io::format_motion_csv(filmed));
   capture::write_rig((dir / "rig_truth.json").string(), rig);
   const double marker_frames = static_cast<double>(frames) * static_cast<double>(sites.size());
   const double seen_twice = static_cast<double>(visible) / marker_frames;
@@ -253,6 +296,9 @@ int run_synth(const SynthOptions& o) {
       {"motion_from_s", t0 - solved.times_s.front()},
       {"in_place", o.in_place},
       {"body", character_json(spec)},
+      // The subject's body as a lab would measure it (capture run labels with it).
+      {"subject", json::parse(models::format_body_json(spec, true))},
+      {"t_pose_s", o.t_pose_s},
       {"markers", truth.labels},
       {"marker_diameter_m", formation.marker_diameter_m},
       {"noise_px", formation.noise_px},
@@ -260,7 +306,10 @@ int run_synth(const SynthOptions& o) {
       {"exposure", formation.exposure},
       {"seed", formation.seed},
       {"rig_truth", "rig_truth.json"},
-      {"truth", {{"markers", "truth/markers.trc"}, {"views", "truth/<camera>.csv"}}},
+      {"truth",
+       {{"markers", "truth/markers.trc"},
+        {"views", "truth/<camera>.csv"},
+        {"motion", "truth/motion.csv"}}},
       {"markers_seen_by_2_cameras", seen_twice},
       {"marker_views_outside_image", outside}};
   writer.finish(extra.dump());
@@ -277,6 +326,7 @@ int run_synth(const SynthOptions& o) {
 
 struct RunOptions {
   std::string dir, rig_path, points_path, summary_path;
+  LabelOptions label;
   std::vector<std::string> live;
   int live_frames = 0, threads = 0;
   capture::BlobParams blobs;
@@ -318,9 +368,44 @@ std::optional<Truth> read_truth(const std::string& dir, const std::vector<std::s
   return truth;
 }
 
+/// Fills, writes and solves the labelled capture, and says how it went.
+json finish_labelling(LabelStage* labels, const LabelOptions& o) {
+  const json l = labels->finish(o);
+  if (!l["labelled"].get<bool>()) {
+    std::cout << "capture run: WARNING: no frame showed the subject in a T-pose: nothing "
+                 "labelled (a capture starts with the subject standing arms out)\n";
+    return l;
+  }
+  std::cout << "capture run: labelled from frame " << l["initialised_at_frame"] << ": "
+            << 100 * l["labelled_marker_frames"].get<double>()
+            << "% of marker-frames; gaps filled: " << l["gap_fill"]["spline_samples"]
+            << " samples by cubic, " << l["gap_fill"]["skeleton_samples"]
+            << " by the skeleton, " << l["gap_fill"]["left_samples"] << " left\n";
+  if (l.contains("truth"))
+    std::cout << "capture run: labels against the truth: "
+              << 100 * l["truth"]["labelled_right"].get<double>()
+              << "% of reconstructed marker-frames labelled right, " << l["truth"]["wrong_labels"]
+              << " wrong labels (" << l["truth"]["identity_swaps"] << " identity swaps)\n";
+  if (l.contains("truth_motion"))
+    std::cout << "capture run: skeleton (marker IK) against the filmed motion: joint angles "
+              << l["truth_motion"]["joint_rms_deg"].get<double>() << " deg RMS (worst joint "
+              << l["truth_motion"]["worst_joint"].get<std::string>() << " "
+              << l["truth_motion"]["worst_joint_rms_deg"].get<double>() << " deg)\n";
+  return l;
+}
+
 int run_capture(const RunOptions& o) {
-  std::vector<OutputPath> outputs = {{"--points", o.points_path, false}};
-  if (!o.summary_path.empty()) outputs.push_back({"--summary", o.summary_path, false});
+  if (o.points_path.empty() && !o.label.wanted())
+    throw sim::InvalidArgument(
+        "capture run: nothing to write: give -o markers.c3d|.trc (labelled), --motion-out "
+        "motion.csv (the skeleton) or --points points.csv (unlabelled)");
+  o.label.validate();
+  std::vector<OutputPath> outputs;
+  for (const auto& [option, path] : {std::pair<const char*, std::string>{"--points", o.points_path},
+                                     {"--summary", o.summary_path},
+                                     {"-o", o.label.markers_out},
+                                     {"--motion-out", o.label.motion_out}})
+    if (!path.empty()) outputs.push_back({option, path, false});
   check_outputs(outputs, {o.dir});
   const std::string rig_path = !o.rig_path.empty() ? o.rig_path
                                : fs::exists(fs::path(o.dir) / "rig.json")
@@ -341,6 +426,21 @@ int run_capture(const RunOptions& o) {
                                " cameras, the source has " +
                                std::to_string(source->camera_count()));
   const std::optional<Truth> truth = o.live.empty() ? read_truth(o.dir, names) : std::nullopt;
+  std::unique_ptr<LabelStage> labels;
+  LabelTruth label_truth;
+  if (o.label.wanted()) {
+    std::string note;
+    const models::CharacterSpec subject = capture_subject(o.dir, o.label, &note);
+    std::cout << "capture run: labelling with " << note << " (" << subject.height_m << " m, "
+              << subject.mass_kg << " kg)\n";
+    if (truth) {
+      label_truth.markers = truth->markers;
+      const fs::path motion = fs::path(o.dir) / "truth" / "motion.csv";
+      if (fs::exists(motion)) label_truth.motion_path = motion.string();
+    }
+    labels = std::make_unique<LabelStage>(subject, rig.cameras.front().fps,
+                                          truth ? &label_truth : nullptr);
+  }
   capture::set_image_threads(o.threads);
   capture::CapturePipeline pipeline(rig, o.blobs, o.reconstruction);
   std::vector<capture::Point3> points;
@@ -372,6 +472,7 @@ int run_capture(const RunOptions& o) {
           << "\n";
     }
     point_total += static_cast<long>(points.size());
+    if (labels) labels->add(points);
     if (truth && set.index < truth->markers.frame_count()) {
       std::vector<Eigen::Vector3d> truth_W;
       std::vector<int> seen(truth->markers.marker_count(), 0);
@@ -388,7 +489,7 @@ int run_capture(const RunOptions& o) {
     if (total > 0) bar.update(static_cast<double>(frames) / total);
   }
   bar.finish();
-  write_file_atomically(o.points_path, csv.str());
+  if (!o.points_path.empty()) write_file_atomically(o.points_path, csv.str());
   json summary = {{"capture", o.dir},
                   {"rig", rig_path},
                   {"rig_source", rig.source},
@@ -399,8 +500,8 @@ int run_capture(const RunOptions& o) {
                   {"read_s", read_s},
                   {"process_s", process_s},
                   {"process_frames_per_s", frames / std::max(process_s, 1e-9)},
-                  {"labelled", false},
-                  {"about", "unlabelled 3D points (labelling: not built yet)"}};
+                  {"labelled", static_cast<bool>(labels)}};
+  if (labels) summary["labelling"] = finish_labelling(labels.get(), o.label);
   std::cout << "capture run: " << frames << " frames, " << rig.size() << " cameras (" << rig_path
             << "): " << summary["points_per_frame"].get<double>()
             << " points per frame; processing " << summary["process_frames_per_s"].get<double>()
@@ -586,6 +687,10 @@ Command add_capture_command(CLI::App* app) {
       ->capture_default_str();
   synth->add_option("--duration", s->duration_s,
                     "film this long, s (default: to the motion's end)");
+  synth->add_option("--t-pose", s->t_pose_s,
+                    "s the subject stands in a T-pose before the motion (then 1 s into its "
+                    "first frame), for the labelling; 0: none")
+      ->capture_default_str();
   synth->add_flag("--in-place", s->in_place,
                   "remove the root's progression (its 1 s running mean): a walk on a treadmill");
   synth
@@ -616,7 +721,18 @@ Command add_capture_command(CLI::App* app) {
       ->capture_default_str();
   run->add_option("--threads", r->threads, "threads for the cameras' images (0: OpenCV's default)")
       ->capture_default_str();
-  run->add_option("--points", r->points_path, "CSV of the 3D points per frame")->required();
+  run->add_option("-o,--output", r->label.markers_out,
+                  "labelled markers to write: .c3d or .trc (gaps filled as --fill says)");
+  run->add_option("--motion-out", r->label.motion_out,
+                  "the subject's skeleton motion (qpos CSV) by marker IK of the labelled markers");
+  run->add_option("--fill", r->label.fill,
+                  "gap filling: none, spline (gaps up to --max-gap) or skeleton (longer gaps "
+                  "carried by the fitted skeleton's segment)")
+      ->capture_default_str();
+  run->add_option("--max-gap", r->label.max_gap_s, "s, longest gap a cubic fills")
+      ->capture_default_str();
+  r->label.subject.add_to(run, false);
+  run->add_option("--points", r->points_path, "CSV of the unlabelled 3D points per frame");
   run->add_option("--summary", r->summary_path, "JSON summary to write");
   auto k = std::make_shared<CalibrateOptions>();
   CLI::App* calibrate = cmd->add_subcommand(

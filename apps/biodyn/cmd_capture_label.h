@@ -1,0 +1,72 @@
+#pragma once
+// biodyn capture run, its labelling stage: each frame's 3D points labelled with the subject's
+// skeleton-marker model (capture/labelling.h), gaps filled, the markers written as C3D or TRC
+// and the skeleton's motion solved by marker IK; scored against a synthetic capture's truth.
+#include <Eigen/Core>
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "biodyn/capture/labelling.h"
+#include "biodyn/capture/reconstruct.h"
+#include "biodyn/mocap_io/marker_data.h"
+#include "biodyn/models/character.h"
+#include "biodyn/sim/model.h"
+#include "cli_common.h"
+
+namespace biodyn::apps {
+
+struct LabelOptions {
+  std::string markers_out;  ///< -o: labelled markers, .c3d or .trc
+  std::string motion_out;   ///< --motion-out: the skeleton's motion (qpos CSV)
+  CharacterOptions subject;
+  std::string fill = "skeleton";  ///< none | spline | skeleton
+  double max_gap_s = 0.1;         ///< s, longest gap a cubic fills
+  bool wanted() const { return !markers_out.empty() || !motion_out.empty(); }
+  /// Throws sim::InvalidArgument naming the option and value.
+  void validate() const;
+};
+
+/// The subject to label with: the command line's --height/--mass/... when given, else the
+/// "subject" a synthetic capture's capture.json records (`note` says which). Throws
+/// sim::InvalidArgument when neither is there.
+models::CharacterSpec capture_subject(const std::string& dir, const LabelOptions& o,
+                                      std::string* note);
+
+/// A synthetic capture's truth for scoring the labels and the skeleton.
+struct LabelTruth {
+  mocap_io::MarkerData markers;  ///< truth/markers.trc
+  std::string motion_path;       ///< truth/motion.csv ("" if absent)
+};
+
+/// Labels a capture frame by frame, then fills, writes and solves (finish).
+class LabelStage {
+ public:
+  LabelStage(const models::CharacterSpec& subject, double rate_hz, const LabelTruth* truth);
+  /// The next frame's points.
+  void add(const std::vector<capture::Point3>& points);
+  /// Fills the gaps, writes the outputs `o` names, solves the motion; the summary's "labelling"
+  /// part (with "truth" scores when a truth was given).
+  nlohmann::json finish(const LabelOptions& o);
+
+ private:
+  void score_frame(const std::vector<Eigen::Vector3d>& points,
+                   const std::vector<int>& point_of_label);
+  nlohmann::json score_motion(const mjModel& m, const Eigen::MatrixXd& qpos) const;
+
+  models::CharacterSpec spec_;
+  sim::Model model_;
+  std::vector<std::string> labels_;
+  capture::MarkerLabeller labeller_;
+  double rate_hz_;
+  const LabelTruth* truth_;
+  std::vector<Eigen::VectorXd> labelled_, skeleton_;  ///< per frame: 3 x labels (NaN: none)
+  std::vector<Eigen::Vector3d> points_;
+  int init_frame_ = -1;
+  // Truth scores: marker-frames reconstructed (a point within 1 cm), labelled right, wrong.
+  long reconstructed_ = 0, right_ = 0, wrong_ = 0, swaps_ = 0;
+  std::vector<char> was_wrong_;
+};
+
+}  // namespace biodyn::apps
