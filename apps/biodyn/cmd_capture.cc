@@ -407,6 +407,9 @@ int run_capture(const RunOptions& o) {
                                      {"--motion-out", o.label.motion_out}})
     if (!path.empty()) outputs.push_back({option, path, false});
   check_outputs(outputs, {o.dir});
+  std::string subject_note;  // before the cameras are opened: a missing subject fails at once
+  const models::CharacterSpec subject =
+      o.label.wanted() ? capture_subject(o.dir, o.label, &subject_note) : models::CharacterSpec{};
   const std::string rig_path = !o.rig_path.empty() ? o.rig_path
                                : fs::exists(fs::path(o.dir) / "rig.json")
                                    ? (fs::path(o.dir) / "rig.json").string()
@@ -429,10 +432,8 @@ int run_capture(const RunOptions& o) {
   std::unique_ptr<LabelStage> labels;
   LabelTruth label_truth;
   if (o.label.wanted()) {
-    std::string note;
-    const models::CharacterSpec subject = capture_subject(o.dir, o.label, &note);
-    std::cout << "capture run: labelling with " << note << " (" << subject.height_m << " m, "
-              << subject.mass_kg << " kg)\n";
+    std::cout << "capture run: labelling with " << subject_note << " (" << subject.height_m
+              << " m, " << subject.mass_kg << " kg)\n";
     if (truth) {
       label_truth.markers = truth->markers;
       const fs::path motion = fs::path(o.dir) / "truth" / "motion.csv";

@@ -18,15 +18,16 @@ TEST_CASE("biodyn capture synth films a walk, calibrate finds the rig, run finds
   REQUIRE(r.exit_code == 0);
   r = run_biodyn(
       "capture synth --motion walk.csv --cameras 4 --rig-seed 3 --from 1 --duration 0.3 "
-      "--in-place --wand-frames 300 -o cap",
+      "--t-pose 0.3 --in-place --wand-frames 300 -o cap",
       dir);
   INFO(r.out << r.err);
   REQUIRE(r.exit_code == 0);
   const nlohmann::json meta = nlohmann::json::parse(slurp(dir / "cap" / "capture.json"));
-  CHECK(meta["frames"] == 31);  // 0, 0.01, ..., 0.30 s
+  CHECK(meta["frames"] == 161);  // a T-pose 0.3 s, 1 s into the walk, 0.3 s of it
   CHECK(meta["cameras"].size() == 4);
   CHECK(meta["markers"].size() == 26);
-  CHECK(fs::exists(dir / "cap" / "cam04" / "000030.png"));
+  CHECK(fs::exists(dir / "cap" / "cam04" / "000160.png"));
+  CHECK(fs::exists(dir / "cap" / "truth" / "motion.csv"));
   CHECK(fs::exists(dir / "cap" / "truth" / "markers.trc"));
   CHECK_FALSE(fs::exists(dir / "cap.partial"));
   CHECK(meta["marker_views_outside_image"] == 0.0);
@@ -45,16 +46,34 @@ TEST_CASE("biodyn capture synth films a walk, calibrate finds the rig, run finds
   CHECK(cal["truth_worst_centre_error_mm"].get<double>() < 5);
   CHECK(cal["wand_ac_rms_mm"].get<double>() < 1);
 
-  r = run_biodyn("capture run cap --points points.csv --summary run.json", dir);
+  r = run_biodyn(
+      "capture run cap -o markers.c3d --motion-out motion.csv --points points.csv "
+      "--summary run.json",
+      dir);
   INFO(r.out << r.err);
   REQUIRE(r.exit_code == 0);
   const nlohmann::json s = nlohmann::json::parse(slurp(dir / "run.json"));
-  CHECK(s["frames"] == 31);
+  CHECK(s["frames"] == 161);
   CHECK(s["rig_source"] == "wand calibration");
   CHECK(s["truth"]["detection_recall"].get<double>() >= 0.99);
   CHECK(s["truth"]["point_recall"].get<double>() >= 0.97);
   CHECK(s["truth"]["rms_mm"].get<double>() < 1.5);
   CHECK(r.out.find("ghost points") != std::string::npos);
+  // Labelled from the T-pose on, no label on another marker's point, the skeleton's joints
+  // within a few degrees of the walk that was filmed. Measured on the true rig: 99.7% labelled
+  // right, 0 wrong, 0.61 deg RMS (4 cameras see 91% of the marker-frames twice; the rest are
+  // filled by the skeleton).
+  const nlohmann::json& l = s["labelling"];
+  CHECK(l["initialised_at_frame"] == 0);
+  CHECK(l["truth"]["labelled_right"].get<double>() >= 0.98);
+  CHECK(l["truth"]["wrong_labels"] == 0);
+  CHECK(l["gap_fill"]["left_samples"] == 0);
+  CHECK(l["truth_motion"]["joint_rms_deg"].get<double>() < 2);
+  r = run_biodyn("mocap info markers.c3d", dir);
+  CHECK(r.exit_code == 0);
+  CHECK(r.out.find("161 frames at 100.0 Hz") != std::string::npos);
+  CHECK(r.out.find("26 markers") != std::string::npos);
+  CHECK(slurp(dir / "motion.csv").find("body:") != std::string::npos);
   const std::string points = slurp(dir / "points.csv");
   CHECK(points.rfind("frame,time_s,point,x_m,y_m,z_m,views,residual_px\n", 0) == 0);
 
@@ -76,4 +95,21 @@ TEST_CASE("biodyn capture synth films a walk, calibrate finds the rig, run finds
   CHECK(r.exit_code == 2);
   CHECK(r.err.find("capture.json") != std::string::npos);
   CHECK_FALSE(fs::exists(dir / "p.csv"));
+  // Labelling a capture that records no subject needs the subject's body.
+  r = run_biodyn("capture run cap --rig cap/rig.json -o m.trc", dir);
+  CHECK(r.exit_code == 0);  // cap's capture.json records its subject
+  fs::create_directories(dir / "nosubject");
+  nlohmann::json about = nlohmann::json::parse(slurp(dir / "cap" / "capture.json"));
+  about.erase("subject");
+  biodyn::testing::write_text(dir / "nosubject" / "capture.json", about.dump());
+  r = run_biodyn("capture run nosubject -o m2.trc", dir);
+  CHECK(r.exit_code == 2);
+  CHECK(r.err.find("--height") != std::string::npos);
+  CHECK_FALSE(fs::exists(dir / "m2.trc"));
+  r = run_biodyn("capture run nosubject -o m2.xyz", dir);
+  CHECK(r.exit_code == 2);
+  CHECK(r.err.find(".c3d or .trc") != std::string::npos);
+  r = run_biodyn("capture run nosubject", dir);
+  CHECK(r.exit_code == 2);
+  CHECK(r.err.find("nothing to write") != std::string::npos);
 }
