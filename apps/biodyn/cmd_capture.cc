@@ -9,7 +9,7 @@
 #include "cli_common.h"
 #include "commands.h"
 #ifdef BIODYN_HAVE_CAPTURE
-#include "cmd_capture_label.h"
+#include "cmd_capture.h"
 #endif
 
 #ifdef BIODYN_HAVE_CAPTURE
@@ -20,6 +20,7 @@
 #include "biodyn/capture/blobs.h"
 #include "biodyn/capture/evaluation.h"
 #include "biodyn/capture/frame_source.h"
+#include "biodyn/capture/intrinsics.h"
 #include "biodyn/capture/pipeline.h"
 #include "biodyn/capture/reconstruct.h"
 #include "biodyn/capture/synthetic.h"
@@ -52,6 +53,7 @@ struct SynthOptions {
   double t_pose_s = 0.5;  ///< s held in a T-pose before the motion (0: none)
   bool landscape = false, in_place = false;
   int wand_frames = 1200;  ///< calibration recordings: the wand wave's frames at kCalibrationFps
+  int board_views = 25;    ///< checkerboard views per camera (0: none)
 };
 
 // Hz: the calibration recordings keep a frame in five of a 100 Hz camera (a minute of waving
@@ -184,6 +186,9 @@ mocap_io::Motion lead_in_from_t_pose(const mjModel& m, const mocap_io::Motion& s
 
 int run_synth(const SynthOptions& o) {
   check_outputs({{"-o", o.output, true}}, {o.motion});
+  if (o.board_views != 0 && (o.board_views < 5 || o.board_views > 500))
+    throw sim::InvalidArgument("--board-views: 0 (none) or 5 .. 500, got " +
+                               std::to_string(o.board_views));
   if (o.wand_frames < 30 || o.wand_frames > 100000)
     throw sim::InvalidArgument(
         "--wand-frames: must be 30 .. 100000 (a calibration needs the "
@@ -281,6 +286,12 @@ int run_synth(const SynthOptions& o) {
   bar.finish();
   const fs::path dir(writer.partial_dir());
   film_calibration(rig, rig_spec, formation, o.wand_frames, dir);
+  if (o.board_views > 0) {
+    std::cout << "capture synth: checkerboard, " << o.board_views << " views per camera\n";
+    capture::film_board_views(rig, capture::Checkerboard{}, o.board_views,
+                              formation.sensor_noise_grey, formation.seed,
+                              (dir / "calibration" / "checkerboard").string());
+  }
   for (std::size_t c = 0; c < rig.cameras.size(); ++c)
     write_file_atomically((dir / "truth" / (names[c] + ".csv")).string(), truth2d[c]);
   mocap_io::write_trc((dir / "truth" / "markers.trc").string(), truth, "mm");
@@ -410,14 +421,7 @@ int run_capture(const RunOptions& o) {
   std::string subject_note;  // before the cameras are opened: a missing subject fails at once
   const models::CharacterSpec subject =
       o.label.wanted() ? capture_subject(o.dir, o.label, &subject_note) : models::CharacterSpec{};
-  const std::string rig_path = !o.rig_path.empty() ? o.rig_path
-                               : fs::exists(fs::path(o.dir) / "rig.json")
-                                   ? (fs::path(o.dir) / "rig.json").string()
-                                   : (fs::path(o.dir) / "rig_truth.json").string();
-  if (o.rig_path.empty() && !fs::exists(rig_path))
-    throw sim::InvalidArgument(o.dir +
-                               ": no rig.json (a calibration) or rig_truth.json (a synthetic "
-                               "capture's) in it; name the rig with --rig");
+  const std::string rig_path = capture_rig_path(o.dir, o.rig_path);
   const capture::Rig rig = capture::read_rig(rig_path);
   std::vector<std::string> names;
   for (const capture::Camera& c : rig.cameras) names.push_back(c.name);
@@ -529,6 +533,9 @@ int run_capture(const RunOptions& o) {
 
 struct CalibrateOptions {
   std::string dir, nominal_path, output;
+  std::string intrinsics = "auto";  ///< auto | checkerboard | nominal
+  std::string board = "9x6";
+  double square_mm = 40;
   capture::Wand wand;
   capture::LFrame lframe;
   capture::BlobParams blobs;
@@ -557,16 +564,50 @@ capture::WandObservations observe_wand(capture::FrameSource* source, const captu
   return seen;
 }
 
+/// The lenses of `rig`'s cameras from DIR/calibration/checkerboard (intrinsics.h) when
+/// --intrinsics says so (auto: when the folder is there); what they came from, per camera.
+json lenses_from_checkerboard(const CalibrateOptions& o, capture::Rig* rig) {
+  if (o.intrinsics != "auto" && o.intrinsics != "checkerboard" && o.intrinsics != "nominal")
+    throw sim::InvalidArgument("--intrinsics: auto, checkerboard or nominal, got \"" +
+                               o.intrinsics + "\"");
+  const fs::path folder = fs::path(o.dir) / "calibration" / "checkerboard";
+  const bool use = o.intrinsics == "checkerboard" || (o.intrinsics == "auto" && fs::exists(folder));
+  if (!use) return {{"source", "nominal lenses (refined by the bundle adjustment)"}};
+  capture::Checkerboard board;
+  std::tie(board.cols, board.rows) = parse_size(o.board, "--board");
+  board.square_m = o.square_mm / 1000;
+  board.validate();
+  json cams = json::array();
+  for (capture::Camera& cam : rig->cameras) {
+    const capture::LensFit fit =
+        capture::calibrate_lens(capture::read_board_views(folder.string(), cam.name), board);
+    if (fit.lens.width_px != cam.K.width_px || fit.lens.height_px != cam.K.height_px)
+      throw sim::InvalidArgument(folder.string() + "/" + cam.name + ": images are " +
+                                 std::to_string(fit.lens.width_px) + " x " +
+                                 std::to_string(fit.lens.height_px) + ", the camera's " +
+                                 std::to_string(cam.K.width_px) + " x " +
+                                 std::to_string(cam.K.height_px));
+    cam.K = fit.lens;
+    std::cout << "  " << cam.name << ": lens from " << fit.views_used
+              << " checkerboard views, reprojection " << fit.rms_px << " px\n";
+    cams.push_back({{"name", cam.name}, {"views", fit.views_used}, {"rms_px", fit.rms_px}});
+  }
+  return {{"source", "checkerboard (then refined by the bundle adjustment)"},
+          {"board", {{"inner_corners", o.board}, {"square_mm", o.square_mm}}},
+          {"cameras", cams}};
+}
+
 int run_calibrate(const CalibrateOptions& o) {
   const fs::path dir(o.dir), cal = dir / "calibration";
   const std::string nominal_path =
       o.nominal_path.empty() ? (cal / "nominal.json").string() : o.nominal_path;
   const std::string output = o.output.empty() ? (dir / "rig.json").string() : o.output;
   check_outputs({{"-o", output, false}}, {nominal_path});
-  const capture::Rig nominal = capture::read_rig(nominal_path);
+  capture::Rig nominal = capture::read_rig(nominal_path);
   std::vector<std::string> names;
   for (const capture::Camera& c : nominal.cameras) names.push_back(c.name);
   const auto t0 = std::chrono::steady_clock::now();
+  const json lenses = lenses_from_checkerboard(o, &nominal);
   auto wand_source = capture::open_recorded((cal / "wand").string(), names);
   const capture::WandObservations seen = observe_wand(wand_source.get(), o.wand, o.blobs);
   capture::CalibrationReport report;
@@ -626,6 +667,7 @@ int run_calibrate(const CalibrateOptions& o) {
               << " mm\n";
   json summary = {{"rig", output},
                   {"nominal", nominal_path},
+                  {"lenses", lenses},
                   {"wand", {{"ab_m", o.wand.ab_m}, {"ac_m", o.wand.ac_m}}},
                   {"wand_frames", seen.frames()},
                   {"wand_frames_used", report.frames_used},
@@ -698,6 +740,11 @@ Command add_capture_command(CLI::App* app) {
       ->add_option("--wand-frames", s->wand_frames,
                    "frames of the calibration wand's wave (at 20 fps; 1200: a minute)")
       ->capture_default_str();
+  synth
+      ->add_option("--board-views", s->board_views,
+                   "checkerboard views per camera for the lenses (9x6 inner corners, 40 mm; 0: "
+                   "none)")
+      ->capture_default_str();
   synth->add_option("-o,--output", s->output, "capture folder to write (must not exist)")
       ->required();
   auto r = std::make_shared<RunOptions>();
@@ -735,6 +782,19 @@ Command add_capture_command(CLI::App* app) {
   r->label.subject.add_to(run, false);
   run->add_option("--points", r->points_path, "CSV of the unlabelled 3D points per frame");
   run->add_option("--summary", r->summary_path, "JSON summary to write");
+  auto b = std::make_shared<CaptureBenchOptions>();
+  CLI::App* bench = cmd->add_subcommand(
+      "bench",
+      "How fast a recorded capture is processed: its frames loaded into memory first, then "
+      "blobs, matching, triangulation and labelling timed (the real-time figure)");
+  bench->add_option("dir", b->dir, "recorded capture folder")->required();
+  bench->add_option("--rig", b->rig_path, "camera rig JSON (default as capture run)");
+  bench->add_option("--frames", b->frames, "frames to load and time")->capture_default_str();
+  bench->add_option("--threads", b->threads, "threads for the cameras' images (0: every core)")
+      ->capture_default_str();
+  bench->add_flag("!--no-label", b->label, "time the 3D points only");
+  b->subject.subject.add_to(bench, false);
+  bench->add_option("--summary", b->summary_path, "JSON of the figures");
   auto k = std::make_shared<CalibrateOptions>();
   CLI::App* calibrate = cmd->add_subcommand(
       "calibrate",
@@ -748,8 +808,18 @@ Command add_capture_command(CLI::App* app) {
   calibrate->add_option("--wand-ab", k->wand.ab_m, "wand: A to B, m")->capture_default_str();
   calibrate->add_option("--wand-ac", k->wand.ac_m, "wand: A to C, m")->capture_default_str();
   calibrate->add_option("-o,--output", k->output, "rig JSON to write (default: DIR/rig.json)");
-  return {cmd, [s, synth, r, run, k, calibrate]() {
+  calibrate
+      ->add_option("--intrinsics", k->intrinsics,
+                   "lenses from: checkerboard (DIR/calibration/checkerboard/<camera>/*.png), "
+                   "nominal (the nominal rig's), auto (checkerboard when its folder is there)")
+      ->capture_default_str();
+  calibrate->add_option("--board", k->board, "checkerboard inner corners COLSxROWS")
+      ->capture_default_str();
+  calibrate->add_option("--square-mm", k->square_mm, "checkerboard square side, mm")
+      ->capture_default_str();
+  return {cmd, [s, synth, r, run, k, calibrate, b, bench]() {
             if (synth->parsed()) return run_synth(*s);
+            if (bench->parsed()) return run_capture_bench(*b);
             if (calibrate->parsed()) return run_calibrate(*k);
             if (run->parsed()) return run_capture(*r);
             return kExitBadInput;

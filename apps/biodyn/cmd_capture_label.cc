@@ -1,5 +1,5 @@
 #ifdef BIODYN_HAVE_CAPTURE
-#include "cmd_capture_label.h"
+#include "cmd_capture.h"
 
 #include <algorithm>
 #include <cmath>
@@ -63,6 +63,17 @@ void LabelOptions::validate() const {
       throw sim::InvalidArgument("-o: labelled markers are written as .c3d or .trc, got \"" +
                                  markers_out + "\"");
   }
+}
+
+std::string capture_rig_path(const std::string& dir, const std::string& given) {
+  if (!given.empty()) return given;
+  for (const char* name : {"rig.json", "rig_truth.json"}) {
+    const fs::path p = fs::path(dir) / name;
+    if (fs::exists(p)) return p.string();
+  }
+  throw sim::InvalidArgument(dir +
+                             ": no rig.json (a calibration) or rig_truth.json (a synthetic "
+                             "capture's) in it; name the rig with --rig");
 }
 
 models::CharacterSpec capture_subject(const std::string& dir, const LabelOptions& o,

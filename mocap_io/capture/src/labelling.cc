@@ -346,7 +346,6 @@ void MarkerLabeller::calibrate_sites(const std::vector<Eigen::Vector3d>& points,
 
 void MarkerLabeller::track(const std::vector<Eigen::Vector3d>& points, LabelledFrame* out) {
   if (!initialised_) throw std::logic_error("MarkerLabeller::track before initialise");
-  const mjModel& m = *model_;
   // A label seen in the last two frames is predicted at constant velocity; one in a gap, by
   // the skeleton fitted to the last frame. The skeleton is not extrapolated: the DOFs no
   // marker sees while one is hidden would keep their last (noise-driven) velocity and carry

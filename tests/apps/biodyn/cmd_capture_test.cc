@@ -34,6 +34,7 @@ TEST_CASE("biodyn capture synth films a walk, calibrate finds the rig, run finds
 
   CHECK(fs::exists(dir / "cap" / "calibration" / "wand" / "cam01" / "000299.png"));
   CHECK(fs::exists(dir / "cap" / "calibration" / "nominal.json"));
+  CHECK(fs::exists(dir / "cap" / "calibration" / "checkerboard" / "cam04" / "000024.png"));
 
   // The rig from the wand and the L-frame, checked against the truth beside it.
   r = run_biodyn("capture calibrate cap", dir);
@@ -41,6 +42,12 @@ TEST_CASE("biodyn capture synth films a walk, calibrate finds the rig, run finds
   REQUIRE(r.exit_code == 0);
   const nlohmann::json cal = nlohmann::json::parse(slurp(dir / "cap" / "calibration_report.json"));
   for (const auto& c : cal["cameras"]) CHECK(c["reprojection_rms_px"].get<double>() < 0.3);
+  // The lenses from the checkerboard views first (the board found in most of them).
+  CHECK(cal["lenses"]["source"].get<std::string>().find("checkerboard") == 0);
+  for (const auto& c : cal["lenses"]["cameras"]) {
+    CHECK(c["views"].get<int>() >= 15);
+    CHECK(c["rms_px"].get<double>() < 0.3);
+  }
   // 4 cameras and a 15 s wave (300 frames): measured 3.2 mm on rig seed 1 (a minute's wave:
   // ~1 mm, capture_test "Calibration*").
   CHECK(cal["truth_worst_centre_error_mm"].get<double>() < 5);

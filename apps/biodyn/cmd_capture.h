@@ -1,13 +1,16 @@
 #pragma once
-// biodyn capture run, its labelling stage: each frame's 3D points labelled with the subject's
-// skeleton-marker model (capture/labelling.h), gaps filled, the markers written as C3D or TRC
-// and the skeleton's motion solved by marker IK; scored against a synthetic capture's truth.
+// biodyn capture: what its subcommands share (cmd_capture*.cc). `capture run`'s labelling
+// stage: each frame's 3D points labelled with the subject's skeleton-marker model
+// (capture/labelling.h), gaps filled, the markers written as C3D or TRC and the skeleton's
+// motion solved by marker IK; scored against a synthetic capture's truth. `capture bench`:
+// the processing's speed on frames held in memory.
 #include <Eigen/Core>
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
 
+#include "biodyn/capture/blobs.h"
 #include "biodyn/capture/labelling.h"
 #include "biodyn/capture/reconstruct.h"
 #include "biodyn/mocap_io/marker_data.h"
@@ -27,6 +30,22 @@ struct LabelOptions {
   /// Throws sim::InvalidArgument naming the option and value.
   void validate() const;
 };
+
+/// The rig a capture is processed with: `given` (--rig), else DIR/rig.json (a calibration),
+/// else DIR/rig_truth.json (a synthetic capture's truth). Throws sim::InvalidArgument when none.
+std::string capture_rig_path(const std::string& dir, const std::string& given);
+
+struct CaptureBenchOptions {
+  std::string dir, rig_path, summary_path;
+  int frames = 300, threads = 0;
+  bool label = true;
+  capture::BlobParams blobs;
+  capture::ReconstructionParams reconstruction;
+  LabelOptions subject;  ///< only its --height/--mass/... (the subject to label with)
+};
+/// biodyn capture bench: loads frames of a recorded capture into memory, then times detection,
+/// reconstruction and labelling on them.
+int run_capture_bench(const CaptureBenchOptions& o);
 
 /// The subject to label with: the command line's --height/--mass/... when given, else the
 /// "subject" a synthetic capture's capture.json records (`note` says which). Throws
