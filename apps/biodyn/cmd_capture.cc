@@ -399,7 +399,9 @@ json finish_labelling(LabelStage* labels, const LabelOptions& o) {
               << " wrong labels (" << l["truth"]["identity_swaps"] << " identity swaps)\n";
   if (l.contains("truth_motion"))
     std::cout << "capture run: skeleton (marker IK) against the filmed motion: joint angles "
-              << l["truth_motion"]["joint_rms_deg"].get<double>() << " deg RMS (worst joint "
+              << l["truth_motion"]["seen_joint_rms_deg"].get<double>()
+              << " deg RMS over the joints a marker moves, "
+              << l["truth_motion"]["joint_rms_deg"].get<double>() << " deg over all (worst "
               << l["truth_motion"]["worst_joint"].get<std::string>() << " "
               << l["truth_motion"]["worst_joint_rms_deg"].get<double>() << " deg)\n";
   return l;

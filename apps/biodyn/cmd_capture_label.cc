@@ -50,6 +50,18 @@ double joint_error(const mjModel& m, int j, const Eigen::RowVectorXd& a,
   return qa.normalized().angularDistance(qb.normalized());
 }
 
+/// Whether joint j moves a marker site (one on its body or a body below it): the joints the
+/// marker set can see. The 26 markers put none on the toes, so their joint is invisible.
+bool moves_a_marker(const mjModel& m, int j) {
+  const int body = m.jnt_bodyid[j];
+  for (int s = 0; s < m.nsite; ++s) {
+    if (std::string(mj_id2name(&m, mjOBJ_SITE, s)).rfind("marker_", 0) != 0) continue;
+    for (int b = m.site_bodyid[s]; b > 0; b = m.body_parentid[b])
+      if (b == body) return true;
+  }
+  return false;
+}
+
 }  // namespace
 
 void LabelOptions::validate() const {
@@ -162,8 +174,9 @@ json LabelStage::score_motion(const mjModel& m, const Eigen::MatrixXd& qpos) con
   const mocap_io::Motion truth = mocap_io::read_motion_csv(truth_->motion_path);
   mocap_io::check_motion_matches(truth, m, truth_->motion_path);
   json joints = json::object();
-  double sum = 0;
-  long count = 0;
+  double sum = 0, sum_seen = 0;
+  long count = 0, count_seen = 0;
+  std::vector<std::string> unseen;
   std::string worst;
   double worst_rms = 0;
   for (int j = 1; j < m.njnt; ++j) {  // joint 0: the free root
@@ -180,12 +193,23 @@ json LabelStage::score_motion(const mjModel& m, const Eigen::MatrixXd& qpos) con
     joints[mj_id2name(&m, mjOBJ_JOINT, j)] = rms_deg;
     sum += sq;
     count += n;
+    if (moves_a_marker(m, j)) {
+      sum_seen += sq;
+      count_seen += n;
+    } else {
+      unseen.push_back(mj_id2name(&m, mjOBJ_JOINT, j));
+    }
     if (rms_deg > worst_rms) {
       worst_rms = rms_deg;
       worst = mj_id2name(&m, mjOBJ_JOINT, j);
     }
   }
-  return {{"joint_rms_deg", count ? std::sqrt(sum / static_cast<double>(count)) * kRadToDeg : 0.0},
+  const auto rms = [](double sq, long n) {
+    return n ? std::sqrt(sq / static_cast<double>(n)) * kRadToDeg : 0.0;
+  };
+  return {{"joint_rms_deg", rms(sum, count)},
+          {"seen_joint_rms_deg", rms(sum_seen, count_seen)},
+          {"joints_no_marker_sees", unseen},
           {"worst_joint", worst},
           {"worst_joint_rms_deg", worst_rms},
           {"per_joint_rms_deg", joints}};

@@ -26,6 +26,14 @@ constexpr double kAmbiguity_m = 0.01;
 constexpr double kGateGrowth_m = 0.003;
 constexpr double kMaxReacquireGate_m = 0.10;
 
+/// Labels lost at once (and points left over) that make a frame look for them with the skeleton.
+constexpr int kRecoverLost = 2;
+/// m: that search's gates, narrowing as the skeleton is refitted with what it finds.
+constexpr double kRecoverGates_m[] = {0.20, 0.10, 0.05};
+
+/// The constant-velocity gate grows by this share of the marker's last step.
+constexpr double kGatePerStep = 0.5;
+
 /// m: a point this close to a point left unlabelled in the frame before has persisted.
 constexpr double kPersist_m = 0.05;
 
@@ -104,6 +112,7 @@ void LabellingParams::validate() const {
   positive(tpose_max_rms_m, "tpose_max_rms_m");
   positive(gate_m, "gate_m");
   positive(reacquire_gate_m, "reacquire_gate_m");
+  positive(max_residual_m, "max_residual_m");
   if (!(tpose_min_labelled > 0 && tpose_min_labelled <= 1))
     throw sim::InvalidArgument("labelling: tpose_min_labelled must be in (0, 1], got " +
                                std::to_string(tpose_min_labelled));
@@ -344,8 +353,7 @@ void MarkerLabeller::calibrate_sites(const std::vector<Eigen::Vector3d>& points,
   }
 }
 
-void MarkerLabeller::track(const std::vector<Eigen::Vector3d>& points, LabelledFrame* out) {
-  if (!initialised_) throw std::logic_error("MarkerLabeller::track before initialise");
+void MarkerLabeller::predict() {
   // A label seen in the last two frames is predicted at constant velocity; one in a gap, by
   // the skeleton fitted to the last frame. The skeleton is not extrapolated: the DOFs no
   // marker sees while one is hidden would keep their last (noise-driven) velocity and carry
@@ -354,7 +362,10 @@ void MarkerLabeller::track(const std::vector<Eigen::Vector3d>& points, LabelledF
     const std::size_t i = static_cast<std::size_t>(k);
     if (is_set(last_.col(k)) && is_set(before_last_.col(k))) {
       predicted_.col(k) = 2 * last_.col(k) - before_last_.col(k);
-      gates_[i] = params_.gate_m;
+      // A fast marker's next step is less certain (a foot at 5 m/s changes its step by
+      // centimetres from one frame to the next): the gate grows with the step.
+      gates_[i] = params_.gate_m +
+                  kGatePerStep * (last_.col(k) - before_last_.col(k)).norm();
     } else if (is_set(last_.col(k))) {
       // Seen once since a gap: it moves as the skeleton's marker moved over the last frame (a
       // heel in swing moves 3-4 cm a frame).
@@ -369,6 +380,10 @@ void MarkerLabeller::track(const std::vector<Eigen::Vector3d>& points, LabelledF
                            kMaxReacquireGate_m);
     }
   }
+}
+
+void MarkerLabeller::assign_tracked(const std::vector<Eigen::Vector3d>& points,
+                                    LabelledFrame* out) {
   // A label in a gap takes a point only if the point has persisted: it lies near a point left
   // unlabelled in the last frame that was itself within the label's gate (a marker coming out
   // of its gap), rather than flickered up this frame (a ghost of mismatched rays). That costs
@@ -420,18 +435,106 @@ void MarkerLabeller::track(const std::vector<Eigen::Vector3d>& points, LabelledF
       out->previous_position.col(k) =
           unlabelled_previous_[static_cast<std::size_t>(origin_[static_cast<std::size_t>(j)])];
   }
-  unlabelled_previous_.clear();
-  for (Eigen::Index j = 0; j < np; ++j) {
-    if (std::find(out->point_of_label.begin(), out->point_of_label.end(), j) ==
-        out->point_of_label.end())
-      unlabelled_previous_.push_back(points[static_cast<std::size_t>(j)]);
-  }
+}
+
+bool MarkerLabeller::fit_checked(const std::vector<Eigen::Vector3d>& points, LabelledFrame* out,
+                                 double* rms) {
   // The skeleton from its last pose (LM needs 2-4 iterations for a frame's motion); with too
   // few markers it stays where it was.
   qpos_fit_ = qpos_;
   bool solved = false;
-  const double rms = fit_skeleton(points, out->point_of_label, &qpos_fit_, &solved);
+  *rms = fit_skeleton(points, out->point_of_label, &qpos_fit_, &solved);
+  if (solved) {
+    // A label the fitted skeleton puts far from its point has followed another marker's or a
+    // ghost's track (its own prediction carried it there): it is dropped, back to a gap, and
+    // the skeleton refitted without it.
+    const Eigen::Matrix3Xd fitted = ik_->marker_positions(qpos_fit_.data());
+    bool dropped = false;
+    for (std::size_t k = 0; k < labels_.size(); ++k) {
+      const int j = out->point_of_label[k];
+      if (j < 0 || (fitted.col(static_cast<Eigen::Index>(k)) -
+                    points[static_cast<std::size_t>(j)]).norm() <= params_.max_residual_m)
+        continue;
+      out->point_of_label[k] = -1;
+      dropped = true;
+    }
+    if (dropped) {
+      qpos_fit_ = qpos_;
+      *rms = fit_skeleton(points, out->point_of_label, &qpos_fit_, &solved);
+    }
+  }
+  return solved;
+}
+
+void MarkerLabeller::recover_lost(const std::vector<Eigen::Vector3d>& points,
+                                  LabelledFrame* out) {
+  // Labels lost together (a whole foot in a fast swing, a limb hidden for a while) come back
+  // as at the T-pose: the skeleton, fitted to the markers still tracked, looks for them among
+  // the points that have persisted unlabelled, with gates that narrow as the fit improves.
+  std::vector<int>& of = out->point_of_label;
+  std::vector<char> free(points.size(), 0);
+  bool any_free = false;
+  for (std::size_t j = 0; j < points.size(); ++j) {
+    free[j] = origin_[j] >= 0 && std::find(of.begin(), of.end(), static_cast<int>(j)) == of.end();
+    any_free = any_free || free[j];
+  }
+  const auto lost = static_cast<int>(std::count(of.begin(), of.end(), -1));
+  if (!any_free || lost < kRecoverLost) return;
+  const std::vector<int> tracked = of;
+  qpos_fit_ = qpos_;
+  bool solved = false;
+  for (double gate : kRecoverGates_m) {
+    const Eigen::Matrix3Xd sites = ik_->marker_positions(qpos_fit_.data());
+    cost_.setConstant(static_cast<Eigen::Index>(labels_.size()),
+                      static_cast<Eigen::Index>(points.size()), kNaN);
+    for (std::size_t k = 0; k < labels_.size(); ++k) {
+      if (tracked[k] >= 0) continue;
+      for (std::size_t j = 0; j < points.size(); ++j)
+        if (free[j])
+          cost_(static_cast<Eigen::Index>(k), static_cast<Eigen::Index>(j)) =
+              (sites.col(static_cast<Eigen::Index>(k)) - points[j]).norm() / gate;
+    }
+    const std::vector<int> found = min_cost_assignment(cost_, 1.0);
+    for (std::size_t k = 0; k < labels_.size(); ++k) of[k] = tracked[k] >= 0 ? tracked[k] : found[k];
+    qpos_fit_ = qpos_;
+    fit_skeleton(points, of, &qpos_fit_, &solved);
+    if (!solved) break;
+  }
+  // Kept: the recovered labels the final fit puts within the residual gate, unambiguous.
+  const Eigen::Matrix3Xd sites = ik_->marker_positions(qpos_fit_.data());
+  for (std::size_t k = 0; k < labels_.size(); ++k) {
+    if (tracked[k] >= 0 || of[k] < 0) continue;
+    const Eigen::Vector3d& p = points[static_cast<std::size_t>(of[k])];
+    const double d = (sites.col(static_cast<Eigen::Index>(k)) - p).norm();
+    bool keep = solved && d <= params_.max_residual_m;
+    for (std::size_t o = 0; keep && o < labels_.size(); ++o)
+      keep = o == k || of[o] >= 0 || (sites.col(static_cast<Eigen::Index>(o)) - p).norm() >= d + kAmbiguity_m;
+    if (!keep) {
+      of[k] = -1;
+      continue;
+    }
+    out->previous_position.col(static_cast<Eigen::Index>(k)) =
+        unlabelled_previous_[static_cast<std::size_t>(origin_[static_cast<std::size_t>(of[k])])];
+  }
+  qpos_fit_ = qpos_;
+  double rms = 0;
+  if (fit_checked(points, out, &rms)) std::swap(qpos_, qpos_fit_);
+}
+
+void MarkerLabeller::track(const std::vector<Eigen::Vector3d>& points, LabelledFrame* out) {
+  if (!initialised_) throw std::logic_error("MarkerLabeller::track before initialise");
+  predict();
+  assign_tracked(points, out);
+  double rms = 0;
+  bool solved = fit_checked(points, out, &rms);
   if (solved) std::swap(qpos_, qpos_fit_);
+  recover_lost(points, out);
+  unlabelled_previous_.clear();
+  for (std::size_t j = 0; j < points.size(); ++j) {
+    if (std::find(out->point_of_label.begin(), out->point_of_label.end(), static_cast<int>(j)) ==
+        out->point_of_label.end())
+      unlabelled_previous_.push_back(points[j]);
+  }
   skeleton_previous_ = skeleton_;
   skeleton_ = ik_->marker_positions(qpos_.data());
   before_last_ = last_;

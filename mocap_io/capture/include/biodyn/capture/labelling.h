@@ -46,6 +46,9 @@ struct LabellingParams {
   /// m: a label in a gap takes a point this close to the skeleton's prediction of it (at the
   /// gap's first frame; the gate widens as the gap lasts)
   double reacquire_gate_m = 0.04;
+  /// m: a label whose point the fitted skeleton misses by more than this is dropped (its
+  /// track was another marker's or a ghost's); labelled markers fit within a few mm
+  double max_residual_m = 0.025;
   /// Take each marker's place on its segment from the T-pose fit (subject calibration).
   bool calibrate_marker_sites = true;
   void validate() const;  ///< throws sim::InvalidArgument naming the field and value
@@ -94,6 +97,10 @@ class MarkerLabeller {
               const std::vector<double>& gates, std::vector<int>* point_of_label);
   double fit_skeleton(const std::vector<Eigen::Vector3d>& points,
                       const std::vector<int>& point_of_label, std::vector<double>* q, bool* solved);
+  void predict();
+  void assign_tracked(const std::vector<Eigen::Vector3d>& points, LabelledFrame* out);
+  bool fit_checked(const std::vector<Eigen::Vector3d>& points, LabelledFrame* out, double* rms);
+  void recover_lost(const std::vector<Eigen::Vector3d>& points, LabelledFrame* out);
   void calibrate_sites(const std::vector<Eigen::Vector3d>& points,
                        const std::vector<int>& point_of_label);
 
