@@ -242,7 +242,7 @@ int run_synth(const SynthOptions& o) {
   filmed.columns = mocap_io::qpos_names(m);
   filmed.qpos.resize(frames, m.nq);
   mocap_io::set_motion_body(&filmed, spec);
-  std::vector<std::string> truth2d(rig.cameras.size(), "frame,marker,u_px,v_px,visible\n");
+  std::vector<std::string> truth2d(rig.cameras.size(), "frame,marker,u_px,v_px,visible,whole\n");
   capture::FrameSet set;
   std::vector<std::vector<capture::MarkerView>> views;
   long visible = 0, out_of_view = 0;
@@ -274,7 +274,7 @@ int run_synth(const SynthOptions& o) {
         std::ostringstream line;
         line.precision(9);
         line << f << "," << truth.labels[k] << "," << v.uv_px.x() << "," << v.uv_px.y() << ","
-             << (v.visible ? 1 : 0) << "\n";
+             << (v.visible ? 1 : 0) << "," << (v.whole ? 1 : 0) << "\n";
         truth2d[c] += line.str();
         seen += v.visible ? 1 : 0;
         out_of_view += rig.cameras[c].in_image(v.uv_px) ? 0 : 1;
@@ -367,12 +367,13 @@ std::optional<Truth> read_truth(const std::string& dir, const std::vector<std::s
       if (!std::getline(in, line))
         throw sim::InvalidArgument(path + ": fewer rows than frames x markers");
       const std::vector<std::string> f = sim::split_fields(line, ',');
-      if (f.size() != 5)
+      if (f.size() != 5 && f.size() != 6)
         throw sim::InvalidArgument(path + ": line " + std::to_string(row + 2) +
-                                   ": expected 5 fields");
+                                   ": expected 6 fields (frame,marker,u_px,v_px,visible,whole)");
       capture::MarkerView& v = per[row / n][row % n];
       v.uv_px = Eigen::Vector2d(std::stod(f[2]), std::stod(f[3]));
       v.visible = f[4] == "1";
+      v.whole = f.size() == 6 ? f[5] == "1" : v.visible;  // older captures: no such column
     }
     truth.views.push_back(std::move(per));
   }
@@ -518,13 +519,16 @@ int run_capture(const RunOptions& o) {
     std::cout << "capture run: WARNING: " << dropped << " frames dropped by the cameras' clocks\n";
   if (truth) {
     summary["truth"] = {{"detection_recall", score.detection_recall()},
+                        {"detection_recall_whole_in_image", score.whole_detection_recall()},
                         {"extra_blobs", score.extra_blobs},
                         {"point_recall", score.point_recall()},
                         {"rms_mm", 1000 * score.rms_m()},
                         {"worst_mm", 1000 * score.worst_m},
                         {"ghost_points", score.ghost_points}};
     std::cout << "capture run: against the truth: detection recall "
-              << 100 * score.detection_recall() << "% of visible marker views, 3D points found "
+              << 100 * score.detection_recall() << "% of visible marker views ("
+              << 100 * score.whole_detection_recall()
+              << "% of those whose whole image is in the frame), 3D points found "
               << 100 * score.point_recall() << "% of markers seen by >= 2 cameras, RMS "
               << 1000 * score.rms_m() << " mm (worst " << 1000 * score.worst_m << " mm), "
               << score.ghost_points << " ghost points\n";

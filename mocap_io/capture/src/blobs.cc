@@ -1,6 +1,7 @@
 // Marker blobs in camera images (blobs.h).
 #include "biodyn/capture/blobs.h"
 
+#include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cmath>
 #include <opencv2/imgproc.hpp>
@@ -9,6 +10,13 @@
 #include "biodyn/sim/errors.h"
 
 namespace biodyn::capture {
+namespace {
+// A joint blob of two touching markers: 2-means iterations, the halves' least roundness (a
+// disc cut by its neighbour's half-plane is ~0.6-0.8 round) and their largest weight ratio.
+constexpr int kSplitIterations = 8;
+constexpr double kSplitRoundness = 0.55;
+constexpr double kSplitWeightRatio = 3.0;
+}  // namespace
 
 void BlobParams::validate() const {
   const auto bad = [](const char* field, const std::string& why) {
@@ -83,6 +91,7 @@ void BlobDetector::detect(const cv::Mat& grey, std::vector<Blob>* blobs, int* re
     const int y1 = std::min(grey.rows, stats_.at<int>(label, cv::CC_STAT_TOP) +
                                            stats_.at<int>(label, cv::CC_STAT_HEIGHT) + 1);
     double w = 0, su = 0, sv = 0, suu = 0, svv = 0, suv = 0, peak = 0;
+    pixels_.clear();
     for (int y = y0; y < y1; ++y) {
       const std::uint8_t* row = foreground_.ptr<std::uint8_t>(y);
       const int* lab = labels_.ptr<int>(y);
@@ -96,6 +105,7 @@ void BlobDetector::detect(const cv::Mat& grey, std::vector<Blob>* blobs, int* re
         svv += wi * y * y;
         suv += wi * x * y;
         peak = std::max(peak, static_cast<double>(row[x]));
+        if (wi > 0) pixels_.emplace_back(x, y, wi);
       }
     }
     if (w <= 0) {
@@ -114,12 +124,89 @@ void BlobDetector::detect(const cv::Mat& grey, std::vector<Blob>* blobs, int* re
     b.area_px = area;
     b.peak_grey = peak;
     if (area >= params_.min_area_for_shape_px && b.roundness < params_.min_roundness) {
-      ++refused;
+      if (!split_pair(blobs)) ++refused;
       continue;
     }
     blobs->push_back(b);
   }
   if (rejected != nullptr) *rejected = refused;
+}
+
+namespace {
+
+/// Weighted centroid and roundness (minor / major axis) of the pixels given by `in`.
+template <class In>
+Blob moments_of(const std::vector<Eigen::Vector3d>& px, In in) {
+  double w = 0, su = 0, sv = 0, suu = 0, svv = 0, suv = 0;
+  int n = 0;
+  for (std::size_t i = 0; i < px.size(); ++i) {
+    if (!in(i)) continue;
+    const Eigen::Vector3d& p = px[i];
+    w += p.z();
+    su += p.z() * p.x();
+    sv += p.z() * p.y();
+    suu += p.z() * p.x() * p.x();
+    svv += p.z() * p.y() * p.y();
+    suv += p.z() * p.x() * p.y();
+    ++n;
+  }
+  Blob b;
+  if (w <= 0) return b;
+  b.uv_px = Eigen::Vector2d(su / w, sv / w);
+  const double cuu = suu / w - b.uv_px.x() * b.uv_px.x();
+  const double cvv = svv / w - b.uv_px.y() * b.uv_px.y();
+  const double cuv = suv / w - b.uv_px.x() * b.uv_px.y();
+  const double mean = 0.5 * (cuu + cvv);
+  const double spread = std::sqrt(std::max(0.0, 0.25 * (cuu - cvv) * (cuu - cvv) + cuv * cuv));
+  const double major = mean + spread, minor = std::max(0.0, mean - spread);
+  b.roundness = major > 0 ? std::sqrt(minor / major) : 1.0;
+  b.area_px = n;
+  b.peak_grey = w;  // the cluster's weight while splitting
+  return b;
+}
+
+}  // namespace
+
+bool BlobDetector::split_pair(std::vector<Blob>* blobs) const {
+  // Two touching discs: weighted 2-means on the blob's pixels, started a standard deviation
+  // either side of the centroid along the major axis. Accepted when both halves are round and
+  // of comparable brightness (two markers of one size at similar depths); a smear or a
+  // reflection is not.
+  const Blob whole = moments_of(pixels_, [](std::size_t) { return true; });
+  double cuu = 0, cvv = 0, cuv = 0, w = 0;
+  for (const Eigen::Vector3d& p : pixels_) {
+    const Eigen::Vector2d d = p.head<2>() - whole.uv_px;
+    cuu += p.z() * d.x() * d.x();
+    cvv += p.z() * d.y() * d.y();
+    cuv += p.z() * d.x() * d.y();
+    w += p.z();
+  }
+  if (w <= 0) return false;
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eig(
+      (Eigen::Matrix2d() << cuu / w, cuv / w, cuv / w, cvv / w).finished());
+  const Eigen::Vector2d axis = eig.eigenvectors().col(1) * std::sqrt(eig.eigenvalues()(1));
+  Eigen::Vector2d a = whole.uv_px + axis, b = whole.uv_px - axis;
+  const auto nearer_a = [&](std::size_t i) {
+    return (pixels_[i].head<2>() - a).squaredNorm() <= (pixels_[i].head<2>() - b).squaredNorm();
+  };
+  Blob first, second;
+  for (int iteration = 0; iteration < kSplitIterations; ++iteration) {
+    first = moments_of(pixels_, nearer_a);
+    second = moments_of(pixels_, [&](std::size_t i) { return !nearer_a(i); });
+    a = first.uv_px;
+    b = second.uv_px;
+  }
+  const double heavier = std::max(first.peak_grey, second.peak_grey);
+  const double lighter = std::min(first.peak_grey, second.peak_grey);
+  if (first.roundness < kSplitRoundness || second.roundness < kSplitRoundness ||
+      lighter * kSplitWeightRatio < heavier)
+    return false;
+  for (Blob* half : {&first, &second}) {
+    half->split = true;
+    half->peak_grey = whole.peak_grey;
+    blobs->push_back(*half);
+  }
+  return true;
 }
 
 }  // namespace biodyn::capture

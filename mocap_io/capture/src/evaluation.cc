@@ -26,8 +26,10 @@ void score_detection(const std::vector<Blob>& blobs, const std::vector<MarkerVie
         best = static_cast<int>(b);
       }
     }
+    score->whole_views += v.whole ? 1 : 0;
     if (best >= 0) {
       ++score->detected_views;
+      score->detected_whole_views += v.whole ? 1 : 0;
       used[static_cast<std::size_t>(best)] = 1;
     }
   }

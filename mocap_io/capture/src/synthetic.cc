@@ -286,6 +286,11 @@ void SyntheticCameras::film_points(const mjModel& model, mjData& data,
       view.visible = in_front && cam.in_image(view.uv_px) &&
                      sim::first_hit_m(model, data, cam.p_WC, p_W) >= dist - radius;
       if (!view.visible) continue;
+      // The disc's radius in pixels (the sphere at its depth) plus the detector's border pixel.
+      const double r_px = cam.K.fx_px * radius / cam.to_camera(p_W).z() + 1.0;
+      view.whole = view.uv_px.x() - r_px >= 0 && view.uv_px.y() - r_px >= 0 &&
+                   view.uv_px.x() + r_px <= cam.K.width_px - 1 &&
+                   view.uv_px.y() + r_px <= cam.K.height_px - 1;
       // Centroid noise: the sphere moved across the line of sight by noise_px at its depth.
       sim::RandomStream r(sim::stream_key(fm.seed, {frame, ci, k}));
       const double depth = cam.to_camera(p_W).z(), scale = depth / cam.K.fx_px;

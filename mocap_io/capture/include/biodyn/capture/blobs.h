@@ -36,6 +36,8 @@ struct Blob {
   double area_px = 0;                               ///< pixels over the threshold
   double roundness = 1;                             ///< minor / major axis (second moments)
   double peak_grey = 0;                             ///< brightest pixel above the background
+  /// One of two touching markers whose joint blob was split in two (BlobDetector::detect).
+  bool split = false;
 };
 
 /// Finds the blobs of 8-bit grey images of one camera. Keeps its scratch images between calls
@@ -52,8 +54,13 @@ class BlobDetector {
   void detect(const cv::Mat& grey, std::vector<Blob>* blobs, int* rejected = nullptr);
 
  private:
+  /// Splits component `label` (its weighted pixels in pixels_) into two round blobs if it is
+  /// two touching markers; false if it is not.
+  bool split_pair(std::vector<Blob>* blobs) const;
+
   BlobParams params_;
   cv::Mat background_, foreground_, mask_, labels_, stats_, centroids_, kernel_;
+  std::vector<Eigen::Vector3d> pixels_;  ///< scratch: (u, v, weight) of one component
 };
 
 }  // namespace biodyn::capture

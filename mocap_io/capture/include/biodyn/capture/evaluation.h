@@ -14,6 +14,8 @@ namespace biodyn::capture {
 struct CaptureScore {
   long visible_views = 0;   ///< (camera, marker) pairs the truth says are visible
   long detected_views = 0;  ///< of those, with a blob within the detection gate
+  long whole_views = 0;     ///< visible views whose whole image is inside the frame
+  long detected_whole_views = 0;  ///< of those, detected
   long extra_blobs = 0;     ///< blobs near no visible marker
   long truth_points = 0;    ///< markers seen by at least 2 cameras (reconstructable)
   long found_points = 0;    ///< of those, with a point within the 3D gate
@@ -25,6 +27,12 @@ struct CaptureScore {
   double detection_recall() const {
     return visible_views ? static_cast<double>(detected_views) / static_cast<double>(visible_views)
                          : 1;
+  }
+  /// Recall over the views whose whole marker image is in the frame (MarkerView::whole).
+  double whole_detection_recall() const {
+    return whole_views ? static_cast<double>(detected_whole_views) /
+                             static_cast<double>(whole_views)
+                       : 1;
   }
   double point_recall() const {
     return truth_points ? static_cast<double>(found_points) / static_cast<double>(truth_points) : 1;

@@ -79,6 +79,9 @@ struct ImageFormation {
 struct MarkerView {
   Eigen::Vector2d uv_px = Eigen::Vector2d::Zero();  ///< distorted pixel of the true centre
   bool visible = false;  ///< in the image, in front of the camera, not hidden by the body
+  /// visible, and its whole image (the sphere's disc) inside the frame, clear of the one-pixel
+  /// border a blob detector refuses: what a camera can measure a centroid of
+  bool whole = false;
 };
 
 /// Renders the cameras of a rig. Needs a current OpenGL context for its whole life (the app
