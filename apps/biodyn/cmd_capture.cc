@@ -762,7 +762,8 @@ Command add_capture_command(CLI::App* app) {
       "camera rig JSON (default: DIR/rig.json, else the synthetic truth DIR/rig_truth.json)");
   run->add_option("--live", r->live,
                   "live cameras instead: V4L2 devices (/dev/video0 or 0) or "
-                  "video files played in real time, in the rig's order");
+                  "video files played in real time, in the rig's order, comma-separated")
+      ->delimiter(',');
   run->add_option("--live-frames", r->live_frames,
                   "stop a live capture after this many frames (0: never)")
       ->capture_default_str();

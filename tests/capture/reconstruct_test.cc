@@ -76,10 +76,10 @@ TEST_CASE("Reconstruction: 8 cameras find every marker two of them see, within a
     INFO("detected " << s.detection_recall() << ", found " << s.found_points << " of "
                      << s.truth_points << ", RMS " << 1000 * s.rms_m() << " mm, worst "
                      << 1000 * s.worst_m << " mm, ghosts " << s.ghost_points);
-    // Measured: 98.9% of visible views detected (every miss has another marker's image 4-8 px
-    // away: two touching blobs, merged or refused as not round; random poses bring markers
-    // together more than a walk does), every point found, RMS 0.24 mm, no ghost.
-    CHECK(s.detection_recall() >= 0.98);
+    // Measured: 99.9% of visible views detected (98.9% before touching markers' joint blobs
+    // were split; the misses left overlap more than they touch), every point found, RMS
+    // 0.25 mm, no ghost.
+    CHECK(s.detection_recall() >= 0.99);
     CHECK(s.point_recall() >= 0.99);
     CHECK(s.rms_m() <= 0.001);
     CHECK(s.ghost_points == 0);
