@@ -83,6 +83,7 @@ class LabelStage {
   std::vector<Eigen::VectorXd> labelled_, skeleton_;  ///< per frame: 3 x labels (NaN: none)
   std::vector<Eigen::Vector3d> points_;
   int init_frame_ = -1;
+  std::vector<double> init_qpos_;  ///< the skeleton the labelling started from (its T-pose fit)
   // Truth scores: marker-frames reconstructed (a point within 1 cm), labelled right, wrong.
   long reconstructed_ = 0, right_ = 0, wrong_ = 0, swaps_ = 0;
   std::vector<char> was_wrong_;

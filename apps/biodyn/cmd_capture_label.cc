@@ -129,7 +129,10 @@ void LabelStage::add(const std::vector<capture::Point3>& points) {
   bool labelled = false;
   if (!labeller_.initialised()) {
     labelled = labeller_.initialise(points_, &out);
-    if (labelled) init_frame_ = frame;
+    if (labelled) {
+      init_frame_ = frame;
+      init_qpos_ = labeller_.qpos();
+    }
   } else {
     labeller_.track(points_, &out);
     labelled = true;
@@ -259,8 +262,12 @@ json LabelStage::finish(const LabelOptions& o) {
   }
   if (!o.motion_out.empty() || (truth_ && !truth_->motion_path.empty())) {
     const mjModel& m = labeller_.subject_model();
-    const mocap_io::MarkerIkResult ik =
-        mocap_io::solve_marker_ik(m, markers, std::vector<double>(labels_.size(), 1.0));
+    // The default (weak) regularisation: the gaps are filled, and a stronger pull towards the
+    // last frame lags the DOFs the markers see weakly (a shoulder's twist with the elbow
+    // straight: 8 degrees behind on a walk with 1e-3). From the labeller's T-pose fit: from the model's arms-down pose the first frame's
+    // 90-degree shoulder turn can end in a twisted arm that every later frame keeps.
+    const mocap_io::MarkerIkResult ik = mocap_io::solve_marker_ik(
+        m, markers, std::vector<double>(labels_.size(), 1.0), {}, init_qpos_);
     summary["ik"] = {{"solved_frames", ik.solved_count()}, {"frames", frames}};
     if (!o.motion_out.empty()) {
       mocap_io::Motion motion;

@@ -133,9 +133,7 @@ MarkerLabeller::MarkerLabeller(const sim::Model& subject, std::vector<std::strin
   mocap_io::MarkerIkOptions ik;
   ik.min_visible_fraction = 0.25;  // a frame of few markers still moves the skeleton
   ik.max_frame_rms_m = 0.10;
-  // Holds the DOFs that no marker sees while one is hidden (a hand while its finger marker is
-  // gone) at the last frame's pose: a 0.1 rad change costs (3 mm)^2, below one marker's error.
-  ik.regularization = 1e-3;
+  ik.regularization = kSkeletonRegularization;
   ik_ = std::make_unique<mocap_io::MarkerIk>(m, labels_, std::vector<double>(labels_.size(), 1.0),
                                              ik);
   const Eigen::Index n = static_cast<Eigen::Index>(labels_.size());

@@ -31,6 +31,11 @@
 
 namespace biodyn::capture {
 
+/// The labeller's skeleton fit (marker IK) holds the DOFs no marker sees while one is hidden
+/// (a hand while its finger marker is gone) at the last frame's pose: a 0.1 rad change costs
+/// (3 mm)^2, below one marker's error (MarkerIkOptions::regularization).
+inline constexpr double kSkeletonRegularization = 1e-3;
+
 /// Minimum-cost assignment (Hungarian algorithm with potentials, O(r^2 c)): per row of `cost`
 /// (rows x cols, any shape) the column it gets, or -1. Pairs whose cost is >= `forbidden` are
 /// never made; a row whose every pair is forbidden gets -1.
