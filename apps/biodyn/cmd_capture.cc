@@ -21,6 +21,7 @@
 #include "biodyn/capture/evaluation.h"
 #include "biodyn/capture/frame_source.h"
 #include "biodyn/capture/intrinsics.h"
+#include "biodyn/capture/overlay.h"
 #include "biodyn/capture/pipeline.h"
 #include "biodyn/capture/reconstruct.h"
 #include "biodyn/capture/synthetic.h"
@@ -336,7 +337,8 @@ int run_synth(const SynthOptions& o) {
 }
 
 struct RunOptions {
-  std::string dir, rig_path, points_path, summary_path;
+  std::string dir, rig_path, points_path, summary_path, overlay_path;
+  double overlay_scale = 0.5;
   LabelOptions label;
   std::vector<std::string> live;
   int live_frames = 0, threads = 0;
@@ -409,7 +411,7 @@ json finish_labelling(LabelStage* labels, const LabelOptions& o) {
 }
 
 int run_capture(const RunOptions& o) {
-  if (o.points_path.empty() && !o.label.wanted())
+  if (o.points_path.empty() && !o.label.wanted() && o.overlay_path.empty())
     throw sim::InvalidArgument(
         "capture run: nothing to write: give -o markers.c3d|.trc (labelled), --motion-out "
         "motion.csv (the skeleton) or --points points.csv (unlabelled)");
@@ -418,6 +420,7 @@ int run_capture(const RunOptions& o) {
   for (const auto& [option, path] : {std::pair<const char*, std::string>{"--points", o.points_path},
                                      {"--summary", o.summary_path},
                                      {"-o", o.label.markers_out},
+                                     {"--overlay", o.overlay_path},
                                      {"--motion-out", o.label.motion_out}})
     if (!path.empty()) outputs.push_back({option, path, false});
   check_outputs(outputs, {o.dir});
@@ -451,6 +454,10 @@ int run_capture(const RunOptions& o) {
   }
   capture::set_image_threads(o.threads);
   capture::CapturePipeline pipeline(rig, o.blobs, o.reconstruction);
+  std::unique_ptr<capture::OverlayWriter> overlay =
+      o.overlay_path.empty() ? nullptr
+                             : std::make_unique<capture::OverlayWriter>(
+                                   o.overlay_path, rig, rig.cameras.front().fps, o.overlay_scale);
   std::vector<capture::Point3> points;
   capture::CaptureScore score;
   std::ostringstream csv;
@@ -481,6 +488,10 @@ int run_capture(const RunOptions& o) {
     }
     point_total += static_cast<long>(points.size());
     if (labels) labels->add(points);
+    if (overlay)
+      overlay->add(set, pipeline.blobs(),
+                   labels ? labels->latest()
+                          : std::vector<std::pair<std::string, Eigen::Vector3d>>{});
     if (truth && set.index < truth->markers.frame_count()) {
       std::vector<Eigen::Vector3d> truth_W;
       std::vector<int> seen(truth->markers.marker_count(), 0);
@@ -498,6 +509,7 @@ int run_capture(const RunOptions& o) {
   }
   bar.finish();
   if (!o.points_path.empty()) write_file_atomically(o.points_path, csv.str());
+  if (overlay) overlay->finish();
   json summary = {{"capture", o.dir},
                   {"rig", rig_path},
                   {"rig_source", rig.source},
@@ -788,6 +800,11 @@ Command add_capture_command(CLI::App* app) {
       ->capture_default_str();
   r->label.subject.add_to(run, false);
   run->add_option("--points", r->points_path, "CSV of the unlabelled 3D points per frame");
+  run->add_option("--overlay", r->overlay_path,
+                  "video (.mp4 or .avi) of every camera's images with the detected blobs and "
+                  "the labelled markers drawn on them");
+  run->add_option("--overlay-scale", r->overlay_scale, "the overlay's tiles, times the image size")
+      ->capture_default_str();
   run->add_option("--summary", r->summary_path, "JSON summary to write");
   auto b = std::make_shared<CaptureBenchOptions>();
   CLI::App* bench = cmd->add_subcommand(

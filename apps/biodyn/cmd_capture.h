@@ -65,6 +65,8 @@ class LabelStage {
   LabelStage(const models::CharacterSpec& subject, double rate_hz, const LabelTruth* truth);
   /// The next frame's points.
   void add(const std::vector<capture::Point3>& points);
+  /// The last frame's labelled markers (label, m in W), for the overlay video.
+  std::vector<std::pair<std::string, Eigen::Vector3d>> latest() const;
   /// Fills the gaps, writes the outputs `o` names, solves the motion; the summary's "labelling"
   /// part (with "truth" scores when a truth was given).
   nlohmann::json finish(const LabelOptions& o);

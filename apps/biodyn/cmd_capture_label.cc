@@ -153,6 +153,17 @@ void LabelStage::add(const std::vector<capture::Point3>& points) {
     score_frame(points_, labelled ? out.point_of_label : std::vector<int>(labels_.size(), -1));
 }
 
+std::vector<std::pair<std::string, Eigen::Vector3d>> LabelStage::latest() const {
+  std::vector<std::pair<std::string, Eigen::Vector3d>> out;
+  if (labelled_.empty()) return out;
+  const Eigen::VectorXd& row = labelled_.back();
+  for (std::size_t k = 0; k < labels_.size(); ++k) {
+    const Eigen::Vector3d p = row.segment<3>(3 * static_cast<Eigen::Index>(k));
+    if (!std::isnan(p.x())) out.emplace_back(labels_[k], p);
+  }
+  return out;
+}
+
 void LabelStage::score_frame(const std::vector<Eigen::Vector3d>& points,
                              const std::vector<int>& point_of_label) {
   const int frame = static_cast<int>(labelled_.size()) - 1;

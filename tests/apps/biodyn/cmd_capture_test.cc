@@ -56,7 +56,7 @@ TEST_CASE("biodyn capture synth films a walk, calibrate finds the rig, run finds
 
   r = run_biodyn(
       "capture run cap -o markers.c3d --motion-out motion.csv --points points.csv "
-      "--summary run.json",
+      "--overlay overlay.mp4 --summary run.json",
       dir);
   INFO(r.out << r.err);
   REQUIRE(r.exit_code == 0);
@@ -82,6 +82,12 @@ TEST_CASE("biodyn capture synth films a walk, calibrate finds the rig, run finds
   CHECK(r.out.find("161 frames at 100.0 Hz") != std::string::npos);
   CHECK(r.out.find("26 markers") != std::string::npos);
   CHECK(slurp(dir / "motion.csv").find("body:") != std::string::npos);
+  // The overlay video: one frame per capture frame, the 4 cameras' tiles (2 x 2 at half size).
+  r = biodyn::testing::run_shell(
+      "ffprobe -v error -count_frames -show_entries stream=width,height,nb_read_frames -of csv "
+      "overlay.mp4",
+      dir);
+  CHECK(r.out.find("stream,656,492,161") != std::string::npos);
   const std::string points = slurp(dir / "points.csv");
   CHECK(points.rfind("frame,time_s,point,x_m,y_m,z_m,views,residual_px\n", 0) == 0);
 
