@@ -302,28 +302,27 @@ int run_synth(const SynthOptions& o) {
   const double marker_frames = static_cast<double>(frames) * static_cast<double>(sites.size());
   const double seen_twice = static_cast<double>(visible) / marker_frames;
   const double outside = static_cast<double>(out_of_view) / (marker_frames * rig.size());
-  const json extra = {
-      {"source", "synthetic"},
-      {"motion", o.motion},
-      {"motion_from_s", t0 - solved.times_s.front()},
-      {"in_place", o.in_place},
-      {"body", character_json(spec)},
-      // The subject's body as a lab would measure it (capture run labels with it).
-      {"subject", json::parse(models::format_body_json(spec, true))},
-      {"t_pose_s", o.t_pose_s},
-      {"markers", truth.labels},
-      {"marker_diameter_m", formation.marker_diameter_m},
-      {"noise_px", formation.noise_px},
-      {"sensor_noise_grey", formation.sensor_noise_grey},
-      {"exposure", formation.exposure},
-      {"seed", formation.seed},
-      {"rig_truth", "rig_truth.json"},
-      {"truth",
-       {{"markers", "truth/markers.trc"},
-        {"views", "truth/<camera>.csv"},
-        {"motion", "truth/motion.csv"}}},
-      {"markers_seen_by_2_cameras", seen_twice},
-      {"marker_views_outside_image", outside}};
+  const json extra = {{"source", "synthetic"},
+                      {"motion", o.motion},
+                      {"motion_from_s", t0 - solved.times_s.front()},
+                      {"in_place", o.in_place},
+                      {"body", character_json(spec)},
+                      // The subject's body as a lab would measure it (capture run labels with it).
+                      {"subject", json::parse(models::format_body_json(spec, true))},
+                      {"t_pose_s", o.t_pose_s},
+                      {"markers", truth.labels},
+                      {"marker_diameter_m", formation.marker_diameter_m},
+                      {"noise_px", formation.noise_px},
+                      {"sensor_noise_grey", formation.sensor_noise_grey},
+                      {"exposure", formation.exposure},
+                      {"seed", formation.seed},
+                      {"rig_truth", "rig_truth.json"},
+                      {"truth",
+                       {{"markers", "truth/markers.trc"},
+                        {"views", "truth/<camera>.csv"},
+                        {"motion", "truth/motion.csv"}}},
+                      {"markers_seen_by_2_cameras", seen_twice},
+                      {"marker_views_outside_image", outside}};
   writer.finish(extra.dump());
   std::cout << "capture synth: " << frames << " frames from " << rig.size() << " cameras ("
             << rig_spec.width_px << " x " << rig_spec.height_px << " px, " << rig_spec.fps
@@ -393,8 +392,8 @@ json finish_labelling(LabelStage* labels, const LabelOptions& o) {
   std::cout << "capture run: labelled from frame " << l["initialised_at_frame"] << ": "
             << 100 * l["labelled_marker_frames"].get<double>()
             << "% of marker-frames; gaps filled: " << l["gap_fill"]["spline_samples"]
-            << " samples by cubic, " << l["gap_fill"]["skeleton_samples"]
-            << " by the skeleton, " << l["gap_fill"]["left_samples"] << " left\n";
+            << " samples by cubic, " << l["gap_fill"]["skeleton_samples"] << " by the skeleton, "
+            << l["gap_fill"]["left_samples"] << " left\n";
   if (l.contains("truth"))
     std::cout << "capture run: labels against the truth: "
               << 100 * l["truth"]["labelled_right"].get<double>()
@@ -489,9 +488,9 @@ int run_capture(const RunOptions& o) {
     point_total += static_cast<long>(points.size());
     if (labels) labels->add(points);
     if (overlay)
-      overlay->add(set, pipeline.blobs(),
-                   labels ? labels->latest()
-                          : std::vector<std::pair<std::string, Eigen::Vector3d>>{});
+      overlay->add(
+          set, pipeline.blobs(),
+          labels ? labels->latest() : std::vector<std::pair<std::string, Eigen::Vector3d>>{});
     if (truth && set.index < truth->markers.frame_count()) {
       std::vector<Eigen::Vector3d> truth_W;
       std::vector<int> seen(truth->markers.marker_count(), 0);
@@ -600,11 +599,10 @@ json lenses_from_checkerboard(const CalibrateOptions& o, capture::Rig* rig) {
     const capture::LensFit fit =
         capture::calibrate_lens(capture::read_board_views(folder.string(), cam.name), board);
     if (fit.lens.width_px != cam.K.width_px || fit.lens.height_px != cam.K.height_px)
-      throw sim::InvalidArgument(folder.string() + "/" + cam.name + ": images are " +
-                                 std::to_string(fit.lens.width_px) + " x " +
-                                 std::to_string(fit.lens.height_px) + ", the camera's " +
-                                 std::to_string(cam.K.width_px) + " x " +
-                                 std::to_string(cam.K.height_px));
+      throw sim::InvalidArgument(
+          folder.string() + "/" + cam.name + ": images are " + std::to_string(fit.lens.width_px) +
+          " x " + std::to_string(fit.lens.height_px) + ", the camera's " +
+          std::to_string(cam.K.width_px) + " x " + std::to_string(cam.K.height_px));
     cam.K = fit.lens;
     std::cout << "  " << cam.name << ": lens from " << fit.views_used
               << " checkerboard views, reprojection " << fit.rms_px << " px\n";
@@ -701,6 +699,48 @@ int run_calibrate(const CalibrateOptions& o) {
   return kExitOk;
 }
 
+/// `capture run`'s options into `r`.
+void add_run_options(CLI::App* run, RunOptions* r) {
+  run->add_option("dir", r->dir, "recorded capture folder (capture synth writes one)")->required();
+  run->add_option(
+      "--rig", r->rig_path,
+      "camera rig JSON (default: DIR/rig.json, else the synthetic truth DIR/rig_truth.json)");
+  run->add_option("--live", r->live,
+                  "live cameras instead: V4L2 devices (/dev/video0 or 0) or "
+                  "video files played in real time, in the rig's order, comma-separated")
+      ->delimiter(',');
+  run->add_option("--live-frames", r->live_frames,
+                  "stop a live capture after this many frames (0: never)")
+      ->capture_default_str();
+  run->add_option("--threshold", r->blobs.threshold_grey,
+                  "grey levels above the background that make a marker")
+      ->capture_default_str();
+  run->add_option("--min-views", r->reconstruction.min_views, "cameras a 3D point needs")
+      ->capture_default_str();
+  run->add_option("--epipolar-gate", r->reconstruction.epipolar_gate_px, "px")
+      ->capture_default_str();
+  run->add_option("--threads", r->threads, "threads for the cameras' images (0: OpenCV's default)")
+      ->capture_default_str();
+  run->add_option("-o,--output", r->label.markers_out,
+                  "labelled markers to write: .c3d or .trc (gaps filled as --fill says)");
+  run->add_option("--motion-out", r->label.motion_out,
+                  "the subject's skeleton motion (qpos CSV) by marker IK of the labelled markers");
+  run->add_option("--fill", r->label.fill,
+                  "gap filling: none, spline (gaps up to --max-gap) or skeleton (longer gaps "
+                  "carried by the fitted skeleton's segment)")
+      ->capture_default_str();
+  run->add_option("--max-gap", r->label.max_gap_s, "s, longest gap a cubic fills")
+      ->capture_default_str();
+  r->label.subject.add_to(run, false);
+  run->add_option("--points", r->points_path, "CSV of the unlabelled 3D points per frame");
+  run->add_option("--overlay", r->overlay_path,
+                  "video (.mp4 or .avi) of every camera's images with the detected blobs and "
+                  "the labelled markers drawn on them");
+  run->add_option("--overlay-scale", r->overlay_scale, "the overlay's tiles, times the image size")
+      ->capture_default_str();
+  run->add_option("--summary", r->summary_path, "JSON summary to write");
+}
+
 }  // namespace
 #endif  // BIODYN_HAVE_CAPTURE
 
@@ -748,9 +788,10 @@ Command add_capture_command(CLI::App* app) {
       ->capture_default_str();
   synth->add_option("--duration", s->duration_s,
                     "film this long, s (default: to the motion's end)");
-  synth->add_option("--t-pose", s->t_pose_s,
-                    "s the subject stands in a T-pose before the motion (then 1 s into its "
-                    "first frame), for the labelling; 0: none")
+  synth
+      ->add_option("--t-pose", s->t_pose_s,
+                   "s the subject stands in a T-pose before the motion (then 1 s into its "
+                   "first frame), for the labelling; 0: none")
       ->capture_default_str();
   synth->add_flag("--in-place", s->in_place,
                   "remove the root's progression (its 1 s running mean): a walk on a treadmill");
@@ -767,45 +808,10 @@ Command add_capture_command(CLI::App* app) {
       ->required();
   auto r = std::make_shared<RunOptions>();
   CLI::App* run = cmd->add_subcommand(
-      "run", "Camera images to 3D markers: blobs, epipolar matching, triangulation");
-  run->add_option("dir", r->dir, "recorded capture folder (capture synth writes one)")->required();
-  run->add_option(
-      "--rig", r->rig_path,
-      "camera rig JSON (default: DIR/rig.json, else the synthetic truth DIR/rig_truth.json)");
-  run->add_option("--live", r->live,
-                  "live cameras instead: V4L2 devices (/dev/video0 or 0) or "
-                  "video files played in real time, in the rig's order, comma-separated")
-      ->delimiter(',');
-  run->add_option("--live-frames", r->live_frames,
-                  "stop a live capture after this many frames (0: never)")
-      ->capture_default_str();
-  run->add_option("--threshold", r->blobs.threshold_grey,
-                  "grey levels above the background that make a marker")
-      ->capture_default_str();
-  run->add_option("--min-views", r->reconstruction.min_views, "cameras a 3D point needs")
-      ->capture_default_str();
-  run->add_option("--epipolar-gate", r->reconstruction.epipolar_gate_px, "px")
-      ->capture_default_str();
-  run->add_option("--threads", r->threads, "threads for the cameras' images (0: OpenCV's default)")
-      ->capture_default_str();
-  run->add_option("-o,--output", r->label.markers_out,
-                  "labelled markers to write: .c3d or .trc (gaps filled as --fill says)");
-  run->add_option("--motion-out", r->label.motion_out,
-                  "the subject's skeleton motion (qpos CSV) by marker IK of the labelled markers");
-  run->add_option("--fill", r->label.fill,
-                  "gap filling: none, spline (gaps up to --max-gap) or skeleton (longer gaps "
-                  "carried by the fitted skeleton's segment)")
-      ->capture_default_str();
-  run->add_option("--max-gap", r->label.max_gap_s, "s, longest gap a cubic fills")
-      ->capture_default_str();
-  r->label.subject.add_to(run, false);
-  run->add_option("--points", r->points_path, "CSV of the unlabelled 3D points per frame");
-  run->add_option("--overlay", r->overlay_path,
-                  "video (.mp4 or .avi) of every camera's images with the detected blobs and "
-                  "the labelled markers drawn on them");
-  run->add_option("--overlay-scale", r->overlay_scale, "the overlay's tiles, times the image size")
-      ->capture_default_str();
-  run->add_option("--summary", r->summary_path, "JSON summary to write");
+      "run",
+      "Camera images to labelled 3D markers and the skeleton: blobs, epipolar matching, "
+      "triangulation, T-pose labelling, tracking, gap filling, marker IK");
+  add_run_options(run, r.get());
   auto b = std::make_shared<CaptureBenchOptions>();
   CLI::App* bench = cmd->add_subcommand(
       "bench",

@@ -105,9 +105,9 @@ int run_capture_bench(const CaptureBenchOptions& o) {
     std::cout << "  labelling (per-frame IK skeleton):  " << n / label_s << " frames/s (labelled "
               << "from frame " << init_frame << ", " << static_cast<double>(labelled) / n
               << " markers per frame)\n";
-  std::cout << "  all of it, one frame after another: " << total_fps << " frames/s: "
-            << (total_fps >= fps ? "keeps up with" : "slower than") << " the cameras' " << fps
-            << " fps\n";
+  std::cout << "  all of it, one frame after another: " << total_fps
+            << " frames/s: " << (total_fps >= fps ? "keeps up with" : "slower than")
+            << " the cameras' " << fps << " fps\n";
   if (!o.summary_path.empty()) write_file_atomically(o.summary_path, json_text(summary, 2));
   return kExitOk;
 }

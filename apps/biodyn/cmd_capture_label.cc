@@ -110,8 +110,8 @@ models::CharacterSpec capture_subject(const std::string& dir, const LabelOptions
 LabelStage::LabelStage(const models::CharacterSpec& subject, double rate_hz,
                        const LabelTruth* truth)
     : spec_(subject),
-      model_(sim::Model::from_string(models::to_mjcf(models::generate_character(subject)),
-                                     "subject")),
+      model_(
+          sim::Model::from_string(models::to_mjcf(models::generate_character(subject)), "subject")),
       labels_(marker_labels(subject)),
       labeller_(model_, labels_),
       rate_hz_(rate_hz),
@@ -173,10 +173,12 @@ void LabelStage::score_frame(const std::vector<Eigen::Vector3d>& points,
     if (tk < 0) continue;
     const Eigen::Vector3d at = t.position(frame, tk);
     bool there = false;
-    for (const Eigen::Vector3d& p : points) there = there || (p - at).norm() < capture::kPointGate_m;
+    for (const Eigen::Vector3d& p : points)
+      there = there || (p - at).norm() < capture::kPointGate_m;
     reconstructed_ += there ? 1 : 0;
     const int j = point_of_label[k];
-    const bool wrong = j >= 0 && (points[static_cast<std::size_t>(j)] - at).norm() >= capture::kPointGate_m;
+    const bool wrong =
+        j >= 0 && (points[static_cast<std::size_t>(j)] - at).norm() >= capture::kPointGate_m;
     right_ += j >= 0 && !wrong ? 1 : 0;
     wrong_ += wrong ? 1 : 0;
     swaps_ += wrong && !was_wrong_[k] ? 1 : 0;
@@ -221,12 +223,9 @@ json LabelStage::score_motion(const mjModel& m, const Eigen::MatrixXd& qpos) con
   const auto rms = [](double sq, long n) {
     return n ? std::sqrt(sq / static_cast<double>(n)) * kRadToDeg : 0.0;
   };
-  return {{"joint_rms_deg", rms(sum, count)},
-          {"seen_joint_rms_deg", rms(sum_seen, count_seen)},
-          {"joints_no_marker_sees", unseen},
-          {"worst_joint", worst},
-          {"worst_joint_rms_deg", worst_rms},
-          {"per_joint_rms_deg", joints}};
+  return {{"joint_rms_deg", rms(sum, count)}, {"seen_joint_rms_deg", rms(sum_seen, count_seen)},
+          {"joints_no_marker_sees", unseen},  {"worst_joint", worst},
+          {"worst_joint_rms_deg", worst_rms}, {"per_joint_rms_deg", joints}};
 }
 
 json LabelStage::finish(const LabelOptions& o) {
@@ -243,15 +242,17 @@ json LabelStage::finish(const LabelOptions& o) {
   }
   long observed = 0;
   for (int f = 0; f < frames; ++f)
-    for (Eigen::Index k = 0; k < n; ++k) observed += markers.visible(f, static_cast<int>(k)) ? 1 : 0;
+    for (Eigen::Index k = 0; k < n; ++k)
+      observed += markers.visible(f, static_cast<int>(k)) ? 1 : 0;
   capture::GapFillReport fill;
   if (o.fill != "none")
     fill = capture::fill_gaps(&markers, o.max_gap_s, o.fill == "skeleton" ? &skeleton : nullptr);
   json summary = {
       {"labelled", init_frame_ >= 0},
       {"initialised_at_frame", init_frame_},
-      {"labelled_marker_frames", static_cast<double>(observed) /
-                                     std::max(1.0, static_cast<double>(frames) * static_cast<double>(n))},
+      {"labelled_marker_frames",
+       static_cast<double>(observed) /
+           std::max(1.0, static_cast<double>(frames) * static_cast<double>(n))},
       {"gap_fill",
        {{"method", o.fill},
         {"max_spline_gap_s", o.max_gap_s},
@@ -275,8 +276,9 @@ json LabelStage::finish(const LabelOptions& o) {
     const mjModel& m = labeller_.subject_model();
     // The default (weak) regularisation: the gaps are filled, and a stronger pull towards the
     // last frame lags the DOFs the markers see weakly (a shoulder's twist with the elbow
-    // straight: 8 degrees behind on a walk with 1e-3). From the labeller's T-pose fit: from the model's arms-down pose the first frame's
-    // 90-degree shoulder turn can end in a twisted arm that every later frame keeps.
+    // straight: 8 degrees behind on a walk with 1e-3). From the labeller's T-pose fit: from the
+    // model's arms-down pose the first frame's 90-degree shoulder turn can end in a twisted arm
+    // that every later frame keeps.
     const mocap_io::MarkerIkResult ik = mocap_io::solve_marker_ik(
         m, markers, std::vector<double>(labels_.size(), 1.0), {}, init_qpos_);
     summary["ik"] = {{"solved_frames", ik.solved_count()}, {"frames", frames}};
@@ -294,7 +296,8 @@ json LabelStage::finish(const LabelOptions& o) {
   if (truth_) {
     summary["truth"] = {
         {"reconstructed_marker_frames", reconstructed_},
-        {"labelled_right", reconstructed_ ? static_cast<double>(right_) / static_cast<double>(reconstructed_) : 1.0},
+        {"labelled_right",
+         reconstructed_ ? static_cast<double>(right_) / static_cast<double>(reconstructed_) : 1.0},
         {"wrong_labels", wrong_},
         {"identity_swaps", swaps_}};
   }

@@ -20,7 +20,8 @@ TEST_CASE("Checkerboard: each camera's lens from 25 views of a board") {
     std::vector<cv::Mat> images;
     const BoardCamera film(camera);
     const auto poses = board_poses(camera, board, kViews, 7);
-    for (std::size_t v = 0; v < poses.size(); ++v) images.push_back(film.film(board, poses[v], 1.0, v));
+    for (std::size_t v = 0; v < poses.size(); ++v)
+      images.push_back(film.film(board, poses[v], 1.0, v));
     const LensFit fit = calibrate_lens(images, board);
     // The fitted lens against the true one: the ray each gives every pixel of a grid spanning
     // the image, up to one rotation of the camera (a principal point a pixel off and a camera
@@ -49,8 +50,8 @@ TEST_CASE("Checkerboard: each camera's lens from 25 views of a board") {
     }
     INFO(camera.name << ": " << fit.views_used << " views, reprojection " << fit.rms_px
                      << " px; fx " << fit.lens.fx_px << " (true " << camera.K.fx_px << "), cx "
-                     << fit.lens.cx_px << " (" << camera.K.cx_px << "), k1 " << fit.lens.k1
-                     << " (" << camera.K.k1 << "); rays " << std::sqrt(sum2 / 121) << " px RMS, worst "
+                     << fit.lens.cx_px << " (" << camera.K.cx_px << "), k1 " << fit.lens.k1 << " ("
+                     << camera.K.k1 << "); rays " << std::sqrt(sum2 / 121) << " px RMS, worst "
                      << worst << " px (up to a turn of the camera)");
     CHECK(fit.views_used == kViews);
     CHECK(fit.rms_px < 0.2);

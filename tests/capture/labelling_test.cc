@@ -68,8 +68,9 @@ std::vector<Eigen::Vector3d> observe(const Subject& s, const std::vector<double>
   }
   const Eigen::Vector3d root = sim::vec3_at(d->xpos + 3);
   for (int g = 0; g < ghosts; ++g) {
-    const Eigen::Vector3d p = root + Eigen::Vector3d(0.8 * r->uniform() - 0.4,
-                                                     0.8 * r->uniform() - 0.4, 1.6 * r->uniform() - 0.9);
+    const Eigen::Vector3d p =
+        root + Eigen::Vector3d(0.8 * r->uniform() - 0.4, 0.8 * r->uniform() - 0.4,
+                               1.6 * r->uniform() - 0.9);
     pts.emplace_back(p, -1);
   }
   for (std::size_t i = pts.size(); i > 1; --i)
@@ -99,9 +100,10 @@ std::vector<double> random_t_pose(const mjModel& m, sim::RandomStream* r) {
     } else if (m.jnt_type[j] == mjJNT_BALL) {
       const bool shoulder = std::string(mj_id2name(&m, mjOBJ_JOINT, j)).rfind("shoulder", 0) == 0;
       const double spread = shoulder ? 0.13 : 0.05;
-      Eigen::Quaterniond turn(Eigen::AngleAxisd(spread * r->normal(), Eigen::Vector3d::UnitX()) *
-                              Eigen::AngleAxisd(spread * r->normal(), Eigen::Vector3d::UnitY()) *
-                              Eigen::AngleAxisd(0.5 * spread * r->normal(), Eigen::Vector3d::UnitZ()));
+      Eigen::Quaterniond turn(
+          Eigen::AngleAxisd(spread * r->normal(), Eigen::Vector3d::UnitX()) *
+          Eigen::AngleAxisd(spread * r->normal(), Eigen::Vector3d::UnitY()) *
+          Eigen::AngleAxisd(0.5 * spread * r->normal(), Eigen::Vector3d::UnitZ()));
       const Eigen::Quaterniond o = turn * Eigen::Quaterniond(q[a], q[a + 1], q[a + 2], q[a + 3]);
       q[a] = o.w();
       q[a + 1] = o.x();
@@ -151,13 +153,16 @@ TEST_CASE("T-pose initialisation labels random subjects standing anywhere, facin
     bool right = labeller.initialise(points, &frame);
     for (std::size_t k = 0; right && k < s.labels.size(); ++k) {
       const int j = frame.point_of_label[k];
-      const bool present = std::find(truth.begin(), truth.end(), static_cast<int>(k)) != truth.end();
-      right = present ? (j >= 0 && truth[static_cast<std::size_t>(j)] == static_cast<int>(k)) : j < 0;
+      const bool present =
+          std::find(truth.begin(), truth.end(), static_cast<int>(k)) != truth.end();
+      right =
+          present ? (j >= 0 && truth[static_cast<std::size_t>(j)] == static_cast<int>(k)) : j < 0;
     }
     bool none_wrong = true;
     for (std::size_t k = 0; k < s.labels.size(); ++k) {
       const int j = frame.point_of_label[k];
-      none_wrong = none_wrong && (j < 0 || truth[static_cast<std::size_t>(j)] == static_cast<int>(k));
+      none_wrong =
+          none_wrong && (j < 0 || truth[static_cast<std::size_t>(j)] == static_cast<int>(k));
     }
     never_wrong += none_wrong ? 1 : 0;
     if (right) {
@@ -207,7 +212,8 @@ Tracked track_walk(std::uint64_t seed) {
   std::vector<int> previous_truth;
   for (int f = 0; f < frames; ++f) {
     std::vector<double> q(static_cast<std::size_t>(lead.qpos.cols()));
-    for (Eigen::Index i = 0; i < lead.qpos.cols(); ++i) q[static_cast<std::size_t>(i)] = lead.qpos(f, i);
+    for (Eigen::Index i = 0; i < lead.qpos.cols(); ++i)
+      q[static_cast<std::size_t>(i)] = lead.qpos(f, i);
     std::vector<int> truth;
     std::vector<Eigen::Vector3d> points =
         observe(s, q, &r, 0, static_cast<int>(3 * r.uniform()), &truth);
@@ -236,10 +242,10 @@ Tracked track_walk(std::uint64_t seed) {
       // A label back from a gap names its point in the frame before too.
       if (!std::isnan(frame.previous_position(0, k))) {
         const auto at = std::find(previous_truth.begin(), previous_truth.end(), k);
-        const bool same =
-            at != previous_truth.end() &&
-            (previous_points[static_cast<std::size_t>(at - previous_truth.begin())] -
-             frame.previous_position.col(k)).norm() < 1e-12;
+        const bool same = at != previous_truth.end() &&
+                          (previous_points[static_cast<std::size_t>(at - previous_truth.begin())] -
+                           frame.previous_position.col(k))
+                                  .norm() < 1e-12;
         right += same ? 1 : 0;
         wrong += same ? 0 : 1;
       }
@@ -311,7 +317,8 @@ TEST_CASE("Gap filling: a cubic across short gaps, the skeleton's segment across
   CHECK(s.skeleton == 0);
   CHECK(s.left == 45);
   double worst = 0;
-  for (int f = 50; f < 60; ++f) worst = std::max(worst, (spline_only.positions_m.row(f) - truth.row(f)).norm());
+  for (int f = 50; f < 60; ++f)
+    worst = std::max(worst, (spline_only.positions_m.row(f) - truth.row(f)).norm());
   INFO("cubic across 10 frames: worst " << 1000 * worst << " mm");
   CHECK(worst < 0.002);
   CHECK(std::isnan(spline_only.positions_m(120, 0)));
@@ -321,9 +328,11 @@ TEST_CASE("Gap filling: a cubic across short gaps, the skeleton's segment across
   CHECK(k.skeleton == 45);
   CHECK(k.left == 0);
   double worst_long = 0;
-  for (int f = 100; f < 140; ++f) worst_long = std::max(worst_long, (m.positions_m.row(f) - truth.row(f)).norm());
+  for (int f = 100; f < 140; ++f)
+    worst_long = std::max(worst_long, (m.positions_m.row(f) - truth.row(f)).norm());
   double worst_start = 0;
-  for (int f = 0; f < 5; ++f) worst_start = std::max(worst_start, (m.positions_m.row(f) - truth.row(f)).norm());
+  for (int f = 0; f < 5; ++f)
+    worst_start = std::max(worst_start, (m.positions_m.row(f) - truth.row(f)).norm());
   INFO("skeleton across 40 frames: worst " << 1000 * worst_long << " mm; at the start "
                                            << 1000 * worst_start << " mm");
   // The offset seen at the gap's ends is blended across it: only the drift's curvature (none

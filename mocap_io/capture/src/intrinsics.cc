@@ -1,8 +1,8 @@
 // Lens calibration from a checkerboard (intrinsics.h).
 #include "biodyn/capture/intrinsics.h"
 
-#include <cmath>
 #include <algorithm>
+#include <cmath>
 #include <filesystem>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgcodecs.hpp>
@@ -69,8 +69,8 @@ std::vector<Eigen::Isometry3d> board_poses(const Camera& camera, const Checkerbo
     for (const cv::Point3f& c : corners) {
       bool in_front = false;
       const Eigen::Vector2d p = camera.project(board_W * Eigen::Vector3d(c.x, c.y, c.z), &in_front);
-      inside = inside && in_front && p.x() > 10 && p.y() > 10 &&
-               p.x() < camera.K.width_px - 11 && p.y() < camera.K.height_px - 11;
+      inside = inside && in_front && p.x() > 10 && p.y() > 10 && p.x() < camera.K.width_px - 11 &&
+               p.y() < camera.K.height_px - 11;
     }
     if (inside) poses.push_back(board_W);
   }
@@ -84,8 +84,8 @@ BoardCamera::BoardCamera(const Camera& camera) : camera_(camera) {
     for (int u = 0; u < w; ++u)
       for (int sv = 0; sv < kSamples; ++sv)
         for (int su = 0; su < kSamples; ++su)
-          rays_.push_back(camera.undistort(Eigen::Vector2d(u + (su + 0.5) / kSamples - 0.5,
-                                                           v + (sv + 0.5) / kSamples - 0.5)));
+          rays_.push_back(camera.undistort(
+              Eigen::Vector2d(u + (su + 0.5) / kSamples - 0.5, v + (sv + 0.5) / kSamples - 0.5)));
 }
 
 cv::Mat BoardCamera::film(const Checkerboard& board, const Eigen::Isometry3d& board_W,

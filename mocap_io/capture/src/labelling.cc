@@ -52,8 +52,10 @@ std::vector<int> min_cost_assignment(const Eigen::MatrixXd& cost, double forbidd
     const double v = cost(r, c);
     return std::isnan(v) || v >= forbidden ? 2 * forbidden + 1 : v;
   };
-  std::vector<double> u(static_cast<std::size_t>(rows) + 1, 0), v(static_cast<std::size_t>(width) + 1, 0);
-  std::vector<int> row_of(static_cast<std::size_t>(width) + 1, 0), way(static_cast<std::size_t>(width) + 1, 0);
+  std::vector<double> u(static_cast<std::size_t>(rows) + 1, 0),
+      v(static_cast<std::size_t>(width) + 1, 0);
+  std::vector<int> row_of(static_cast<std::size_t>(width) + 1, 0),
+      way(static_cast<std::size_t>(width) + 1, 0);
   std::vector<double> min_to(static_cast<std::size_t>(width) + 1);
   std::vector<char> used(static_cast<std::size_t>(width) + 1);
   const auto idx = [](int i) { return static_cast<std::size_t>(i); };
@@ -225,8 +227,8 @@ double MarkerLabeller::fit_heading(const std::vector<Eigen::Vector3d>& points, d
       const Eigen::Vector3d p = r * Eigen::Vector3d((*q)[root], (*q)[root + 1], (*q)[root + 2]) +
                                 t.topRightCorner<3, 1>();
       const Eigen::Quaterniond o =
-          Eigen::Quaterniond(r) * Eigen::Quaterniond((*q)[root + 3], (*q)[root + 4],
-                                                     (*q)[root + 5], (*q)[root + 6]);
+          Eigen::Quaterniond(r) *
+          Eigen::Quaterniond((*q)[root + 3], (*q)[root + 4], (*q)[root + 5], (*q)[root + 6]);
       for (int i = 0; i < 3; ++i) (*q)[root + static_cast<std::size_t>(i)] = p[i];
       (*q)[root + 3] = o.w();
       (*q)[root + 4] = o.x();
@@ -293,8 +295,8 @@ bool MarkerLabeller::initialise(const std::vector<Eigen::Vector3d>& points, Labe
   std::vector<int> labels_of, best_labels;
   for (int h = 0; h < 4; ++h) {
     const double rms = fit_heading(points, base + h * M_PI / 2, &q, &labels_of);
-    const int labelled =
-        static_cast<int>(std::count_if(labels_of.begin(), labels_of.end(), [](int j) { return j >= 0; }));
+    const int labelled = static_cast<int>(
+        std::count_if(labels_of.begin(), labels_of.end(), [](int j) { return j >= 0; }));
     // More markers labelled wins; at equal count, the closer fit.
     if (labelled > best_labelled || (labelled == best_labelled && rms < best)) {
       best = rms;
@@ -362,8 +364,7 @@ void MarkerLabeller::predict() {
       predicted_.col(k) = 2 * last_.col(k) - before_last_.col(k);
       // A fast marker's next step is less certain (a foot at 5 m/s changes its step by
       // centimetres from one frame to the next): the gate grows with the step.
-      gates_[i] = params_.gate_m +
-                  kGatePerStep * (last_.col(k) - before_last_.col(k)).norm();
+      gates_[i] = params_.gate_m + kGatePerStep * (last_.col(k) - before_last_.col(k)).norm();
     } else if (is_set(last_.col(k))) {
       // Seen once since a gap: it moves as the skeleton's marker moved over the last frame (a
       // heel in swing moves 3-4 cm a frame).
@@ -374,8 +375,8 @@ void MarkerLabeller::predict() {
       // since, so the gate widens with the gap (a hand turns about its wrist while its
       // finger marker is hidden).
       predicted_.col(k) = 2 * skeleton_.col(k) - skeleton_previous_.col(k);
-      gates_[i] = std::min(params_.reacquire_gate_m + kGateGrowth_m * gap_frames_[i],
-                           kMaxReacquireGate_m);
+      gates_[i] =
+          std::min(params_.reacquire_gate_m + kGateGrowth_m * gap_frames_[i], kMaxReacquireGate_m);
     }
   }
 }
@@ -405,8 +406,10 @@ void MarkerLabeller::assign_tracked(const std::vector<Eigen::Vector3d>& points,
       const double d = (predicted_.col(k) - p).norm();
       bool allowed = true;
       if (gap_frames_[i] > 0 && !is_set(last_.col(k))) {
-        allowed = from >= 0 && (unlabelled_previous_[static_cast<std::size_t>(from)] -
-                                predicted_.col(k)).norm() < gates_[i];
+        allowed =
+            from >= 0 &&
+            (unlabelled_previous_[static_cast<std::size_t>(from)] - predicted_.col(k)).norm() <
+                gates_[i];
       }
       cost_(k, j) = std::isnan(d) || !allowed ? kNaN : d / gates_[i];
     }
@@ -450,8 +453,9 @@ bool MarkerLabeller::fit_checked(const std::vector<Eigen::Vector3d>& points, Lab
     bool dropped = false;
     for (std::size_t k = 0; k < labels_.size(); ++k) {
       const int j = out->point_of_label[k];
-      if (j < 0 || (fitted.col(static_cast<Eigen::Index>(k)) -
-                    points[static_cast<std::size_t>(j)]).norm() <= params_.max_residual_m)
+      if (j < 0 ||
+          (fitted.col(static_cast<Eigen::Index>(k)) - points[static_cast<std::size_t>(j)]).norm() <=
+              params_.max_residual_m)
         continue;
       out->point_of_label[k] = -1;
       dropped = true;
@@ -464,8 +468,7 @@ bool MarkerLabeller::fit_checked(const std::vector<Eigen::Vector3d>& points, Lab
   return solved;
 }
 
-void MarkerLabeller::recover_lost(const std::vector<Eigen::Vector3d>& points,
-                                  LabelledFrame* out) {
+void MarkerLabeller::recover_lost(const std::vector<Eigen::Vector3d>& points, LabelledFrame* out) {
   // Labels lost together (a whole foot in a fast swing, a limb hidden for a while) come back
   // as at the T-pose: the skeleton, fitted to the markers still tracked, looks for them among
   // the points that have persisted unlabelled, with gates that narrow as the fit improves.
@@ -493,7 +496,8 @@ void MarkerLabeller::recover_lost(const std::vector<Eigen::Vector3d>& points,
               (sites.col(static_cast<Eigen::Index>(k)) - points[j]).norm() / gate;
     }
     const std::vector<int> found = min_cost_assignment(cost_, 1.0);
-    for (std::size_t k = 0; k < labels_.size(); ++k) of[k] = tracked[k] >= 0 ? tracked[k] : found[k];
+    for (std::size_t k = 0; k < labels_.size(); ++k)
+      of[k] = tracked[k] >= 0 ? tracked[k] : found[k];
     qpos_fit_ = qpos_;
     fit_skeleton(points, of, &qpos_fit_, &solved);
     if (!solved) break;
@@ -506,7 +510,8 @@ void MarkerLabeller::recover_lost(const std::vector<Eigen::Vector3d>& points,
     const double d = (sites.col(static_cast<Eigen::Index>(k)) - p).norm();
     bool keep = solved && d <= params_.max_residual_m;
     for (std::size_t o = 0; keep && o < labels_.size(); ++o)
-      keep = o == k || of[o] >= 0 || (sites.col(static_cast<Eigen::Index>(o)) - p).norm() >= d + kAmbiguity_m;
+      keep = o == k || of[o] >= 0 ||
+             (sites.col(static_cast<Eigen::Index>(o)) - p).norm() >= d + kAmbiguity_m;
     if (!keep) {
       of[k] = -1;
       continue;

@@ -34,7 +34,9 @@ OverlayWriter::OverlayWriter(const std::string& path, const Rig& rig, double fps
   Impl& im = *impl_;
   im.path = path;
   // The extension stays last (OpenCV picks the container from it).
-  im.partial = (fs::path(path).parent_path() / ("." + fs::path(path).stem().string() + ".partial" + ext)).string();
+  im.partial =
+      (fs::path(path).parent_path() / ("." + fs::path(path).stem().string() + ".partial" + ext))
+          .string();
   im.rig = rig;
   im.scale = scale;
   im.columns = static_cast<int>(std::ceil(std::sqrt(static_cast<double>(rig.size()))));
@@ -42,7 +44,8 @@ OverlayWriter::OverlayWriter(const std::string& path, const Rig& rig, double fps
   const Intrinsics& k = rig.cameras.front().K;
   im.tile = cv::Size(static_cast<int>(std::lround(k.width_px * scale)) / 2 * 2,
                      static_cast<int>(std::lround(k.height_px * scale)) / 2 * 2);
-  im.canvas = cv::Mat(im.tile.height * im.rows, im.tile.width * im.columns, CV_8UC3, cv::Scalar(0, 0, 0));
+  im.canvas =
+      cv::Mat(im.tile.height * im.rows, im.tile.width * im.columns, CV_8UC3, cv::Scalar(0, 0, 0));
   const int fourcc = ext == ".mp4" ? cv::VideoWriter::fourcc('m', 'p', '4', 'v')
                                    : cv::VideoWriter::fourcc('M', 'J', 'P', 'G');
   if (!im.video.open(im.partial, cv::CAP_FFMPEG, fourcc, fps, im.canvas.size(), true))
@@ -71,11 +74,13 @@ void OverlayWriter::add(const FrameSet& frames, const std::vector<std::vector<Bl
       cv::cvtColor(im.small, tile, cv::COLOR_GRAY2BGR);
     }
     const auto at = [&](const Eigen::Vector2d& uv) {
-      return cv::Point(static_cast<int>(std::lround(uv.x() * s)), static_cast<int>(std::lround(uv.y() * s)));
+      return cv::Point(static_cast<int>(std::lround(uv.x() * s)),
+                       static_cast<int>(std::lround(uv.y() * s)));
     };
     if (static_cast<std::size_t>(c) < blobs.size()) {
       for (const Blob& b : blobs[c])
-        cv::circle(tile, at(b.uv_px), 6, b.split ? cv::Scalar(0, 220, 255) : cv::Scalar(0, 200, 0), 1, cv::LINE_AA);
+        cv::circle(tile, at(b.uv_px), 6, b.split ? cv::Scalar(0, 220, 255) : cv::Scalar(0, 200, 0),
+                   1, cv::LINE_AA);
     }
     const Camera& cam = im.rig.cameras[c];
     for (const auto& [label, p_W] : labelled) {
@@ -84,9 +89,11 @@ void OverlayWriter::add(const FrameSet& frames, const std::vector<std::vector<Bl
       if (!in_front || !cam.in_image(uv)) continue;
       const cv::Point p = at(uv);
       cv::drawMarker(tile, p, cv::Scalar(40, 40, 255), cv::MARKER_CROSS, 8, 1, cv::LINE_AA);
-      cv::putText(tile, label, p + cv::Point(5, -4), cv::FONT_HERSHEY_PLAIN, 0.7, cv::Scalar(80, 80, 255), 1, cv::LINE_AA);
+      cv::putText(tile, label, p + cv::Point(5, -4), cv::FONT_HERSHEY_PLAIN, 0.7,
+                  cv::Scalar(80, 80, 255), 1, cv::LINE_AA);
     }
-    cv::putText(tile, cam.name, cv::Point(4, 14), cv::FONT_HERSHEY_PLAIN, 1.0, cv::Scalar(255, 255, 255), 1, cv::LINE_AA);
+    cv::putText(tile, cam.name, cv::Point(4, 14), cv::FONT_HERSHEY_PLAIN, 1.0,
+                cv::Scalar(255, 255, 255), 1, cv::LINE_AA);
   }
   cv::putText(im.canvas, "frame " + std::to_string(frames.index), cv::Point(4, im.canvas.rows - 6),
               cv::FONT_HERSHEY_PLAIN, 1.0, cv::Scalar(255, 255, 255), 1, cv::LINE_AA);
@@ -98,7 +105,8 @@ void OverlayWriter::finish() {
   im.video.release();
   std::error_code error;
   std::filesystem::rename(im.partial, im.path, error);
-  if (error) throw sim::Error(im.path + ": cannot move the overlay video into place: " + error.message());
+  if (error)
+    throw sim::Error(im.path + ": cannot move the overlay video into place: " + error.message());
   im.finished = true;
 }
 

@@ -97,14 +97,15 @@ TEST_CASE("biodyn capture synth films a walk, calibrate finds the rig, run finds
   std::string devices;
   for (const char* cam : {"cam01", "cam02", "cam03", "cam04"}) {
     const std::string video = std::string("live/") + cam + ".mkv";
-    REQUIRE(std::system(("cd '" + dir.string() + "' && ffmpeg -loglevel error -framerate 100 -i cap/" +
-                         cam + "/%06d.png -c:v ffv1 " + video)
-                            .c_str()) == 0);
+    REQUIRE(
+        std::system(("cd '" + dir.string() + "' && ffmpeg -loglevel error -framerate 100 -i cap/" +
+                     cam + "/%06d.png -c:v ffv1 " + video)
+                        .c_str()) == 0);
     devices += (devices.empty() ? "" : ",") + video;
   }
-  r = run_biodyn("capture run cap --live " + devices +
-                     " --live-frames 40 -o live.trc --summary live.json",
-                 dir);
+  r = run_biodyn(
+      "capture run cap --live " + devices + " --live-frames 40 -o live.trc --summary live.json",
+      dir);
   INFO(r.out << r.err);
   REQUIRE(r.exit_code == 0);
   const nlohmann::json live = nlohmann::json::parse(slurp(dir / "live.json"));

@@ -12,16 +12,16 @@
 namespace biodyn::capture {
 
 struct CaptureScore {
-  long visible_views = 0;   ///< (camera, marker) pairs the truth says are visible
-  long detected_views = 0;  ///< of those, with a blob within the detection gate
-  long whole_views = 0;     ///< visible views whose whole image is inside the frame
+  long visible_views = 0;         ///< (camera, marker) pairs the truth says are visible
+  long detected_views = 0;        ///< of those, with a blob within the detection gate
+  long whole_views = 0;           ///< visible views whose whole image is inside the frame
   long detected_whole_views = 0;  ///< of those, detected
-  long extra_blobs = 0;     ///< blobs near no visible marker
-  long truth_points = 0;    ///< markers seen by at least 2 cameras (reconstructable)
-  long found_points = 0;    ///< of those, with a point within the 3D gate
-  long ghost_points = 0;    ///< points near no marker
-  double sum2_m2 = 0;       ///< m^2, squared errors of the found points
-  double worst_m = 0;       ///< m
+  long extra_blobs = 0;           ///< blobs near no visible marker
+  long truth_points = 0;          ///< markers seen by at least 2 cameras (reconstructable)
+  long found_points = 0;          ///< of those, with a point within the 3D gate
+  long ghost_points = 0;          ///< points near no marker
+  double sum2_m2 = 0;             ///< m^2, squared errors of the found points
+  double worst_m = 0;             ///< m
   long frames = 0;
 
   double detection_recall() const {
@@ -30,9 +30,9 @@ struct CaptureScore {
   }
   /// Recall over the views whose whole marker image is in the frame (MarkerView::whole).
   double whole_detection_recall() const {
-    return whole_views ? static_cast<double>(detected_whole_views) /
-                             static_cast<double>(whole_views)
-                       : 1;
+    return whole_views
+               ? static_cast<double>(detected_whole_views) / static_cast<double>(whole_views)
+               : 1;
   }
   double point_recall() const {
     return truth_points ? static_cast<double>(found_points) / static_cast<double>(truth_points) : 1;
