@@ -15,6 +15,7 @@
 #include "biodyn/models/body_file.h"
 #include "biodyn/models/mjcf.h"
 #include "biodyn/sim/errors.h"
+#include "biodyn/sim/queries.h"
 
 namespace biodyn::apps {
 namespace fs = std::filesystem;
@@ -35,19 +36,6 @@ std::vector<std::string> marker_labels(const models::CharacterSpec& spec) {
   std::vector<std::string> labels;
   for (const models::Marker& m : models::generate_character(spec).markers) labels.push_back(m.name);
   return labels;
-}
-
-/// rad: how far joint j of pose b is from pose a (hinge: the difference; ball: the rotation
-/// angle between the two orientations).
-double joint_error(const mjModel& m, int j, const Eigen::RowVectorXd& a,
-                   const Eigen::RowVectorXd& b) {
-  const int adr = m.jnt_qposadr[j];
-  if (m.jnt_type[j] == mjJNT_HINGE || m.jnt_type[j] == mjJNT_SLIDE)
-    return std::abs(a(adr) - b(adr));
-  const int o = m.jnt_type[j] == mjJNT_FREE ? adr + 3 : adr;
-  const Eigen::Quaterniond qa(a(o), a(o + 1), a(o + 2), a(o + 3));
-  const Eigen::Quaterniond qb(b(o), b(o + 1), b(o + 2), b(o + 3));
-  return qa.normalized().angularDistance(qb.normalized());
 }
 
 /// Whether joint j moves a marker site (one on its body or a body below it): the joints the
@@ -200,7 +188,7 @@ json LabelStage::score_motion(const mjModel& m, const Eigen::MatrixXd& qpos) con
     long n = 0;
     for (Eigen::Index f = 0; f < std::min(qpos.rows(), truth.qpos.rows()); ++f) {
       if (std::isnan(qpos(f, 0))) continue;
-      const double e = joint_error(m, j, truth.qpos.row(f), qpos.row(f));
+      const double e = sim::joint_distance(m, j, truth.qpos.row(f), qpos.row(f));
       sq += e * e;
       ++n;
     }

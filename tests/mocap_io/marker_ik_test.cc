@@ -9,6 +9,7 @@
 #include "biodyn/models/marker_set.h"
 #include "biodyn/models/mjcf.h"
 #include "biodyn/sim/errors.h"
+#include "biodyn/sim/queries.h"
 #include "biodyn/sim/units.h"
 #include "character.h"
 #include "test_support.h"
@@ -160,18 +161,6 @@ mocap_io::MarkerData synthetic_capture(const mjModel& m, const Eigen::MatrixXd& 
   return data;
 }
 
-/// Angle between two poses of joint j, rad (hinge: difference; ball/free: rotation angle).
-double joint_error(const mjModel& m, int j, const Eigen::RowVectorXd& a,
-                   const Eigen::RowVectorXd& b) {
-  const int adr = m.jnt_qposadr[j];
-  if (m.jnt_type[j] == mjJNT_HINGE || m.jnt_type[j] == mjJNT_SLIDE)
-    return std::abs(a(adr) - b(adr));
-  const int o = m.jnt_type[j] == mjJNT_FREE ? adr + 3 : adr;
-  const Eigen::Quaterniond qa(a(o), a(o + 1), a(o + 2), a(o + 3)),
-      qb(b(o), b(o + 1), b(o + 2), b(o + 3));
-  return qa.normalized().angularDistance(qb.normalized());
-}
-
 struct Recovery {
   double worst_joint_rms_deg = 0, worst_joint_max_deg = 0;
   std::string worst_joint;
@@ -200,7 +189,7 @@ Recovery recover(const std::string& marker_set, double noise_m, unsigned seed) {
   for (int j = 0; j < m.njnt; ++j) {
     double sq = 0, worst = 0;
     for (int f = 0; f < kIkFrames; ++f) {
-      const double e = joint_error(m, j, truth.row(f), ik.qpos.row(f));
+      const double e = sim::joint_distance(m, j, truth.row(f), ik.qpos.row(f));
       sq += e * e;
       worst = std::max(worst, e);
     }

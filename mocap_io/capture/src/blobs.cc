@@ -16,6 +16,45 @@ namespace {
 constexpr int kSplitIterations = 8;
 constexpr double kSplitRoundness = 0.55;
 constexpr double kSplitWeightRatio = 3.0;
+
+struct Moments {
+  Eigen::Vector2d centroid = Eigen::Vector2d::Zero();    ///< px, intensity-weighted
+  Eigen::Matrix2d covariance = Eigen::Matrix2d::Zero();  ///< px^2
+  double roundness = 1;                                  ///< minor / major axis
+  double weight = 0;                                     ///< summed weights
+  int count = 0;                                         ///< pixels
+};
+
+/// Weighted moments of the pixels (u, v, weight) that `in` selects.
+template <class In>
+Moments moments_of(const std::vector<Eigen::Vector3d>& px, In in) {
+  double w = 0, su = 0, sv = 0, suu = 0, svv = 0, suv = 0;
+  Moments m;
+  for (std::size_t i = 0; i < px.size(); ++i) {
+    if (!in(i)) continue;
+    const Eigen::Vector3d& p = px[i];
+    w += p.z();
+    su += p.z() * p.x();
+    sv += p.z() * p.y();
+    suu += p.z() * p.x() * p.x();
+    svv += p.z() * p.y() * p.y();
+    suv += p.z() * p.x() * p.y();
+    ++m.count;
+  }
+  m.weight = w;
+  if (w <= 0) return m;
+  m.centroid = Eigen::Vector2d(su / w, sv / w);
+  const double cuu = suu / w - m.centroid.x() * m.centroid.x();
+  const double cvv = svv / w - m.centroid.y() * m.centroid.y();
+  const double cuv = suv / w - m.centroid.x() * m.centroid.y();
+  m.covariance << cuu, cuv, cuv, cvv;
+  const double mean = 0.5 * (cuu + cvv);
+  const double spread = std::sqrt(std::max(0.0, 0.25 * (cuu - cvv) * (cuu - cvv) + cuv * cuv));
+  const double major = mean + spread, minor = std::max(0.0, mean - spread);
+  m.roundness = major > 0 ? std::sqrt(minor / major) : 1.0;
+  return m;
+}
+
 }  // namespace
 
 void BlobParams::validate() const {
@@ -90,7 +129,7 @@ void BlobDetector::detect(const cv::Mat& grey, std::vector<Blob>* blobs, int* re
                                            stats_.at<int>(label, cv::CC_STAT_WIDTH) + 1);
     const int y1 = std::min(grey.rows, stats_.at<int>(label, cv::CC_STAT_TOP) +
                                            stats_.at<int>(label, cv::CC_STAT_HEIGHT) + 1);
-    double w = 0, su = 0, sv = 0, suu = 0, svv = 0, suv = 0, peak = 0;
+    double peak = 0;
     pixels_.clear();
     for (int y = y0; y < y1; ++y) {
       const std::uint8_t* row = foreground_.ptr<std::uint8_t>(y);
@@ -98,33 +137,22 @@ void BlobDetector::detect(const cv::Mat& grey, std::vector<Blob>* blobs, int* re
       for (int x = x0; x < x1; ++x) {
         if (lab[x] != 0 && lab[x] != label) continue;
         const double wi = std::max(0.0, row[x] - params_.weight_floor_grey);
-        w += wi;
-        su += wi * x;
-        sv += wi * y;
-        suu += wi * x * x;
-        svv += wi * y * y;
-        suv += wi * x * y;
         peak = std::max(peak, static_cast<double>(row[x]));
         if (wi > 0) pixels_.emplace_back(x, y, wi);
       }
     }
-    if (w <= 0) {
+    const Moments mo = moments_of(pixels_, [](std::size_t) { return true; });
+    if (mo.weight <= 0) {
       ++refused;
       continue;
     }
     Blob b;
-    b.uv_px = Eigen::Vector2d(su / w, sv / w);
-    const double cuu = suu / w - b.uv_px.x() * b.uv_px.x();
-    const double cvv = svv / w - b.uv_px.y() * b.uv_px.y();
-    const double cuv = suv / w - b.uv_px.x() * b.uv_px.y();
-    const double mean = 0.5 * (cuu + cvv);
-    const double spread = std::sqrt(std::max(0.0, 0.25 * (cuu - cvv) * (cuu - cvv) + cuv * cuv));
-    const double major = mean + spread, minor = std::max(0.0, mean - spread);
-    b.roundness = major > 0 ? std::sqrt(minor / major) : 1.0;
+    b.uv_px = mo.centroid;
+    b.roundness = mo.roundness;
     b.area_px = area;
     b.peak_grey = peak;
     if (area >= params_.min_area_for_shape_px && b.roundness < params_.min_roundness) {
-      if (!split_pair(blobs)) ++refused;
+      if (!split_pair(peak, blobs)) ++refused;
       continue;
     }
     blobs->push_back(b);
@@ -132,79 +160,40 @@ void BlobDetector::detect(const cv::Mat& grey, std::vector<Blob>* blobs, int* re
   if (rejected != nullptr) *rejected = refused;
 }
 
-namespace {
-
-/// Weighted centroid and roundness (minor / major axis) of the pixels given by `in`.
-template <class In>
-Blob moments_of(const std::vector<Eigen::Vector3d>& px, In in) {
-  double w = 0, su = 0, sv = 0, suu = 0, svv = 0, suv = 0;
-  int n = 0;
-  for (std::size_t i = 0; i < px.size(); ++i) {
-    if (!in(i)) continue;
-    const Eigen::Vector3d& p = px[i];
-    w += p.z();
-    su += p.z() * p.x();
-    sv += p.z() * p.y();
-    suu += p.z() * p.x() * p.x();
-    svv += p.z() * p.y() * p.y();
-    suv += p.z() * p.x() * p.y();
-    ++n;
-  }
-  Blob b;
-  if (w <= 0) return b;
-  b.uv_px = Eigen::Vector2d(su / w, sv / w);
-  const double cuu = suu / w - b.uv_px.x() * b.uv_px.x();
-  const double cvv = svv / w - b.uv_px.y() * b.uv_px.y();
-  const double cuv = suv / w - b.uv_px.x() * b.uv_px.y();
-  const double mean = 0.5 * (cuu + cvv);
-  const double spread = std::sqrt(std::max(0.0, 0.25 * (cuu - cvv) * (cuu - cvv) + cuv * cuv));
-  const double major = mean + spread, minor = std::max(0.0, mean - spread);
-  b.roundness = major > 0 ? std::sqrt(minor / major) : 1.0;
-  b.area_px = n;
-  b.peak_grey = w;  // the cluster's weight while splitting
-  return b;
-}
-
-}  // namespace
-
-bool BlobDetector::split_pair(std::vector<Blob>* blobs) const {
+bool BlobDetector::split_pair(double peak_grey, std::vector<Blob>* blobs) const {
   // Two touching discs: weighted 2-means on the blob's pixels, started a standard deviation
   // either side of the centroid along the major axis. Accepted when both halves are round and
   // of comparable brightness (two markers of one size at similar depths); a smear or a
   // reflection is not.
-  const Blob whole = moments_of(pixels_, [](std::size_t) { return true; });
-  double cuu = 0, cvv = 0, cuv = 0, w = 0;
-  for (const Eigen::Vector3d& p : pixels_) {
-    const Eigen::Vector2d d = p.head<2>() - whole.uv_px;
-    cuu += p.z() * d.x() * d.x();
-    cvv += p.z() * d.y() * d.y();
-    cuv += p.z() * d.x() * d.y();
-    w += p.z();
-  }
-  if (w <= 0) return false;
-  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eig(
-      (Eigen::Matrix2d() << cuu / w, cuv / w, cuv / w, cvv / w).finished());
-  const Eigen::Vector2d axis = eig.eigenvectors().col(1) * std::sqrt(eig.eigenvalues()(1));
-  Eigen::Vector2d a = whole.uv_px + axis, b = whole.uv_px - axis;
+  const Moments whole = moments_of(pixels_, [](std::size_t) { return true; });
+  if (whole.weight <= 0) return false;
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eig(whole.covariance);
+  const Eigen::Vector2d axis =
+      eig.eigenvectors().col(1) * std::sqrt(std::max(0.0, eig.eigenvalues()(1)));
+  Eigen::Vector2d a = whole.centroid + axis, b = whole.centroid - axis;
   const auto nearer_a = [&](std::size_t i) {
     return (pixels_[i].head<2>() - a).squaredNorm() <= (pixels_[i].head<2>() - b).squaredNorm();
   };
-  Blob first, second;
+  Moments first, second;
   for (int iteration = 0; iteration < kSplitIterations; ++iteration) {
     first = moments_of(pixels_, nearer_a);
     second = moments_of(pixels_, [&](std::size_t i) { return !nearer_a(i); });
-    a = first.uv_px;
-    b = second.uv_px;
+    a = first.centroid;
+    b = second.centroid;
   }
-  const double heavier = std::max(first.peak_grey, second.peak_grey);
-  const double lighter = std::min(first.peak_grey, second.peak_grey);
+  const double heavier = std::max(first.weight, second.weight);
+  const double lighter = std::min(first.weight, second.weight);
   if (first.roundness < kSplitRoundness || second.roundness < kSplitRoundness ||
       lighter * kSplitWeightRatio < heavier)
     return false;
-  for (Blob* half : {&first, &second}) {
-    half->split = true;
-    half->peak_grey = whole.peak_grey;
-    blobs->push_back(*half);
+  for (const Moments* half : {&first, &second}) {
+    Blob blob;
+    blob.uv_px = half->centroid;
+    blob.roundness = half->roundness;
+    blob.area_px = half->count;
+    blob.split = true;
+    blob.peak_grey = peak_grey;
+    blobs->push_back(blob);
   }
   return true;
 }

@@ -8,6 +8,7 @@
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
+#include <cmath>
 #include <vector>
 
 namespace biodyn::sim {
@@ -81,6 +82,19 @@ double geom_lowest_z(const mjModel& m, const mjData& d, int g);
 /// sight: a camera at `from_W` sees a point at `to_W`.
 double first_hit_m(const mjModel& m, const mjData& d, const Eigen::Vector3d& from_W,
                    const Eigen::Vector3d& to_W);
+
+/// rad: how far joint j of pose `b` is from pose `a` (nq values each, indexable): a hinge's or
+/// slide's difference, a ball's or the free root's rotation angle between the orientations.
+template <class A, class B>
+double joint_distance(const mjModel& m, int j, const A& a, const B& b) {
+  const int adr = m.jnt_qposadr[j];
+  if (m.jnt_type[j] == mjJNT_HINGE || m.jnt_type[j] == mjJNT_SLIDE)
+    return std::abs(a[adr] - b[adr]);
+  const int o = m.jnt_type[j] == mjJNT_FREE ? adr + 3 : adr;
+  const Eigen::Quaterniond qa(a[o], a[o + 1], a[o + 2], a[o + 3]);
+  const Eigen::Quaterniond qb(b[o], b[o + 1], b[o + 2], b[o + 3]);
+  return qa.normalized().angularDistance(qb.normalized());
+}
 
 /// Where time t falls in increasing `times` (at least 2): the frame at or before it (`f0`) and
 /// the fraction `alpha` (0..1) of the way to the next; t is clamped to the ends. No allocation.

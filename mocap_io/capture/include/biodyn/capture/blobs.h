@@ -54,9 +54,9 @@ class BlobDetector {
   void detect(const cv::Mat& grey, std::vector<Blob>* blobs, int* rejected = nullptr);
 
  private:
-  /// Splits component `label` (its weighted pixels in pixels_) into two round blobs if it is
-  /// two touching markers; false if it is not.
-  bool split_pair(std::vector<Blob>* blobs) const;
+  /// Splits the component whose weighted pixels are in pixels_ (brightest: `peak_grey`) into
+  /// two round blobs if it is two touching markers; false if it is not.
+  bool split_pair(double peak_grey, std::vector<Blob>* blobs) const;
 
   BlobParams params_;
   cv::Mat background_, foreground_, mask_, labels_, stats_, centroids_, kernel_;
