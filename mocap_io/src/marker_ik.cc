@@ -238,9 +238,6 @@ MarkerIkFrame MarkerIk::solve(const double* targets_m, bool have_previous, mjtNu
     return out;  // too few markers: not solved, qpos untouched
   }
   if (!have_previous) place_root(targets_m, qpos);
-  // A warm start outside the joint limits (a pose extrapolated by the caller) would leave every
-  // projected step dearer than the start, and the solve stuck there.
-  project_limits(qpos);
   weight_sum_visible_ = 0.0;
   for (size_t i = 0; i < site_of_.size(); ++i) {
     if (site_of_[i] >= 0 && finite3(targets_m + 3 * i)) weight_sum_visible_ += weight_[i];
