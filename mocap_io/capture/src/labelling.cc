@@ -26,6 +26,10 @@ constexpr double kAmbiguity_m = 0.01;
 constexpr double kGateGrowth_m = 0.003;
 constexpr double kMaxReacquireGate_m = 0.10;
 
+/// m: the subject calibration moves a marker's site only when the T-pose fit misses it by more
+/// than this (a few times the reconstruction's noise).
+constexpr double kCalibrateBeyond_m = 0.003;
+
 /// Labels lost at once (and points left over) that make a frame look for them with the skeleton.
 constexpr int kRecoverLost = 2;
 /// m: that search's gates, narrowing as the skeleton is refitted with what it finds.
@@ -347,6 +351,11 @@ void MarkerLabeller::calibrate_sites(const std::vector<Eigen::Vector3d>& points,
     if (j < 0) continue;
     const int s = site_of_[k], b = m.site_bodyid[s];
     const Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>> r(data->xmat + 9 * b);
+    // A marker the fit already meets within the noise keeps the model's place: moving it by
+    // a millimetre lets weakly seen DOFs (a straight arm's twist) settle elsewhere for good.
+    if ((points[static_cast<std::size_t>(j)] - Eigen::Vector3d(data->site_xpos + 3 * s)).norm() <
+        kCalibrateBeyond_m)
+      continue;
     const Eigen::Vector3d local =
         r.transpose() * (points[static_cast<std::size_t>(j)] - Eigen::Vector3d(data->xpos + 3 * b));
     for (int i = 0; i < 3; ++i) m.site_pos[3 * s + i] = local[i];
