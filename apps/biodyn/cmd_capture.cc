@@ -124,9 +124,7 @@ constexpr double kInPlaceWindow_s = 1.0;
 /// a BVH retargeted onto the command line's body.
 mocap_io::Motion load_motion(const SynthOptions& o, models::CharacterSpec* spec,
                              std::vector<std::string>* notes) {
-  std::string ext = fs::path(o.motion).extension().string();
-  for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  if (ext == ".bvh") {
+  if (lower_extension(o.motion) == ".bvh") {
     *spec = o.body.to_spec();
     return mocap_io::retarget_bvh_file(o.motion, *spec);
   }

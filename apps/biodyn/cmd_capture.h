@@ -31,6 +31,11 @@ struct LabelOptions {
   void validate() const;
 };
 
+/// The extension of `path`, lower case, with its dot (".c3d"; "" for none).
+std::string lower_extension(const std::string& path);
+/// The names of `character`'s marker sites, in its order.
+std::vector<std::string> marker_labels(const models::Character& character);
+
 /// The rig a capture is processed with: `given` (--rig), else DIR/rig.json (a calibration),
 /// else DIR/rig_truth.json (a synthetic capture's truth). Throws sim::InvalidArgument when none.
 std::string capture_rig_path(const std::string& dir, const std::string& given);
@@ -77,6 +82,7 @@ class LabelStage {
   nlohmann::json score_motion(const mjModel& m, const Eigen::MatrixXd& qpos) const;
 
   models::CharacterSpec spec_;
+  models::Character character_;
   sim::Model model_;
   std::vector<std::string> labels_;
   capture::MarkerLabeller labeller_;

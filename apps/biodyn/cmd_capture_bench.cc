@@ -61,12 +61,9 @@ int run_capture_bench(const CaptureBenchOptions& o) {
   double label_s = 0;
   long labelled = 0, init_frame = -1;
   if (o.label) {
-    const sim::Model model =
-        sim::Model::from_string(models::to_mjcf(models::generate_character(subject)), "subject");
-    std::vector<std::string> labels;
-    for (const models::Marker& m : models::generate_character(subject).markers)
-      labels.push_back(m.name);
-    capture::MarkerLabeller labeller(model, labels);
+    const models::Character character = models::generate_character(subject);
+    const sim::Model model = sim::Model::from_string(models::to_mjcf(character), "subject");
+    capture::MarkerLabeller labeller(model, marker_labels(character));
     capture::LabelledFrame out;
     std::vector<Eigen::Vector3d> xyz;
     const auto t1 = Clock::now();

@@ -26,18 +26,6 @@ namespace {
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 constexpr double kRadToDeg = 180.0 / M_PI;
 
-std::string lower_extension(const std::string& path) {
-  std::string ext = fs::path(path).extension().string();
-  for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  return ext;
-}
-
-std::vector<std::string> marker_labels(const models::CharacterSpec& spec) {
-  std::vector<std::string> labels;
-  for (const models::Marker& m : models::generate_character(spec).markers) labels.push_back(m.name);
-  return labels;
-}
-
 /// Whether joint j moves a marker site (one on its body or a body below it): the joints the
 /// marker set can see. The 26 markers put none on the toes, so their joint is invisible.
 bool moves_a_marker(const mjModel& m, int j) {
@@ -51,6 +39,18 @@ bool moves_a_marker(const mjModel& m, int j) {
 }
 
 }  // namespace
+
+std::string lower_extension(const std::string& path) {
+  std::string ext = fs::path(path).extension().string();
+  for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return ext;
+}
+
+std::vector<std::string> marker_labels(const models::Character& character) {
+  std::vector<std::string> labels;
+  for (const models::Marker& m : character.markers) labels.push_back(m.name);
+  return labels;
+}
 
 void LabelOptions::validate() const {
   if (fill != "none" && fill != "spline" && fill != "skeleton")
@@ -98,9 +98,9 @@ models::CharacterSpec capture_subject(const std::string& dir, const LabelOptions
 LabelStage::LabelStage(const models::CharacterSpec& subject, double rate_hz,
                        const LabelTruth* truth)
     : spec_(subject),
-      model_(
-          sim::Model::from_string(models::to_mjcf(models::generate_character(subject)), "subject")),
-      labels_(marker_labels(subject)),
+      character_(models::generate_character(subject)),
+      model_(sim::Model::from_string(models::to_mjcf(character_), "subject")),
+      labels_(marker_labels(character_)),
       labeller_(model_, labels_),
       rate_hz_(rate_hz),
       truth_(truth),
