@@ -58,10 +58,13 @@ inline CliRun run_shell(const std::string& command, const std::filesystem::path&
 /// The shell prefix that runs a command under a virtual display (xvfb-run, 1280x720, killed
 /// after 300 s). Display numbers start from one derived from this process's id: ctest runs test
 /// cases in parallel, and two xvfb-run -a starting together at the same number collide.
+/// The X authority file is the run directory's own (`-f`): left to itself, xvfb-run makes a
+/// temporary directory and, when the command quits while the server is still resetting, fails
+/// to remove it and exits 5 in place of the command's code (4 of 16 parallel runs here).
 inline std::string under_xvfb() {
   const int first_display = 100 + static_cast<int>(getpid() % 800) * 4;
   return "timeout 300 xvfb-run -a -n " + std::to_string(first_display) +
-         " -s '-screen 0 1280x720x24' ";
+         " -f xvfb.auth -s '-screen 0 1280x720x24' ";
 }
 
 /// Runs `biodyn <args>` in `dir`, capturing stdout and stderr.

@@ -126,10 +126,12 @@ TEST_CASE("biodyn view: ctrl + drag on the character pushes it", "[apps][view][s
 TEST_CASE("biodyn view refuses a bad script in one line naming the file and line", "[apps][view]") {
   const fs::path dir = biodyn::testing::fresh_dir("view_test", "bad");
   auto r = run_view("at 1.0 set speed 1.2\nat soon quit\n", dir);
+  INFO(r.err);
   CHECK(r.exit_code == 2);
   CHECK(r.err.find("script.txt:2") != std::string::npos);
   // A command the scenario refuses at its time ends the session with the line named.
   r = run_view("at 0.1 set walker.no_such_field 1\nat 1 quit\n", dir);
+  INFO(r.err);
   CHECK(r.exit_code == 2);
   CHECK(r.err.find("script.txt:1") != std::string::npos);
   CHECK(r.err.find("no_such_field") != std::string::npos);
