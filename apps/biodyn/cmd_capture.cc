@@ -341,6 +341,7 @@ struct RunOptions {
   int live_frames = 0, threads = 0;
   capture::BlobParams blobs;
   capture::ReconstructionParams reconstruction;
+  bool tracking_2d = true;  ///< 2D blob tracks carry last frame's points (tracking2d.h)
 };
 
 /// A synthetic capture's truth: each marker's position per frame and each camera's views.
@@ -426,6 +427,7 @@ int run_capture(const RunOptions& o) {
       o.label.wanted() ? capture_subject(o.dir, o.label, &subject_note) : models::CharacterSpec{};
   const std::string rig_path = capture_rig_path(o.dir, o.rig_path);
   const capture::Rig rig = capture::read_rig(rig_path);
+  o.label.validate_filter(rig.cameras.front().fps);
   std::vector<std::string> names;
   for (const capture::Camera& c : rig.cameras) names.push_back(c.name);
   std::unique_ptr<capture::FrameSource> source =
@@ -450,7 +452,9 @@ int run_capture(const RunOptions& o) {
                                           truth ? &label_truth : nullptr);
   }
   capture::set_image_threads(o.threads);
-  capture::CapturePipeline pipeline(rig, o.blobs, o.reconstruction);
+  const capture::Tracking2dParams tracking;
+  capture::CapturePipeline pipeline(rig, o.blobs, o.reconstruction,
+                                    o.tracking_2d ? &tracking : nullptr);
   std::unique_ptr<capture::OverlayWriter> overlay =
       o.overlay_path.empty() ? nullptr
                              : std::make_unique<capture::OverlayWriter>(
@@ -461,7 +465,7 @@ int run_capture(const RunOptions& o) {
   csv << "frame,time_s,point,x_m,y_m,z_m,views,residual_px\n";
   csv.precision(9);
   double read_s = 0, process_s = 0;
-  long point_total = 0, dropped = 0;
+  long point_total = 0, dropped = 0, continued = 0;
   int frames = 0;
   capture::FrameSet set;
   const int total = source->frame_count();
@@ -484,6 +488,7 @@ int run_capture(const RunOptions& o) {
           << "\n";
     }
     point_total += static_cast<long>(points.size());
+    continued += pipeline.continued_points();
     if (labels) labels->add(points);
     if (overlay)
       overlay->add(
@@ -507,17 +512,25 @@ int run_capture(const RunOptions& o) {
   bar.finish();
   if (!o.points_path.empty()) write_file_atomically(o.points_path, csv.str());
   if (overlay) overlay->finish();
-  json summary = {{"capture", o.dir},
-                  {"rig", rig_path},
-                  {"rig_source", rig.source},
-                  {"cameras", rig.size()},
-                  {"frames", frames},
-                  {"dropped_frames", dropped},
-                  {"points_per_frame", frames ? static_cast<double>(point_total) / frames : 0.0},
-                  {"read_s", read_s},
-                  {"process_s", process_s},
-                  {"process_frames_per_s", frames / std::max(process_s, 1e-9)},
-                  {"labelled", static_cast<bool>(labels)}};
+  json summary = {
+      {"capture", o.dir},
+      {"rig", rig_path},
+      {"rig_source", rig.source},
+      {"cameras", rig.size()},
+      {"frames", frames},
+      {"dropped_frames", dropped},
+      {"points_per_frame", frames ? static_cast<double>(point_total) / frames : 0.0},
+      {"read_s", read_s},
+      {"process_s", process_s},
+      {"process_frames_per_s", frames / std::max(process_s, 1e-9)},
+      {"labelled", static_cast<bool>(labels)},
+      {"tracking_2d",
+       {{"on", o.tracking_2d},
+        {"points_continued",
+         point_total ? static_cast<double>(continued) / static_cast<double>(point_total) : 0.0},
+        {"about",
+         "the share of points that continue a point of the frame before along "
+         "their blobs' 2D tracks (preferred over other matches of as many views)"}}}};
   if (labels) summary["labelling"] = finish_labelling(labels.get(), o.label);
   std::cout << "capture run: " << frames << " frames, " << rig.size() << " cameras (" << rig_path
             << "): " << summary["points_per_frame"].get<double>()
@@ -719,6 +732,9 @@ void add_run_options(CLI::App* run, RunOptions* r) {
       ->capture_default_str();
   run->add_option("--threads", r->threads, "threads for the cameras' images (0: OpenCV's default)")
       ->capture_default_str();
+  run->add_flag("!--no-2d-tracks", r->tracking_2d,
+                "reconstruct every frame on its own (no 2D blob tracks carrying last frame's "
+                "points)");
   run->add_option("-o,--output", r->label.markers_out,
                   "labelled markers to write: .c3d or .trc (gaps filled as --fill says)");
   run->add_option("--motion-out", r->label.motion_out,
@@ -728,6 +744,10 @@ void add_run_options(CLI::App* run, RunOptions* r) {
                   "carried by the fitted skeleton's segment)")
       ->capture_default_str();
   run->add_option("--max-gap", r->label.max_gap_s, "s, longest gap a cubic fills")
+      ->capture_default_str();
+  run->add_option("--filter-hz", r->label.filter_hz,
+                  "Hz, low-pass cut-off of the markers the skeleton is solved from (zero-lag "
+                  "Butterworth; the written markers stay unfiltered); 0: unfiltered")
       ->capture_default_str();
   r->label.subject.add_to(run, false);
   run->add_option("--points", r->points_path, "CSV of the unlabelled 3D points per frame");
@@ -821,6 +841,7 @@ Command add_capture_command(CLI::App* app) {
   bench->add_option("--threads", b->threads, "threads for the cameras' images (0: every core)")
       ->capture_default_str();
   bench->add_flag("!--no-label", b->label, "time the 3D points only");
+  bench->add_flag("!--no-2d-tracks", b->tracking_2d, "no 2D blob tracks (as capture run)");
   b->subject.subject.add_to(bench, false);
   bench->add_option("--summary", b->summary_path, "JSON of the figures");
   auto k = std::make_shared<CalibrateOptions>();

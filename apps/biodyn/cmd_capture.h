@@ -26,9 +26,15 @@ struct LabelOptions {
   CharacterOptions subject;
   std::string fill = "skeleton";  ///< none | spline | skeleton
   double max_gap_s = 0.1;         ///< s, longest gap a cubic fills
+  /// Hz, low-pass cut-off of the marker trajectories marker IK solves the skeleton from (the
+  /// written markers stay as reconstructed); 0: unfiltered
+  double filter_hz = 6.0;
   bool wanted() const { return !markers_out.empty() || !motion_out.empty(); }
   /// Throws sim::InvalidArgument naming the option and value.
   void validate() const;
+  /// Throws sim::InvalidArgument when --filter-hz is not below the Nyquist frequency of a
+  /// capture at `rate_hz` (corrected for the filter's double pass).
+  void validate_filter(double rate_hz) const;
 };
 
 /// The extension of `path`, lower case, with its dot (".c3d"; "" for none).
@@ -43,7 +49,7 @@ std::string capture_rig_path(const std::string& dir, const std::string& given);
 struct CaptureBenchOptions {
   std::string dir, rig_path, summary_path;
   int frames = 300, threads = 0;
-  bool label = true;
+  bool label = true, tracking_2d = true;
   capture::BlobParams blobs;
   capture::ReconstructionParams reconstruction;
   LabelOptions subject;  ///< only its --height/--mass/... (the subject to label with)

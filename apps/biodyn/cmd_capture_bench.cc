@@ -51,7 +51,9 @@ int run_capture_bench(const CaptureBenchOptions& o) {
   }
   if (frames.size() < 10) throw sim::InvalidArgument(o.dir + ": fewer than 10 frames to time");
   capture::set_image_threads(o.threads);
-  capture::CapturePipeline pipeline(rig, o.blobs, o.reconstruction);
+  const capture::Tracking2dParams tracking;
+  capture::CapturePipeline pipeline(rig, o.blobs, o.reconstruction,
+                                    o.tracking_2d ? &tracking : nullptr);
   std::vector<std::vector<capture::Point3>> points(frames.size());
   // One untimed frame: first-touch allocations and OpenCV's thread pool start.
   pipeline.process(frames.front(), &points.front());
@@ -90,6 +92,7 @@ int run_capture_bench(const CaptureBenchOptions& o) {
                         {"camera_fps", fps},
                         {"frames", frames.size()},
                         {"threads", o.threads},
+                        {"tracking_2d", o.tracking_2d},
                         {"reconstruction_frames_per_s", n / reconstruct_s},
                         {"labelling_frames_per_s", o.label ? n / label_s : 0.0},
                         {"labelled_from_frame", init_frame},

@@ -9,6 +9,7 @@
 
 #include "biodyn/capture/evaluation.h"
 #include "biodyn/mocap_io/c3d.h"
+#include "biodyn/mocap_io/filter.h"
 #include "biodyn/mocap_io/marker_ik.h"
 #include "biodyn/mocap_io/motion_csv.h"
 #include "biodyn/mocap_io/trc.h"
@@ -53,6 +54,9 @@ std::vector<std::string> marker_labels(const models::Character& character) {
 }
 
 void LabelOptions::validate() const {
+  if (!(filter_hz >= 0))
+    throw sim::InvalidArgument("--filter-hz: must be >= 0 Hz (0: unfiltered), got " +
+                               std::to_string(filter_hz));
   if (fill != "none" && fill != "spline" && fill != "skeleton")
     throw sim::InvalidArgument("--fill: none, spline or skeleton, got \"" + fill + "\"");
   if (!(max_gap_s >= 0 && max_gap_s <= 10))
@@ -62,6 +66,15 @@ void LabelOptions::validate() const {
     if (ext != ".c3d" && ext != ".trc")
       throw sim::InvalidArgument("-o: labelled markers are written as .c3d or .trc, got \"" +
                                  markers_out + "\"");
+  }
+}
+
+void LabelOptions::validate_filter(double rate_hz) const {
+  if (filter_hz == 0) return;
+  try {
+    mocap_io::single_pass_cutoff_hz({filter_hz}, rate_hz);
+  } catch (const sim::InvalidArgument& e) {
+    throw sim::InvalidArgument(std::string("--filter-hz: ") + e.what());
   }
 }
 
@@ -267,9 +280,20 @@ json LabelStage::finish(const LabelOptions& o) {
     // straight: 8 degrees behind on a walk with 1e-3). From the labeller's T-pose fit: from the
     // model's arms-down pose the first frame's 90-degree shoulder turn can end in a twisted arm
     // that every later frame keeps.
+    // Reconstruction noise (0.5 px: ~2 mm a marker a frame) turns a forearm's pronation or a
+    // foot's inversion, seen by markers a few centimetres apart, by degrees; walking's marker
+    // motion lies below 6 Hz (Winter 2009, §3.4.4).
+    mocap_io::MarkerData filtered = markers;
+    mocap_io::low_pass_markers(&filtered, {o.filter_hz});
     const mocap_io::MarkerIkResult ik = mocap_io::solve_marker_ik(
-        m, markers, std::vector<double>(labels_.size(), 1.0), {}, init_qpos_);
-    summary["ik"] = {{"solved_frames", ik.solved_count()}, {"frames", frames}};
+        m, filtered, std::vector<double>(labels_.size(), 1.0), {}, init_qpos_);
+    summary["ik"] = {{"solved_frames", ik.solved_count()},
+                     {"frames", frames},
+                     {"marker_filter_hz", o.filter_hz},
+                     {"about",
+                      "the skeleton is solved from the labelled markers low-pass filtered at "
+                      "marker_filter_hz (zero-lag Butterworth; 0: unfiltered); the written "
+                      "markers are unfiltered"}};
     if (!o.motion_out.empty()) {
       mocap_io::Motion motion;
       motion.columns = mocap_io::qpos_names(m);

@@ -154,24 +154,6 @@ TEST_CASE_METHOD(biodyn::testing::SimulationTest, "Inverse dynamics torques scal
   CHECK(with_armature > 2 * gait);
 }
 
-TEST_CASE_METHOD(biodyn::testing::SimulationTest,
-                 "The zero-lag low-pass keeps slow signals and removes fast ones",
-                 "[mocap_io][id]") {
-  const double rate = 250.0;
-  Eigen::MatrixXd x(1000, 2);
-  for (int i = 0; i < 1000; ++i) {
-    const double t = i / rate;
-    x(i, 0) = std::sin(2 * kPi * 1.0 * t);   // 1 Hz: kept
-    x(i, 1) = std::sin(2 * kPi * 40.0 * t);  // 40 Hz: removed
-  }
-  Eigen::MatrixXd y = x;
-  mocap_io::low_pass(&y, rate, {6.0});
-  // Away from the ends: 1 Hz passes with no lag and < 1% change; 40 Hz drops below 1%.
-  CHECK((y.col(0) - x.col(0)).segment(100, 800).cwiseAbs().maxCoeff() < 0.01);
-  CHECK(y.col(1).segment(100, 800).cwiseAbs().maxCoeff() < 0.01);
-  CHECK_THROWS_AS(mocap_io::low_pass(&y, rate, {120.0}), sim::InvalidArgument);
-}
-
 namespace {
 
 constexpr int kPlateFrames = 40;

@@ -33,7 +33,7 @@ constexpr double kCalibrateBeyond_m = 0.003;
 /// Labels lost at once (and points left over) that make a frame look for them with the skeleton.
 constexpr int kRecoverLost = 2;
 /// m: that search's gates, narrowing as the skeleton is refitted with what it finds.
-constexpr double kRecoverGates_m[] = {0.20, 0.10, 0.05};
+constexpr double kRecoverGates_m[] = {0.40, 0.20, 0.10, 0.05};
 
 /// The constant-velocity gate grows by this share of the marker's last step.
 constexpr double kGatePerStep = 0.5;

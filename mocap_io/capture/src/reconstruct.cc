@@ -164,30 +164,88 @@ bool Reconstructor::refine(Candidate* c) const {
          (c->p_W.array() <= params_.volume_max_W.array()).all();
 }
 
+bool Reconstructor::epipolar_match(std::pair<int, int> u, std::pair<int, int> v) const {
+  if (u.first > v.first) std::swap(u, v);
+  const auto [i, a] = u;
+  const auto [j, b] = v;
+  const Eigen::Matrix3d& E = essential_[static_cast<std::size_t>(i * rig_.size() + j)];
+  const Eigen::Vector3d line_j = E * normalised_[i][a].homogeneous();
+  const Eigen::Vector3d line_i = E.transpose() * normalised_[j][b].homogeneous();
+  return rig_.cameras[j].K.fx_px * line_distance(line_j, normalised_[j][b]) <=
+             params_.epipolar_gate_px &&
+         rig_.cameras[i].K.fx_px * line_distance(line_i, normalised_[i][a]) <=
+             params_.epipolar_gate_px;
+}
+
+void Reconstructor::accept(const Candidate& c, std::vector<Point3>* points) {
+  for (const auto& [k, b] : c.views) used_[k][b] = 1;
+  Point3 p;
+  p.p_W = c.p_W;
+  p.views = c.views;
+  std::sort(p.views.begin(), p.views.end());
+  p.residual_px = c.residual_px;
+  points->push_back(std::move(p));
+}
+
+void Reconstructor::continue_tracked(const std::vector<std::vector<int>>& tracks) {
+  for (std::size_t i = 0; i < last_tracks_.size(); ++i) {
+    Candidate c;
+    for (const auto& [k, id] : last_tracks_[i]) {
+      const std::vector<int>& ids = tracks[static_cast<std::size_t>(k)];
+      const auto at = std::find(ids.begin(), ids.end(), id);
+      if (at != ids.end()) c.views.emplace_back(k, static_cast<int>(at - ids.begin()));
+    }
+    if (c.views.size() < 2 || !triangulate(c.views, &c.p_W, &c.residual_px)) continue;
+    gather_support(&c);
+    if (!refine(&c) || (c.p_W - last_points_[i]).norm() > kMaxContinuedStep_m) continue;
+    // Two views: they must pass the epipolar gate a new pair passes.
+    if (c.views.size() == 2 && !epipolar_match(c.views[0], c.views[1])) continue;
+    c.continued = true;
+    candidates_.push_back(std::move(c));
+  }
+}
+
+void Reconstructor::remember_tracks(const std::vector<std::vector<int>>* tracks,
+                                    const std::vector<Point3>& points) {
+  last_points_.clear();
+  last_tracks_.clear();
+  if (!tracks) return;
+  for (const Point3& p : points) {
+    last_points_.push_back(p.p_W);
+    last_tracks_.emplace_back();
+    for (const auto& [k, b] : p.views)
+      last_tracks_.back().emplace_back(
+          k, (*tracks)[static_cast<std::size_t>(k)][static_cast<std::size_t>(b)]);
+  }
+}
+
 void Reconstructor::reconstruct(const std::vector<std::vector<Blob>>& blobs,
-                                std::vector<Point3>* points) {
+                                std::vector<Point3>* points,
+                                const std::vector<std::vector<int>>* tracks) {
   const int n = rig_.size();
   if (static_cast<int>(blobs.size()) != n)
     throw sim::InvalidArgument("reconstruction: " + std::to_string(blobs.size()) +
                                " blob lists for a rig of " + std::to_string(n) + " cameras");
+  if (tracks) {
+    bool match = static_cast<int>(tracks->size()) == n;
+    for (int c = 0; match && c < n; ++c) match = (*tracks)[c].size() == blobs[c].size();
+    if (!match)
+      throw sim::InvalidArgument("reconstruction: the 2D track ids do not match the blob lists");
+  }
   for (int c = 0; c < n; ++c) {
     normalised_[c].resize(blobs[c].size());
     for (std::size_t b = 0; b < blobs[c].size(); ++b)
       normalised_[c][b] = rig_.cameras[c].undistort(blobs[c][b].uv_px);
     used_[c].assign(blobs[c].size(), 0);
   }
+  points->clear();
+  continued_ = 0;
   candidates_.clear();
   for (int i = 0; i < n; ++i) {
     for (int j = i + 1; j < n; ++j) {
-      const Eigen::Matrix3d& E = essential_[i * n + j];
-      const double fi = rig_.cameras[i].K.fx_px, fj = rig_.cameras[j].K.fx_px;
       for (int a = 0; a < static_cast<int>(normalised_[i].size()); ++a) {
-        const Eigen::Vector3d xa = normalised_[i][a].homogeneous();
-        const Eigen::Vector3d line_j = E * xa;
         for (int b = 0; b < static_cast<int>(normalised_[j].size()); ++b) {
-          if (fj * line_distance(line_j, normalised_[j][b]) > params_.epipolar_gate_px) continue;
-          const Eigen::Vector3d line_i = E.transpose() * normalised_[j][b].homogeneous();
-          if (fi * line_distance(line_i, normalised_[i][a]) > params_.epipolar_gate_px) continue;
+          if (!epipolar_match({i, a}, {j, b})) continue;
           Candidate c;
           c.views = {{i, a}, {j, b}};
           if (!triangulate(c.views, &c.p_W, &c.residual_px)) continue;
@@ -197,27 +255,26 @@ void Reconstructor::reconstruct(const std::vector<std::vector<Blob>>& blobs,
       }
     }
   }
-  // Most views first, then the smallest error; ties by the first view (deterministic).
+  if (tracks) continue_tracked(*tracks);
+  // Last frame's points continued along their 2D tracks first (a pair of blobs that happens to
+  // meet on an epipolar line, with a third camera's stray blob near it, does not take their
+  // blobs), then most views, then the smallest error; ties by the first view (deterministic).
   std::sort(candidates_.begin(), candidates_.end(), [](const Candidate& x, const Candidate& y) {
+    if (x.continued != y.continued) return x.continued;
     if (x.views.size() != y.views.size()) return x.views.size() > y.views.size();
     if (x.residual_px != y.residual_px) return x.residual_px < y.residual_px;
     return x.views < y.views;
   });
-  points->clear();
   for (Candidate& c : candidates_) {
     const auto taken = [&](const std::pair<int, int>& v) { return used_[v.first][v.second] != 0; };
     if (std::any_of(c.views.begin(), c.views.end(), taken)) {
       c.views.erase(std::remove_if(c.views.begin(), c.views.end(), taken), c.views.end());
       if (!refine(&c)) continue;
     }
-    for (const auto& [k, b] : c.views) used_[k][b] = 1;
-    Point3 p;
-    p.p_W = c.p_W;
-    p.views = c.views;
-    std::sort(p.views.begin(), p.views.end());
-    p.residual_px = c.residual_px;
-    points->push_back(std::move(p));
+    accept(c, points);
+    continued_ += c.continued ? 1 : 0;
   }
+  remember_tracks(tracks, *points);
 }
 
 }  // namespace biodyn::capture

@@ -12,22 +12,12 @@
 #include <string>
 #include <vector>
 
+#include "biodyn/mocap_io/filter.h"
 #include "biodyn/mocap_io/ground_force_estimate.h"
 #include "biodyn/mocap_io/marker_data.h"
 #include "biodyn/mocap_io/motion_csv.h"
 
 namespace biodyn::mocap_io {
-
-/// Zero-lag low-pass: a 2nd-order Butterworth run forward and backward (4th order, no phase
-/// lag), the cut-off corrected for the double pass (Winter 2009, §3.4.4.4: f / 0.802).
-struct LowPassFilter {
-  double cutoff_hz = 6.0;  ///< Hz; Winter 2009 uses ~6 Hz for gait kinematics; 0: no filtering
-};
-
-/// Filters each column of `samples` (rows at `rate_hz`) in place. Ends are padded by odd
-/// reflection so they do not ring. Throws sim::InvalidArgument if the cut-off is not below the
-/// Nyquist frequency.
-void low_pass(Eigen::MatrixXd* samples, double rate_hz, const LowPassFilter& filter);
 
 /// Where the ground reaction comes from.
 enum class GroundForces {

@@ -51,9 +51,17 @@ class Reconstructor {
  public:
   /// Throws sim::InvalidArgument for bad params or a rig of fewer than 2 cameras.
   Reconstructor(const Rig& rig, const ReconstructionParams& params = {});
-  /// The points of one frame: `blobs[c]` are camera c's. Throws sim::InvalidArgument if there
-  /// are not as many blob lists as cameras.
-  void reconstruct(const std::vector<std::vector<Blob>>& blobs, std::vector<Point3>* points);
+  /// The points of one frame: `blobs[c]` are camera c's. With `tracks` (tracks[c][b]: the 2D
+  /// track id of camera c's blob b, tracking2d.h), each of the last frame's points is rebuilt
+  /// from the blobs that continue its 2D tracks in two or more cameras (within
+  /// kMaxContinuedStep_m of where it was) and taken before any new match: a pair of blobs that
+  /// happens to meet on an epipolar line (a ghost) does not take its blobs. Throws
+  /// sim::InvalidArgument if there are not as many blob (or track) lists as cameras.
+  void reconstruct(const std::vector<std::vector<Blob>>& blobs, std::vector<Point3>* points,
+                   const std::vector<std::vector<int>>* tracks = nullptr);
+  /// Points of the last reconstruct() that continue a point of the frame before along its 2D
+  /// tracks.
+  int continued_points() const { return continued_; }
   const Rig& rig() const { return rig_; }
 
  private:
@@ -61,13 +69,24 @@ class Reconstructor {
     Eigen::Vector3d p_W;
     std::vector<std::pair<int, int>> views;
     double residual_px;
+    bool continued = false;  ///< last frame's point along its 2D tracks
   };
   /// Least-squares point of `views` (normalised coordinates of each camera's blobs); its RMS
   /// reprojection error in pixels into `residual_px`. False if it is behind a camera.
   bool triangulate(const std::vector<std::pair<int, int>>& views, Eigen::Vector3d* p_W,
                    double* residual_px) const;
+  /// Whether blob u = (camera, blob) and blob v of another camera lie within the epipolar
+  /// gate of each other's epipolar lines.
+  bool epipolar_match(std::pair<int, int> u, std::pair<int, int> v) const;
   void gather_support(Candidate* c) const;
   bool refine(Candidate* c) const;
+  /// Accepts `c`: its blobs are used, the point goes to `points`.
+  void accept(const Candidate& c, std::vector<Point3>* points);
+  /// Candidates for the last frame's points along their 2D tracks (continued = true).
+  void continue_tracked(const std::vector<std::vector<int>>& tracks);
+  /// Each of `points`' views as (camera, track id), for the next frame.
+  void remember_tracks(const std::vector<std::vector<int>>* tracks,
+                       const std::vector<Point3>& points);
 
   Rig rig_;
   ReconstructionParams params_;
@@ -76,6 +95,14 @@ class Reconstructor {
   std::vector<std::vector<char>> used_;
   mutable std::vector<std::pair<int, Eigen::Vector2d>> scratch_;
   std::vector<Candidate> candidates_;
+  /// The last frame's points: where, and their views as (camera, 2D track id).
+  std::vector<Eigen::Vector3d> last_points_;
+  std::vector<std::vector<std::pair<int, int>>> last_tracks_;
+  int continued_ = 0;
 };
+
+/// m: a point continued along its 2D tracks lies at most this far from where it was a frame
+/// ago (a foot at 5 m/s moves 5 cm at 100 Hz).
+inline constexpr double kMaxContinuedStep_m = 0.10;
 
 }  // namespace biodyn::capture

@@ -1,0 +1,32 @@
+#pragma once
+/// Low-pass filtering of captured trajectories: joint angles before inverse dynamics, marker
+/// trajectories before marker IK (the usual 6 Hz for gait kinematics, Winter 2009 §3.4).
+
+#include <Eigen/Core>
+
+#include "biodyn/mocap_io/marker_data.h"
+
+namespace biodyn::mocap_io {
+
+/// Zero-lag low-pass: a 2nd-order Butterworth run forward and backward (4th order, no phase
+/// lag), the cut-off corrected for the double pass (Winter 2009, §3.4.4.4: f / 0.802).
+struct LowPassFilter {
+  double cutoff_hz = 6.0;  ///< Hz; Winter 2009 uses ~6 Hz for gait kinematics; 0: no filtering
+};
+
+/// Hz: the cut-off one pass runs at so that the double pass has `filter`'s (the /0.802
+/// correction). Throws sim::InvalidArgument when the asked cut-off is not positive or, so
+/// corrected, not below the Nyquist frequency of `rate_hz`.
+double single_pass_cutoff_hz(const LowPassFilter& filter, double rate_hz);
+
+/// Filters each column of `samples` (rows at `rate_hz`) in place. Ends are padded by odd
+/// reflection so they do not ring. Throws sim::InvalidArgument if the cut-off is not below the
+/// Nyquist frequency.
+void low_pass(Eigen::MatrixXd* samples, double rate_hz, const LowPassFilter& filter);
+
+/// Filters every marker's trajectory in place, each unbroken run of samples on its own (a gap
+/// stays a gap and nothing is carried across it), frames taken as evenly spaced at rate_hz.
+/// Throws sim::InvalidArgument as low_pass does.
+void low_pass_markers(MarkerData* markers, const LowPassFilter& filter);
+
+}  // namespace biodyn::mocap_io
