@@ -6,12 +6,11 @@
 
 #include "biodyn/capture/evaluation.h"
 #include "biodyn/capture/synthetic.h"
-#include "biodyn/models/character.h"
-#include "biodyn/models/mjcf.h"
 #include "biodyn/sim/errors.h"
 #include "biodyn/sim/model.h"
 #include "biodyn/sim/random.h"
 #include "biodyn/viewer/headless_gl.h"
+#include "filmed_character.h"
 
 namespace biodyn::capture {
 namespace {
@@ -20,13 +19,10 @@ namespace {
 // turned about z) with `rig` and reconstructs them.
 CaptureScore film_and_reconstruct(const Rig& rig, const ImageFormation& formation, int frames,
                                   const ReconstructionParams& params = {}) {
-  const models::Character character = models::generate_character({});
-  sim::Model model = sim::Model::from_string(models::to_mjcf(character), "character");
-  mjModel& m = *model.get();
+  testing::FilmedCharacter filmed;
+  mjModel& m = *filmed.model.get();
   mjData* d = mj_makeData(&m);
-  std::vector<int> sites;
-  for (const models::Marker& mk : character.markers)
-    sites.push_back(mj_name2id(&m, mjOBJ_SITE, ("marker_" + mk.name).c_str()));
+  const std::vector<int>& sites = filmed.sites;
   SyntheticCameras cameras(m, rig, sites, formation);
   Reconstructor reconstructor(rig, params);
   std::vector<BlobDetector> detectors(rig.size());

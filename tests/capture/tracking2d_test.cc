@@ -10,11 +10,10 @@
 #include "biodyn/capture/evaluation.h"
 #include "biodyn/capture/reconstruct.h"
 #include "biodyn/capture/synthetic.h"
-#include "biodyn/models/character.h"
-#include "biodyn/models/mjcf.h"
 #include "biodyn/sim/errors.h"
 #include "biodyn/sim/model.h"
 #include "biodyn/viewer/headless_gl.h"
+#include "filmed_character.h"
 
 namespace biodyn::capture {
 namespace {
@@ -111,13 +110,10 @@ TEST_CASE("Reconstruction along 2D tracks: 4 cameras, fewer ghosts, the same poi
   spec.cameras = 4;
   spec.jitter_seed = 8;
   const Rig rig = make_synthetic_rig(spec);
-  const models::Character character = models::generate_character({});
-  sim::Model model = sim::Model::from_string(models::to_mjcf(character), "character");
-  mjModel& m = *model.get();
+  testing::FilmedCharacter filmed;
+  mjModel& m = *filmed.model.get();
   mjData* d = mj_makeData(&m);
-  std::vector<int> sites;
-  for (const models::Marker& mk : character.markers)
-    sites.push_back(mj_name2id(&m, mjOBJ_SITE, ("marker_" + mk.name).c_str()));
+  const std::vector<int>& sites = filmed.sites;
   SyntheticCameras cameras(m, rig, sites, ImageFormation{});
   Reconstructor plain(rig), tracked(rig);
   std::vector<BlobDetector> detectors(rig.size());
