@@ -746,8 +746,9 @@ void add_run_options(CLI::App* run, RunOptions* r) {
   run->add_option("--max-gap", r->label.max_gap_s, "s, longest gap a cubic fills")
       ->capture_default_str();
   run->add_option("--filter-hz", r->label.filter_hz,
-                  "Hz, low-pass cut-off of the markers the skeleton is solved from (zero-lag "
-                  "Butterworth; the written markers stay unfiltered); 0: unfiltered")
+                  "low-pass cut-off of the markers the skeleton is solved from (zero-lag "
+                  "Butterworth; the written markers stay unfiltered): auto (each marker's by "
+                  "Winter's residual analysis) or Hz (0: unfiltered)")
       ->capture_default_str();
   r->label.subject.add_to(run, false);
   run->add_option("--points", r->points_path, "CSV of the unlabelled 3D points per frame");

@@ -26,9 +26,12 @@ struct LabelOptions {
   CharacterOptions subject;
   std::string fill = "skeleton";  ///< none | spline | skeleton
   double max_gap_s = 0.1;         ///< s, longest gap a cubic fills
-  /// Hz, low-pass cut-off of the marker trajectories marker IK solves the skeleton from (the
-  /// written markers stay as reconstructed); 0: unfiltered
-  double filter_hz = 6.0;
+  /// Low-pass cut-off of the marker trajectories marker IK solves the skeleton from (the
+  /// written markers stay as reconstructed): "auto" (each marker's by Winter's residual
+  /// analysis), or Hz ("0": unfiltered)
+  std::string filter_hz = "auto";
+  /// Hz: filter_hz as a number; NaN for "auto". Throws sim::InvalidArgument for anything else.
+  double filter_cutoff_hz() const;
   bool wanted() const { return !markers_out.empty() || !motion_out.empty(); }
   /// Throws sim::InvalidArgument naming the option and value.
   void validate() const;

@@ -53,10 +53,23 @@ std::vector<std::string> marker_labels(const models::Character& character) {
   return labels;
 }
 
+double LabelOptions::filter_cutoff_hz() const {
+  if (filter_hz == "auto") return kNaN;
+  std::size_t used = 0;
+  double hz = kNaN;
+  try {
+    hz = std::stod(filter_hz, &used);
+  } catch (const std::exception&) {
+    used = 0;
+  }
+  if (used != filter_hz.size() || !(hz >= 0))
+    throw sim::InvalidArgument("--filter-hz: auto or a cut-off >= 0 Hz (0: unfiltered), got \"" +
+                               filter_hz + "\"");
+  return hz;
+}
+
 void LabelOptions::validate() const {
-  if (!(filter_hz >= 0))
-    throw sim::InvalidArgument("--filter-hz: must be >= 0 Hz (0: unfiltered), got " +
-                               std::to_string(filter_hz));
+  filter_cutoff_hz();
   if (fill != "none" && fill != "spline" && fill != "skeleton")
     throw sim::InvalidArgument("--fill: none, spline or skeleton, got \"" + fill + "\"");
   if (!(max_gap_s >= 0 && max_gap_s <= 10))
@@ -70,9 +83,10 @@ void LabelOptions::validate() const {
 }
 
 void LabelOptions::validate_filter(double rate_hz) const {
-  if (filter_hz == 0) return;
+  const double hz = filter_cutoff_hz();
+  if (std::isnan(hz) || hz == 0) return;
   try {
-    mocap_io::single_pass_cutoff_hz({filter_hz}, rate_hz);
+    mocap_io::single_pass_cutoff_hz({hz}, rate_hz);
   } catch (const sim::InvalidArgument& e) {
     throw sim::InvalidArgument(std::string("--filter-hz: ") + e.what());
   }
@@ -281,19 +295,30 @@ json LabelStage::finish(const LabelOptions& o) {
     // model's arms-down pose the first frame's 90-degree shoulder turn can end in a twisted arm
     // that every later frame keeps.
     // Reconstruction noise (0.5 px: ~2 mm a marker a frame) turns a forearm's pronation or a
-    // foot's inversion, seen by markers a few centimetres apart, by degrees; walking's marker
-    // motion lies below 6 Hz (Winter 2009, §3.4.4).
+    // foot's inversion, seen by markers a few centimetres apart, by degrees; one cut-off does
+    // not suit every motion (6 Hz halves a noisy walk's error but blurs a lunge's foot), so by
+    // default each marker gets its own from the residual analysis (Winter 2009, §3.4.4.3).
     mocap_io::MarkerData filtered = markers;
-    mocap_io::low_pass_markers(&filtered, {o.filter_hz});
+    const double hz = o.filter_cutoff_hz();
+    json cutoffs = json::object();
+    if (std::isnan(hz)) {
+      std::vector<double> each;
+      mocap_io::low_pass_markers_auto(&filtered, &each);
+      for (std::size_t k = 0; k < labels_.size(); ++k) cutoffs[labels_[k]] = each[k];
+    } else {
+      mocap_io::low_pass_markers(&filtered, {hz});
+      for (const std::string& l : labels_) cutoffs[l] = hz;
+    }
     const mocap_io::MarkerIkResult ik = mocap_io::solve_marker_ik(
         m, filtered, std::vector<double>(labels_.size(), 1.0), {}, init_qpos_);
     summary["ik"] = {{"solved_frames", ik.solved_count()},
                      {"frames", frames},
-                     {"marker_filter_hz", o.filter_hz},
+                     {"marker_filter", o.filter_hz},
+                     {"marker_cutoffs_hz", cutoffs},
                      {"about",
-                      "the skeleton is solved from the labelled markers low-pass filtered at "
-                      "marker_filter_hz (zero-lag Butterworth; 0: unfiltered); the written "
-                      "markers are unfiltered"}};
+                      "the skeleton is solved from the labelled markers, each low-pass filtered "
+                      "at its marker_cutoffs_hz (zero-lag Butterworth; auto: Winter's residual "
+                      "analysis; 0: unfiltered); the written markers are unfiltered"}};
     if (!o.motion_out.empty()) {
       mocap_io::Motion motion;
       motion.columns = mocap_io::qpos_names(m);

@@ -70,24 +70,88 @@ void low_pass(Eigen::MatrixXd* samples, double rate_hz, const LowPassFilter& fil
   }
 }
 
+namespace {
+
+/// Marker m's trajectory filtered at `filter` into `out` (each unbroken run on its own); the
+/// sum of squared differences from the raw samples and their count into sum2 / n.
+void filter_marker(const MarkerData& markers, int m, const LowPassFilter& filter,
+                   Eigen::MatrixXd* out, double* sum2, long* n) {
+  const int frames = markers.frame_count();
+  *out = markers.positions_m.middleCols(3 * m, 3);
+  *sum2 = 0;
+  *n = 0;
+  Eigen::MatrixXd run;
+  for (int start = 0; start < frames;) {
+    if (!markers.visible(start, m)) {
+      ++start;
+      continue;
+    }
+    int end = start;
+    while (end < frames && markers.visible(end, m)) ++end;
+    run = out->middleRows(start, end - start);
+    low_pass(&run, markers.rate_hz, filter);
+    *sum2 += (run - out->middleRows(start, end - start)).squaredNorm();
+    *n += 3L * (end - start);
+    out->middleRows(start, end - start) = run;
+    start = end;
+  }
+}
+
+}  // namespace
+
+double residual_cutoff_hz(const MarkerData& markers, int m) {
+  constexpr double kStep_hz = 0.5, kLowest_hz = 1.0, kHighest_hz = 25.0;
+  const double highest = std::min(kHighest_hz, 0.6 * 0.5 * markers.rate_hz * kDoublePassCorrection);
+  Eigen::MatrixXd filtered;
+  std::vector<double> fc, residual;
+  long n = 0;
+  for (double f = kLowest_hz; f <= highest + 1e-9; f += kStep_hz) {
+    double sum2 = 0;
+    filter_marker(markers, m, {f}, &filtered, &sum2, &n);
+    if (n < 60) return 0.0;  // fewer than 20 samples
+    fc.push_back(f);
+    residual.push_back(std::sqrt(sum2 / static_cast<double>(n)));
+  }
+  // The noise line: least squares over the top third of the cut-offs.
+  const std::size_t from = fc.size() - fc.size() / 3;
+  double sx = 0, sy = 0, sxx = 0, sxy = 0, k = 0;
+  for (std::size_t i = from; i < fc.size(); ++i) {
+    sx += fc[i];
+    sy += residual[i];
+    sxx += fc[i] * fc[i];
+    sxy += fc[i] * residual[i];
+    k += 1;
+  }
+  const double slope = (k * sxy - sx * sy) / (k * sxx - sx * sx);
+  const double noise = (sy - slope * sx) / k;  // the line at 0 Hz
+  for (std::size_t i = 0; i < fc.size(); ++i)
+    if (residual[i] <= noise) return fc[i];
+  return fc.back();
+}
+
+void low_pass_markers_auto(MarkerData* markers, std::vector<double>* cutoffs_hz) {
+  if (cutoffs_hz) cutoffs_hz->clear();
+  Eigen::MatrixXd filtered;
+  double sum2 = 0;
+  long n = 0;
+  for (int m = 0; m < markers->marker_count(); ++m) {
+    const double f = residual_cutoff_hz(*markers, m);
+    if (cutoffs_hz) cutoffs_hz->push_back(f);
+    if (f == 0) continue;
+    filter_marker(*markers, m, {f}, &filtered, &sum2, &n);
+    markers->positions_m.middleCols(3 * m, 3) = filtered;
+  }
+}
+
 void low_pass_markers(MarkerData* markers, const LowPassFilter& filter) {
   if (filter.cutoff_hz == 0.0) return;
   single_pass_cutoff_hz(filter, markers->rate_hz);
-  const int frames = markers->frame_count();
-  Eigen::MatrixXd run;
+  Eigen::MatrixXd filtered;
+  double sum2 = 0;
+  long n = 0;
   for (int m = 0; m < markers->marker_count(); ++m) {
-    for (int start = 0; start < frames;) {
-      if (!markers->visible(start, m)) {
-        ++start;
-        continue;
-      }
-      int end = start;
-      while (end < frames && markers->visible(end, m)) ++end;
-      run = markers->positions_m.block(start, 3 * m, end - start, 3);
-      low_pass(&run, markers->rate_hz, filter);
-      markers->positions_m.block(start, 3 * m, end - start, 3) = run;
-      start = end;
-    }
+    filter_marker(*markers, m, filter, &filtered, &sum2, &n);
+    markers->positions_m.middleCols(3 * m, 3) = filtered;
   }
 }
 

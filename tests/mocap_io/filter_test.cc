@@ -79,3 +79,56 @@ TEST_CASE("Marker trajectories are filtered run by run: gaps stay gaps, noise dr
   const Eigen::ArrayXXd a = bad.positions_m.array(), b = m.positions_m.array();
   CHECK(((a == b) || (a.isNaN() && b.isNaN())).all());
 }
+
+TEST_CASE("Residual analysis picks a cut-off that removes noise and keeps the motion",
+          "[mocap_io][filter]") {
+  // A marker at 100 Hz moving like a foot (1 Hz swing plus 3 and 6 Hz harmonics), with 2 mm
+  // of white noise and without; and a slow one (0.5 Hz) with the same noise.
+  const int frames = 600;
+  const double rate = 100.0;
+  std::mt19937 rng(9);
+  std::normal_distribution<double> noise(0.0, 0.002);
+  mocap_io::MarkerData m;
+  m.rate_hz = rate;
+  m.labels = {"noisy", "clean", "slow"};
+  m.positions_m.resize(frames, 9);
+  Eigen::MatrixXd truth(frames, 9);
+  for (int f = 0; f < frames; ++f) {
+    const double t = f / rate;
+    const double fast = 0.2 * std::sin(2 * kPi * t) + 0.03 * std::sin(2 * kPi * 3 * t) +
+                        0.01 * std::sin(2 * kPi * 6 * t);
+    for (int c = 0; c < 3; ++c) {
+      truth(f, c) = truth(f, 3 + c) = fast + 0.1 * c;
+      truth(f, 6 + c) = 0.1 * std::sin(2 * kPi * 0.5 * t) + 0.1 * c;
+      m.positions_m(f, c) = truth(f, c) + noise(rng);
+      m.positions_m(f, 3 + c) = truth(f, 3 + c);
+      m.positions_m(f, 6 + c) = truth(f, 6 + c) + noise(rng);
+    }
+  }
+  const double noisy = mocap_io::residual_cutoff_hz(m, 0);
+  const double clean = mocap_io::residual_cutoff_hz(m, 1);
+  const double slow = mocap_io::residual_cutoff_hz(m, 2);
+  INFO("cut-offs: noisy " << noisy << " Hz, clean " << clean << " Hz, slow " << slow << " Hz");
+  CHECK(noisy >= 4);   // keeps the 3 Hz harmonic
+  CHECK(noisy <= 15);  // removes most of the noise
+  CHECK(clean > noisy);
+  CHECK(slow < noisy);
+  const Eigen::MatrixXd raw = m.positions_m;
+  std::vector<double> cutoffs;
+  mocap_io::low_pass_markers_auto(&m, &cutoffs);
+  REQUIRE(cutoffs.size() == 3);
+  CHECK(cutoffs[0] == noisy);
+  const auto rms = [&](const Eigen::MatrixXd& x, int col) {
+    return std::sqrt(
+        (x.block(30, col, frames - 60, 3) - truth.block(30, col, frames - 60, 3)).squaredNorm() /
+        (3.0 * (frames - 60)));
+  };
+  INFO("noisy marker: " << rms(raw, 0) << " m -> " << rms(m.positions_m, 0) << " m");
+  // Measured: 1.98 -> 1.24 mm (the 6 Hz harmonic kept costs part of the noise's removal).
+  CHECK(rms(m.positions_m, 0) < 0.7 * rms(raw, 0));
+  CHECK(rms(m.positions_m, 3) < 0.0005);  // the clean one is hardly touched
+  // Too short to analyse: left alone.
+  mocap_io::MarkerData shorty = m;
+  shorty.positions_m.conservativeResize(10, 9);
+  CHECK(mocap_io::residual_cutoff_hz(shorty, 0) == 0.0);
+}

@@ -438,6 +438,22 @@ void MarkerLabeller::assign_tracked(const std::vector<Eigen::Vector3d>& points,
         out->point_of_label[i] = -1;
     }
   }
+  // A tracked label does not take a point nearer to where a label lost last frame was last
+  // seen than to its own last point (a foot thrown sideways loses its ankle and toe; the heel's
+  // guess lands on the ankle's point and the heel alone would bend the skeleton's foot to fit):
+  // it joins the gap and the skeleton looks for the foot's labels together.
+  for (Eigen::Index k = 0; k < n; ++k) {
+    const std::size_t i = static_cast<std::size_t>(k);
+    if (taken[i] < 0 || gap_frames_[i] > 0 || !is_set(last_.col(k))) continue;
+    const Eigen::Vector3d& p = points[static_cast<std::size_t>(taken[i])];
+    const double d = (last_.col(k) - p).norm();
+    for (Eigen::Index o = 0; o < n; ++o) {
+      const std::size_t io = static_cast<std::size_t>(o);
+      if (o != k && taken[io] < 0 && gap_frames_[io] == 1 && is_set(before_last_.col(o)) &&
+          (before_last_.col(o) - p).norm() < d)
+        out->point_of_label[i] = -1;
+    }
+  }
   out->previous_position.setConstant(3, n, kNaN);
   for (Eigen::Index k = 0; k < n; ++k) {
     const int j = out->point_of_label[static_cast<std::size_t>(k)];

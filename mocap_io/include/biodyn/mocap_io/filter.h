@@ -3,6 +3,7 @@
 /// trajectories before marker IK (the usual 6 Hz for gait kinematics, Winter 2009 §3.4).
 
 #include <Eigen/Core>
+#include <vector>
 
 #include "biodyn/mocap_io/marker_data.h"
 
@@ -28,5 +29,17 @@ void low_pass(Eigen::MatrixXd* samples, double rate_hz, const LowPassFilter& fil
 /// stays a gap and nothing is carried across it), frames taken as evenly spaced at rate_hz.
 /// Throws sim::InvalidArgument as low_pass does.
 void low_pass_markers(MarkerData* markers, const LowPassFilter& filter);
+
+/// Hz: the cut-off Winter's residual analysis (Winter 2009, §3.4.4.3) picks for marker `m`:
+/// the RMS difference between the trajectory and its filtered self, over cut-offs from 1 Hz up,
+/// is a straight line where only noise is removed (the top third of the range); the line's
+/// value at 0 Hz is the noise, and the cut-off is the lowest whose residual falls to it.
+/// Noise-free data gets the top of the range (25 Hz at 100 Hz, or 0.6 of the corrected
+/// Nyquist frequency below that); fewer than 20 samples in runs, 0 (leave unfiltered).
+double residual_cutoff_hz(const MarkerData& markers, int m);
+
+/// Filters every marker at the cut-off residual_cutoff_hz picks for it; the cut-offs go to
+/// `cutoffs_hz` (one per marker, 0: left unfiltered) when given.
+void low_pass_markers_auto(MarkerData* markers, std::vector<double>* cutoffs_hz = nullptr);
 
 }  // namespace biodyn::mocap_io
