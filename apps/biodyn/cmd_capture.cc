@@ -530,7 +530,7 @@ int run_capture(const RunOptions& o) {
          point_total ? static_cast<double>(continued) / static_cast<double>(point_total) : 0.0},
         {"about",
          "the share of points that continue a point of the frame before along "
-         "their blobs' 2D tracks (preferred over other matches of as many views)"}}}};
+         "their blobs' 2D tracks (taken before any new match)"}}}};
   if (labels) summary["labelling"] = finish_labelling(labels.get(), o.label);
   std::cout << "capture run: " << frames << " frames, " << rig.size() << " cameras (" << rig_path
             << "): " << summary["points_per_frame"].get<double>()

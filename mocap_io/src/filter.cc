@@ -112,6 +112,7 @@ double residual_cutoff_hz(const MarkerData& markers, int m) {
     fc.push_back(f);
     residual.push_back(std::sqrt(sum2 / static_cast<double>(n)));
   }
+  if (fc.size() < 6) return 0.0;  // a frame rate too low to tell signal from noise
   // The noise line: least squares over the top third of the cut-offs.
   const std::size_t from = fc.size() - fc.size() / 3;
   double sx = 0, sy = 0, sxx = 0, sxy = 0, k = 0;

@@ -11,7 +11,7 @@
 
 using namespace biodyn;
 
-TEST_CASE("The zero-lag low-pass keeps slow signals and removes fast ones", "[mocap_io][id]") {
+TEST_CASE("The zero-lag low-pass keeps slow signals and removes fast ones", "[mocap_io][filter]") {
   const double rate = 250.0;
   Eigen::MatrixXd x(1000, 2);
   for (int i = 0; i < 1000; ++i) {

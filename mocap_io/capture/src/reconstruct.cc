@@ -197,12 +197,16 @@ void Reconstructor::continue_tracked(const std::vector<std::vector<int>>& tracks
     }
     if (c.views.size() < 2 || !triangulate(c.views, &c.p_W, &c.residual_px)) continue;
     gather_support(&c);
-    if (!refine(&c) || (c.p_W - last_points_[i]).norm() > kMaxContinuedStep_m) continue;
-    // Two views: they must pass the epipolar gate a new pair passes.
-    if (c.views.size() == 2 && !epipolar_match(c.views[0], c.views[1])) continue;
-    c.continued = true;
-    candidates_.push_back(std::move(c));
+    c.continues = static_cast<int>(i);
+    if (refine(&c) && continuation_holds(c)) candidates_.push_back(std::move(c));
   }
+}
+
+bool Reconstructor::continuation_holds(const Candidate& c) const {
+  if ((c.p_W - last_points_[static_cast<std::size_t>(c.continues)]).norm() > kMaxContinuedStep_m)
+    return false;
+  // Two views: they must pass the epipolar gate a new pair passes.
+  return c.views.size() > 2 || epipolar_match(c.views[0], c.views[1]);
 }
 
 void Reconstructor::remember_tracks(const std::vector<std::vector<int>>* tracks,
@@ -260,7 +264,7 @@ void Reconstructor::reconstruct(const std::vector<std::vector<Blob>>& blobs,
   // meet on an epipolar line, with a third camera's stray blob near it, does not take their
   // blobs), then most views, then the smallest error; ties by the first view (deterministic).
   std::sort(candidates_.begin(), candidates_.end(), [](const Candidate& x, const Candidate& y) {
-    if (x.continued != y.continued) return x.continued;
+    if ((x.continues >= 0) != (y.continues >= 0)) return x.continues >= 0;
     if (x.views.size() != y.views.size()) return x.views.size() > y.views.size();
     if (x.residual_px != y.residual_px) return x.residual_px < y.residual_px;
     return x.views < y.views;
@@ -269,10 +273,11 @@ void Reconstructor::reconstruct(const std::vector<std::vector<Blob>>& blobs,
     const auto taken = [&](const std::pair<int, int>& v) { return used_[v.first][v.second] != 0; };
     if (std::any_of(c.views.begin(), c.views.end(), taken)) {
       c.views.erase(std::remove_if(c.views.begin(), c.views.end(), taken), c.views.end());
-      if (!refine(&c)) continue;
+      // A continued point that lost blobs to an earlier one is checked again as it was built.
+      if (!refine(&c) || (c.continues >= 0 && !continuation_holds(c))) continue;
     }
     accept(c, points);
-    continued_ += c.continued ? 1 : 0;
+    continued_ += c.continues >= 0 ? 1 : 0;
   }
   remember_tracks(tracks, *points);
 }

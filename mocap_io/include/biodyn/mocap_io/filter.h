@@ -34,8 +34,9 @@ void low_pass_markers(MarkerData* markers, const LowPassFilter& filter);
 /// the RMS difference between the trajectory and its filtered self, over cut-offs from 1 Hz up,
 /// is a straight line where only noise is removed (the top third of the range); the line's
 /// value at 0 Hz is the noise, and the cut-off is the lowest whose residual falls to it.
-/// Noise-free data gets the top of the range (25 Hz at 100 Hz, or 0.6 of the corrected
-/// Nyquist frequency below that); fewer than 20 samples in runs, 0 (leave unfiltered).
+/// The range is 1 Hz to 25 Hz or 0.6 of the corrected Nyquist frequency, whichever is lower
+/// (24 Hz at 100 Hz); noise-free data gets its top. Fewer than 20 samples in runs, or a frame
+/// rate under ~15 Hz: 0 (leave unfiltered).
 double residual_cutoff_hz(const MarkerData& markers, int m);
 
 /// Filters every marker at the cut-off residual_cutoff_hz picks for it; the cut-offs go to

@@ -69,7 +69,7 @@ class Reconstructor {
     Eigen::Vector3d p_W;
     std::vector<std::pair<int, int>> views;
     double residual_px;
-    bool continued = false;  ///< last frame's point along its 2D tracks
+    int continues = -1;  ///< the last frame's point it continues along the 2D tracks, or -1
   };
   /// Least-squares point of `views` (normalised coordinates of each camera's blobs); its RMS
   /// reprojection error in pixels into `residual_px`. False if it is behind a camera.
@@ -82,8 +82,11 @@ class Reconstructor {
   bool refine(Candidate* c) const;
   /// Accepts `c`: its blobs are used, the point goes to `points`.
   void accept(const Candidate& c, std::vector<Point3>* points);
-  /// Candidates for the last frame's points along their 2D tracks (continued = true).
+  /// Candidates for the last frame's points along their 2D tracks (`continues` set).
   void continue_tracked(const std::vector<std::vector<int>>& tracks);
+  /// Whether continued candidate `c` lies within a frame's step of the point it continues and,
+  /// seen by two cameras, passes the epipolar gate.
+  bool continuation_holds(const Candidate& c) const;
   /// Each of `points`' views as (camera, track id), for the next frame.
   void remember_tracks(const std::vector<std::vector<int>>* tracks,
                        const std::vector<Point3>& points);

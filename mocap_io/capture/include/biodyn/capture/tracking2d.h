@@ -28,8 +28,8 @@ struct Tracking2dParams {
 };
 
 struct Track2d {
-  int id = 0;                                             ///< unique in the camera, from 0
-  Eigen::Vector2d uv_px = Eigen::Vector2d::Zero();        ///< last blob (or prediction) seen
+  int id = 0;                                       ///< unique in the camera, from 0
+  Eigen::Vector2d uv_px = Eigen::Vector2d::Zero();  ///< last blob seen (a coasting track keeps it)
   Eigen::Vector2d velocity_px = Eigen::Vector2d::Zero();  ///< px per frame, last step
   int age = 0;                                            ///< frames the track has had a blob
   int missed = 0;                                         ///< frames since its last blob
