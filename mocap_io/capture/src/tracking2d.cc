@@ -2,7 +2,6 @@
 #include "biodyn/capture/tracking2d.h"
 
 #include <algorithm>
-#include <limits>
 #include <opencv2/video/tracking.hpp>
 #include <string>
 
