@@ -234,32 +234,6 @@ void write_walk_outputs(const scenarios::WalkRunResult& r, const nlohmann::json&
   }
 }
 
-// Builds the character's simulation and runs the walk with a progress bar; the trace (if
-// `with_trace`) comes back in `trace`, the motion (if `recording`, at `record_hz`) in it.
-scenarios::WalkRunResult run_walk_on(const models::CharacterSpec& spec,
-                                     const models::PhysicsOptions& physics,
-                                     scenarios::WalkRunParams p, bool with_trace,
-                                     const std::string& label, std::string* trace,
-                                     scenarios::RecordedMotion* recording = nullptr,
-                                     double record_hz = 100) {
-  const models::Character character = models::generate_character(spec);
-  sim::Simulation sim(sim::Model::from_string(models::to_mjcf(character, physics), "<character>"));
-  std::ostringstream text;
-  if (with_trace) p.trace = &text;
-  const double dt = sim.model().opt.timestep;
-  const int every = std::max(1, static_cast<int>(std::lround(1.0 / (record_hz * dt))));
-  scenarios::MotionRecorder recorder(sim.model(), every, std::lround(p.duration_s / dt) + 1);
-  if (recording) p.observers.push_back(&recorder);
-  scenarios::WalkRunResult r;
-  {
-    ProgressBar bar(label);
-    r = scenarios::run_walk(&sim, p, [&](double f) { bar.update(f); });
-  }
-  *trace = text.str();
-  if (recording) *recording = recorder.motion();
-  return r;
-}
-
 // --motion-out: the walk as a motion CSV (qpos, the body in its header) and, beside it,
 // <stem>.grf.csv with each foot's ground force (weld plus contacts) from the simulation.
 void write_recorded_motion(const scenarios::RecordedMotion& rec, const models::CharacterSpec& spec,
@@ -293,6 +267,29 @@ void write_recorded_motion(const scenarios::RecordedMotion& rec, const models::C
 }
 
 }  // namespace
+
+scenarios::WalkRunResult run_walk_on(const models::CharacterSpec& spec,
+                                     const models::PhysicsOptions& physics,
+                                     scenarios::WalkRunParams p, bool with_trace,
+                                     const std::string& label, std::string* trace,
+                                     scenarios::RecordedMotion* recording, double record_hz) {
+  const models::Character character = models::generate_character(spec);
+  sim::Simulation sim(sim::Model::from_string(models::to_mjcf(character, physics), "<character>"));
+  std::ostringstream text;
+  if (with_trace) p.trace = &text;
+  const double dt = sim.model().opt.timestep;
+  const int every = std::max(1, static_cast<int>(std::lround(1.0 / (record_hz * dt))));
+  scenarios::MotionRecorder recorder(sim.model(), every, std::lround(p.duration_s / dt) + 1);
+  if (recording) p.observers.push_back(&recorder);
+  scenarios::WalkRunResult r;
+  {
+    ProgressBar bar(label);
+    r = scenarios::run_walk(&sim, p, [&](double f) { bar.update(f); });
+  }
+  *trace = text.str();
+  if (recording) *recording = recorder.motion();
+  return r;
+}
 
 Command add_walk_command(CLI::App* app) {
   struct Options {

@@ -7,6 +7,7 @@
 #include <string>
 
 #include "biodyn/models/mjcf.h"
+#include "biodyn/scenarios/motion_recorder.h"
 #include "biodyn/scenarios/walk.h"
 #include "cli_common.h"
 
@@ -35,6 +36,16 @@ struct WalkOptions {
   scenarios::WalkRunParams to_params() const;
   nlohmann::json inputs_json(const models::CharacterSpec& spec) const;
 };
+
+/// Builds the character's simulation and runs the walk with a progress bar labelled `label`; the
+/// trace (if `with_trace`) comes back in `trace`, the motion (if `recording`, at `record_hz`)
+/// in `recording`.
+scenarios::WalkRunResult run_walk_on(const models::CharacterSpec& spec,
+                                     const models::PhysicsOptions& physics,
+                                     scenarios::WalkRunParams p, bool with_trace,
+                                     const std::string& label, std::string* trace,
+                                     scenarios::RecordedMotion* recording = nullptr,
+                                     double record_hz = 100);
 
 /// What a result depends on in each foot-contact mode, said in every output.
 std::string weld_assumption(const std::string& weld);

@@ -195,6 +195,41 @@ const Tables& default_tables() {
   return tables;
 }
 
+std::vector<NormativeGaitRow> parse_normative_gait(std::string_view text) {
+  const CsvReader csv(
+      "normative_gait.csv", text,
+      {"percent", "hip_mean", "hip_sd", "knee_mean", "knee_sd", "ankle_mean", "ankle_sd"});
+  std::vector<NormativeGaitRow> rows;
+  for (size_t r = 0; r < csv.size(); ++r) {
+    NormativeGaitRow row;
+    double* fields[] = {&row.percent,     &row.hip_mean_deg,   &row.hip_sd_deg,  &row.knee_mean_deg,
+                        &row.knee_sd_deg, &row.ankle_mean_deg, &row.ankle_sd_deg};
+    for (size_t c = 0; c < 7; ++c) *fields[c] = csv.number(r, c);
+    const double previous = rows.empty() ? -1.0 : rows.back().percent;
+    if (!(row.percent > previous && row.percent <= 100) || (rows.empty() && row.percent != 0)) {
+      csv.fail(r, 0,
+               rows.empty() ? "0 in the first row" : "a percent above the previous row's, <= 100",
+               csv.text(r, 0));
+    }
+    for (size_t c : {2, 4, 6}) {
+      if (!(*fields[c] > 0)) csv.fail(r, c, "a positive SD", csv.text(r, c));
+    }
+    rows.push_back(row);
+  }
+  if (rows.size() < 4 || rows.back().percent != 100) {
+    throw sim::Error("normative_gait.csv: expected at least 4 rows from 0 to 100 %, found " +
+                     std::to_string(rows.size()) + " rows ending at " +
+                     (rows.empty() ? std::string("none") : std::to_string(rows.back().percent)));
+  }
+  return rows;
+}
+
+const std::vector<NormativeGaitRow>& normative_gait() {
+  static const std::vector<NormativeGaitRow> rows =
+      parse_normative_gait(embedded_data_file("normative_gait.csv"));
+  return rows;
+}
+
 const DeLevaRow& Tables::de_leva_row(const std::string& segment, Sex sex) const {
   for (const DeLevaRow& row : de_leva) {
     if (row.segment == segment && row.sex == sex) return row;

@@ -59,6 +59,21 @@ const Tables& default_tables();
 Tables parse_tables(std::string_view de_leva_csv, std::string_view proportions_csv,
                     std::string_view joints_csv, std::string_view markers_csv);
 
+/// Normative adult walking (normative_gait.csv): the sagittal joint angles' mean and SD over
+/// the gait cycle, one row per key point (references.md, "Normative adult walking").
+struct NormativeGaitRow {
+  double percent = 0;                           ///< % of the cycle from heel strike
+  double hip_mean_deg = 0, hip_sd_deg = 0;      ///< hip flexion (+)
+  double knee_mean_deg = 0, knee_sd_deg = 0;    ///< knee flexion (+)
+  double ankle_mean_deg = 0, ankle_sd_deg = 0;  ///< ankle dorsiflexion (+)
+};
+
+/// Parses normative_gait.csv's text: rows with increasing percent from 0 to 100, SDs > 0.
+/// Throws sim::Error naming the file, line, column, what was expected and what was found.
+std::vector<NormativeGaitRow> parse_normative_gait(std::string_view csv);
+/// The normative gait compiled into the library, parsed once (thread-safe).
+const std::vector<NormativeGaitRow>& normative_gait();
+
 /// The text of an embedded data file by base name ("de_leva_1996.csv"), empty if unknown.
 std::string_view embedded_data_file(std::string_view name);
 
