@@ -47,6 +47,9 @@ constexpr NamedField kFields[] = {BIODYN_FIELD(sagittal_cd),
                                   BIODYN_FIELD(hip_kp),
                                   BIODYN_FIELD(knee_kp),
                                   BIODYN_FIELD(ankle_kp),
+                                  BIODYN_FIELD(stance_knee_kp),
+                                  BIODYN_FIELD(stance_ankle_kp),
+                                  BIODYN_FIELD(stance_weight_support),
                                   BIODYN_FIELD(toe_kp),
                                   BIODYN_FIELD(trunk_kp),
                                   BIODYN_FIELD(arm_kp),
@@ -224,10 +227,16 @@ void TorqueWalkerParams::validate() const {
                                                    {"start_pitch_rad", start_pitch_rad}};
   for (const auto& [name, a] : angles)
     check(std::abs(a) <= M_PI, w + name, "must be within +-pi rad", a);
-  const std::pair<const char*, double> gains[] = {{"torso_kp", torso_kp}, {"hip_kp", hip_kp},
-                                                  {"knee_kp", knee_kp},   {"ankle_kp", ankle_kp},
-                                                  {"toe_kp", toe_kp},     {"trunk_kp", trunk_kp},
-                                                  {"arm_kp", arm_kp},     {"distal_kp", distal_kp}};
+  const std::pair<const char*, double> gains[] = {{"torso_kp", torso_kp},
+                                                  {"hip_kp", hip_kp},
+                                                  {"knee_kp", knee_kp},
+                                                  {"ankle_kp", ankle_kp},
+                                                  {"stance_knee_kp", stance_knee_kp},
+                                                  {"stance_ankle_kp", stance_ankle_kp},
+                                                  {"toe_kp", toe_kp},
+                                                  {"trunk_kp", trunk_kp},
+                                                  {"arm_kp", arm_kp},
+                                                  {"distal_kp", distal_kp}};
   for (const auto& [name, k] : gains)
     check(k >= 0 && k <= 1e5, w + name, "must be in [0, 1e5] N m/rad", k);
   const std::pair<const char*, double> feedback[] = {{"sagittal_cd", sagittal_cd},
@@ -236,6 +245,8 @@ void TorqueWalkerParams::validate() const {
                                                      {"frontal_cv", frontal_cv}};
   for (const auto& [name, c] : feedback)
     check(std::abs(c) <= 10, w + name, "must be within +-10", c);
+  check(stance_weight_support >= 0 && stance_weight_support <= 1.5, w + "stance_weight_support",
+        "must be in [0, 1.5] body weights", stance_weight_support);
   check(reference_speed_m_s > 0 && reference_speed_m_s <= 3, w + "reference_speed_m_s",
         "must be in (0, 3] m/s", reference_speed_m_s);
   check(std::abs(speed_lean_rad_per_m_s) <= 1, w + "speed_lean_rad_per_m_s", "must be within +-1",
@@ -277,6 +288,7 @@ TorqueWalker::TorqueWalker(const models::Rig& rig, TorqueWalkerParams params)
   state_.support.reserve(128);
   state_.tolerance.reserve(128);
   gain_scale_ = rig.mass_kg() / kReferenceMass_kg;
+  body_mass_kg_ = rig.mass_kg();
   const std::vector<JointGroup>& groups = rig.groups();
   leg_.assign(groups.size(), false);
   for (int s = 0; s < 2; ++s) {
@@ -360,10 +372,11 @@ double TorqueWalker::phase_duration_s(int phase) const {
 }
 
 double TorqueWalker::hinge_pd(ControlFrame* f, const mjModel& m, const mjData& d, int dof,
-                              double target, double kp, double target_rate) const {
+                              double target, double kp, double target_rate,
+                              double feedforward) const {
   const double k = kp * gain_scale_;
   const double tau = k * (target - d.qpos[m.jnt_qposadr[m.dof_jntid[dof]]]) +
-                     k * params_.damping_time_s * (target_rate - d.qvel[dof]);
+                     k * params_.damping_time_s * (target_rate - d.qvel[dof]) + feedforward;
   f->set_torque(dof, tau);
   return tau;
 }
@@ -606,6 +619,22 @@ LegTriangle TorqueWalker::placed_step_ik(const mjData& d, const TorqueWalkerPhas
   return ik;
 }
 
+double TorqueWalker::knee_weight_support(const mjModel& m, const mjData& d, int side,
+                                         double share) const {
+  if (params_.stance_weight_support <= 0 || share <= 0) return 0;
+  const models::RigLeg& leg = rig_->leg(side);
+  const std::vector<JointGroup>& groups = rig_->groups();
+  const int knee = m.dof_jntid[groups[static_cast<std::size_t>(leg.knee)].dof_begin];
+  const int ankle = m.dof_jntid[groups[static_cast<std::size_t>(leg.ankle)].dof_begin];
+  // The knee torque that makes the foot press the floor with `share` of the supported weight:
+  // tau = J' f for the ankle point, f the force the foot exerts (Coros et al. 2010's virtual
+  // force, vertical). A joint torque only: the floor's reaction carries the body.
+  const Vector3d f =
+      share * params_.stance_weight_support * body_mass_kg_ * sim::vec3_at(m.opt.gravity);
+  const Vector3d lever = sim::vec3_at(d.xanchor + 3 * ankle) - sim::vec3_at(d.xanchor + 3 * knee);
+  return sim::vec3_at(d.xaxis + 3 * knee).dot(lever.cross(f));
+}
+
 void TorqueWalker::leg_joints(ControlFrame* f, const mjModel& m, const mjData& d,
                               const TorqueWalkerPhase& ph, bool placed,
                               const LegTriangle& ik) const {
@@ -613,18 +642,22 @@ void TorqueWalker::leg_joints(ControlFrame* f, const mjModel& m, const mjData& d
   const std::vector<JointGroup>& groups = rig_->groups();
   for (int s = 0; s < 2; ++s) {
     const bool stance = s == state_.stance;
+    // A foot on the floor: the stance foot, and the trailing foot in a double support.
+    const bool foot_down = stance || ph.swing_foot_down;
     const models::RigLeg& leg = rig_->leg(s);
     const JointGroup& knee = groups[static_cast<std::size_t>(leg.knee)];
     const JointGroup& ankle = groups[static_cast<std::size_t>(leg.ankle)];
     const double swing_knee = placed ? ik.knee_flexion_rad : ph.swing_knee_rad;
-    hinge_pd(f, m, d, knee.dof_begin, stance ? ph.stance_knee_rad : swing_knee, p.knee_kp,
-             !stance && placed ? state_.ik_knee_rate : 0.0);
+    const double share = !foot_down ? 0.0 : (ph.swing_foot_down ? 0.5 : 1.0);
+    hinge_pd(f, m, d, knee.dof_begin, stance ? ph.stance_knee_rad : swing_knee,
+             stance ? p.stance_knee_kp : p.knee_kp, !stance && placed ? state_.ik_knee_rate : 0.0,
+             knee_weight_support(m, d, s, share));
     double dorsiflexion = stance ? ph.stance_ankle_rad : ph.swing_ankle_rad;
     if (!stance && !ph.swing_foot_down) {
       dorsiflexion = level_sole_dorsiflexion(state_.heading, sim::quat_at(d.xquat + 4 * leg.shank),
                                              ph.swing_ankle_rad, p.toe_up_rad);
     }
-    hinge_pd(f, m, d, ankle.dof_begin, dorsiflexion, p.ankle_kp);
+    hinge_pd(f, m, d, ankle.dof_begin, dorsiflexion, foot_down ? p.stance_ankle_kp : p.ankle_kp);
     for (int k = 1; k < ankle.dof_count; ++k)
       hinge_pd(f, m, d, ankle.dof_begin + k, 0.0, p.ankle_kp);
     if (leg.toe >= 0)

@@ -256,3 +256,51 @@ TEST_CASE_METHOD(biodyn::testing::SimulationTest,
   gait.plan_steps({0.5, 0.3});
   CHECK(gait.planned_steps_left() == 2);
 }
+
+TEST_CASE_METHOD(biodyn::testing::SimulationTest,
+                 "The stance knee's weight support is the torque that presses the body's weight "
+                 "through the ankle",
+                 "[gait]") {
+  // Coros et al. 2010's virtual force on the stance leg: tau = J' f, f the share of the body's
+  // weight the foot presses down. A knee bent forward of the hip-ankle line gets extension
+  // torque m g x (the ankle's horizontal offset from the knee), nothing else changes.
+  sim::Simulation sim(testing::generated_character());
+  const mjModel& m = sim.model();
+  mjData& d = sim.data();
+  const models::Rig rig(m);
+  const models::RigLeg& left = rig.leg(models::kLeft);
+  const int knee_dof = rig.groups()[static_cast<std::size_t>(left.knee)].dof_begin;
+  d.qpos[m.jnt_qposadr[m.dof_jntid[knee_dof]]] = 0.5;  // the left (stance) knee bent 29 deg
+  mj_forward(&m, &d);
+  auto stance_torques = [&](double support) {
+    controllers::TorqueWalkerParams p;
+    p.stance_weight_support = support;
+    controllers::TorqueWalker walker(rig, p);
+    walker.reset(d);
+    REQUIRE(walker.stance_side() == models::kLeft);
+    controllers::ControlFrame frame(rig, m.nv);
+    frame.begin_step();
+    const controllers::StepReport report{};
+    walker.drive({m, d, rig, report}, &frame);
+    std::vector<double> tau(static_cast<std::size_t>(m.nv));
+    for (int v = 6; v < m.nv; ++v)
+      tau[static_cast<std::size_t>(v)] = frame.command(v).torque_max_Nm;
+    return tau;
+  };
+  const std::vector<double> off = stance_torques(0), on = stance_torques(1);
+  const int knee_joint = m.dof_jntid[knee_dof];
+  const int ankle_joint = m.dof_jntid[rig.groups()[static_cast<std::size_t>(left.ankle)].dof_begin];
+  double mass = 0;
+  for (int b = 1; b < m.nbody; ++b) mass += m.body_mass[b];
+  // The ankle lies behind the bent knee: pressing the weight down through it needs extension.
+  const double behind = (d.xanchor[3 * knee_joint] - d.xanchor[3 * ankle_joint]);
+  REQUIRE(behind > 0.1);
+  const double expected = -mass * 9.81 * behind;  // flexion positive
+  CHECK(on[static_cast<std::size_t>(knee_dof)] - off[static_cast<std::size_t>(knee_dof)] ==
+        Approx(expected).epsilon(0.02));
+  for (int v = 6; v < m.nv; ++v) {
+    if (v == knee_dof) continue;
+    INFO("dof " << v);
+    CHECK(on[static_cast<std::size_t>(v)] == off[static_cast<std::size_t>(v)]);
+  }
+}

@@ -96,6 +96,16 @@ struct TorqueWalkerParams {
   double hip_kp = 434;
   double knee_kp = 218;
   double ankle_kp = 52;
+  /// The legs with a foot on the floor (the stance leg; the trailing leg in a double support):
+  /// their knee's and ankle's (flexion) gains. A person's stance knee and ankle are stiff
+  /// (extensors, soleus) while the swing leg's are compliant.
+  double stance_knee_kp = 218;
+  double stance_ankle_kp = 52;
+  /// The stance knee also carries this fraction of the body weight as a feed-forward torque,
+  /// J' f with f the weight pressed through the ankle (Coros et al. 2010's virtual force;
+  /// shared equally in a double support): it holds the body without the crouch a PD needs to
+  /// make that torque. 0: off.
+  double stance_weight_support = 0;
   double toe_kp = 30;
   double trunk_kp = 600;        ///< lumbar, thorax
   double arm_kp = 100;          ///< shoulders, clavicles
@@ -256,7 +266,9 @@ class TorqueWalker : public ControlDriver {
  private:
   /// Sets and returns the PD torque of one hinge DOF (towards target at target_rate).
   double hinge_pd(ControlFrame* f, const mjModel& m, const mjData& d, int dof, double target,
-                  double kp, double target_rate = 0) const;
+                  double kp, double target_rate = 0, double feedforward = 0) const;
+  /// The knee torque of stance_weight_support for leg `side` carrying `share` of it.
+  double knee_weight_support(const mjModel& m, const mjData& d, int side, double share) const;
   void hip_torque(ControlFrame* f, const mjData& d, int side,
                   const Eigen::Vector3d& torque_W) const;
   /// The stop's closing step (the planned step of length 0 that brings the feet side by side).
@@ -288,6 +300,7 @@ class TorqueWalker : public ControlDriver {
   TorqueWalkerState state_;
   const models::Rig* rig_;
   double gain_scale_ = 1;  // body mass / 80 kg
+  double body_mass_kg_ = 0;
   int lumbar_ = -1;
   std::vector<double> kp_;  // per group, the PD gain of the non-leg groups
   std::vector<bool> leg_;   // per group: hip, knee, ankle or toe
