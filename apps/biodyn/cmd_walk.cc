@@ -29,6 +29,11 @@ void WalkOptions::add_to(CLI::App* cmd) {
   cmd->add_option("--heading-rate", heading_rate_deg_s, "Commanded turning rate, deg/s (+ left)")
       ->capture_default_str();
   cmd->add_option("--weld", weld, "Foot-contact mode: off | honest | glue")->capture_default_str();
+  cmd->add_option("--controller", controller,
+                  "How the walker drives the joints: torque (PD torques, SIMBICON) | velocity (the "
+                  "paper's velocity-based controllers: targets with an optimal time, torques from "
+                  "the whole-body solve)")
+      ->capture_default_str();
   cmd->add_option(
       "--reaction-time", reaction_time_s,
       "Muscle reaction time t_r for every joint, s (default: the controller params, 0.02)");
@@ -59,6 +64,7 @@ scenarios::WalkRunParams WalkOptions::to_params() const {
   c.speed_m_s = speed_m_s;
   c.heading_rate_deg_s = heading_rate_deg_s;
   c.weld = controllers::parse_weld_mode(weld, "--weld");
+  c.walker_actuation = controllers::parse_walker_actuation(controller, "--controller");
   c.reaction_time_s = reaction_time_s;
   c.muscles = muscles.to_config();
   if (!params_path.empty()) {
@@ -351,8 +357,9 @@ Command add_walk_command(CLI::App* app) {
             const models::PhysicsOptions physics = o->walk.physics();
             std::cout << "biodyn walk: " << to_string(spec.sex) << " " << spec.height_m << " m "
                       << spec.mass_kg << " kg (" << to_string(spec.detail) << "), " << p.duration_s
-                      << " s, weld " << o->walk.weld << ", speed " << p.config.speed_m_s
-                      << " m/s, heading rate " << p.config.heading_rate_deg_s << " deg/s, timestep "
+                      << " s, weld " << o->walk.weld << ", controller " << o->walk.controller
+                      << ", speed " << p.config.speed_m_s << " m/s, heading rate "
+                      << p.config.heading_rate_deg_s << " deg/s, timestep "
                       << 1000 * o->walk.timestep_s << " ms\n";
             if (!o->motion_out.empty()) check_outputs({{"--motion-out", o->motion_out, false}}, {});
             std::string trace;
@@ -374,6 +381,7 @@ nlohmann::json WalkOptions::inputs_json(const models::CharacterSpec& spec) const
   j["speed_m_s"] = speed_m_s;
   j["heading_rate_deg_s"] = heading_rate_deg_s;
   j["weld"] = weld;
+  j["controller"] = controller;
   j["reaction_time_s"] = reaction_time_s;
   j["params"] = params_path;
   j["timestep_s"] = timestep_s;

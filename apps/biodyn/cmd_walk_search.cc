@@ -28,6 +28,7 @@ json outcome_json(const scenarios::GaitSearchParams& p, const scenarios::Candida
     cases.push_back({{"height_m", c.height_m},
                      {"mass_kg", c.mass_kg},
                      {"speed_m_s", c.speed_m_s},
+                     {"reaction_time_s", c.reaction_time_s},
                      {"judged_on_gait", c.gait},
                      {"fell", o.fell},
                      {"time_fallen_s", o.fell ? json(o.time_fallen_s) : json(nullptr)},
@@ -49,7 +50,7 @@ std::string best_json(const std::string& candidate) {
 
 Command add_walk_search_command(CLI::App* app) {
   struct Options {
-    std::string params, out;
+    std::string params, out, controller = "torque";
     int generations = 30, population = 32, threads = 0;
     unsigned long long seed = 1;
     double duration_s = 16;
@@ -64,6 +65,9 @@ Command add_walk_search_command(CLI::App* app) {
   cmd->add_option("--params", o->params,
                   "Walker parameters to start from (JSON; default: the walker's defaults with a "
                   "double support put first)");
+  cmd->add_option("--controller", o->controller,
+                  "The walker's actuation the candidates walk with: torque | velocity")
+      ->capture_default_str();
   cmd->add_option("--generations", o->generations, "Generations")->capture_default_str();
   cmd->add_option("--population", o->population, "Candidates per generation")
       ->capture_default_str();
@@ -83,8 +87,9 @@ Command add_walk_search_command(CLI::App* app) {
             controllers::TorqueWalkerParams base;
             if (!o->params.empty())
               controllers::apply_torque_walker_json(read_file(o->params), o->params, &base);
-            scenarios::GaitSearchParams p =
-                scenarios::default_gait_search(controllers::torque_walker_json(base));
+            scenarios::GaitSearchParams p = scenarios::default_gait_search(
+                controllers::torque_walker_json(base),
+                controllers::parse_walker_actuation(o->controller, "--controller"));
             p.generations = o->generations;
             p.population = o->population;
             p.seed = o->seed;
@@ -93,10 +98,11 @@ Command add_walk_search_command(CLI::App* app) {
                             ? o->threads
                             : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
             p.validate();
-            std::cout << "biodyn walk-search: " << p.dimensions.size() << " parameters, "
-                      << p.cases.size() << " walks of " << p.duration_s << " s per candidate, "
-                      << p.population << " candidates x " << p.generations << " generations, seed "
-                      << p.seed << ", " << p.threads << " threads\n";
+            std::cout << "biodyn walk-search: controller " << o->controller << ", "
+                      << p.dimensions.size() << " parameters, " << p.cases.size() << " walks of "
+                      << p.duration_s << " s per candidate, " << p.population << " candidates x "
+                      << p.generations << " generations, seed " << p.seed << ", " << p.threads
+                      << " threads\n";
             std::ostringstream csv;
             csv << "generation,best_cost,elite_mean_cost";
             for (const scenarios::SearchDimension& d : p.dimensions) csv << ",mean" << d.pointer;

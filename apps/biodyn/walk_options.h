@@ -18,6 +18,7 @@ struct WalkOptions {
   double speed_m_s = 1.0;
   double heading_rate_deg_s = 0;
   std::string weld = "honest";
+  std::string controller = "torque";  ///< the walker's actuation: torque | velocity
   double reaction_time_s = 0;
   std::string params_path;
   std::string controller_params_path;
@@ -26,7 +27,8 @@ struct WalkOptions {
   double timestep_s = 0.002;
   MuscleOptions muscles;
 
-  /// Adds the character options and --speed --heading-rate --weld --reaction-time --params
+  /// Adds the character options and --speed --heading-rate --weld --controller --reaction-time
+  /// --params
   /// --controller-params --timestep --muscles --tendons --muscle-params.
   void add_to(CLI::App* cmd);
   /// The model's physics options for --timestep.

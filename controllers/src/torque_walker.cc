@@ -110,6 +110,16 @@ TorqueWalkerPhase read_torque_phase(const nlohmann::json& j, const std::string& 
 
 }  // namespace
 
+const char* to_string(WalkerActuation a) {
+  return a == WalkerActuation::kVelocity ? "velocity" : "torque";
+}
+
+WalkerActuation parse_walker_actuation(const std::string& text, const std::string& field) {
+  if (text == "torque") return WalkerActuation::kTorque;
+  if (text == "velocity") return WalkerActuation::kVelocity;
+  throw sim::InvalidArgument(field + ": expected torque or velocity, got '" + text + "'");
+}
+
 std::vector<TorqueWalkerPhase> default_torque_walker_phases() {
   // SIMBICON's two states per step; the numbers from the cross-entropy search (README).
   TorqueWalkerPhase early;
@@ -451,8 +461,54 @@ void TorqueWalker::drive(const ControlInput& in, ControlFrame* frame) {
       k_torso *
           rotation_vector(q_pelvis_goal * sim::quat_at(d.xquat + 4 * rig_->pelvis()).conjugate()) -
       k_torso * p.damping_time_s * w_pelvis;
+  if (actuation_ == WalkerActuation::kVelocity) {
+    hip_targets(frame, m, d, q_thigh_goal, q_pelvis_goal, ph.swing_foot_down);
+    return;
+  }
   hip_torque(frame, d, swing, tau_swing);
   hip_torque(frame, d, stance, -tau_torso - tau_swing - tau_lumbar);
+}
+
+void TorqueWalker::hinge_target(ControlFrame* f, const mjData& d, int group, double angle,
+                                double kp, bool spring) const {
+  f->set_joint_angles(group, Vector3d(angle, 0, 0), d.time + params_.damping_time_s);
+  if (spring) {
+    const double k = kp * gain_scale_;
+    f->set_spring(group, k, k * params_.damping_time_s);
+  }
+}
+
+void TorqueWalker::hip_targets(ControlFrame* f, const mjModel& m, const mjData& d,
+                               const Quaterniond& q_thigh_goal, const Quaterniond& q_pelvis_goal,
+                               bool swing_down) const {
+  const TorqueWalkerParams& p = params_;
+  const double t = p.damping_time_s;  // the optimal time of every target
+  const Quaterniond q_pelvis = sim::quat_at(d.xquat + 4 * rig_->pelvis());
+  const Vector3d w_pelvis = sim::vec3_at(d.cvel + 6 * rig_->pelvis());
+  const int stance = state_.stance, swing = 1 - stance;
+  // Stance hip (paper §4.1): the pelvis to its world goal. Its relative target is the one that
+  // puts the pelvis there for the thigh where it is; with the foot on the floor the thigh's own
+  // rotation is fed forward, so the pelvis's world velocity goes to e / t.
+  const models::RigLeg& stance_leg = rig_->leg(stance);
+  const Quaterniond q_stance_thigh = sim::quat_at(d.xquat + 4 * stance_leg.thigh);
+  f->set_target(stance_leg.hip, q_pelvis_goal.conjugate() * q_stance_thigh, d.time + t);
+  if (foot_touches_floor(m, d, *rig_, stance)) {
+    const Vector3d w_wanted = rotation_vector(q_pelvis_goal * q_pelvis.conjugate()) / t;
+    const Vector3d w_thigh = sim::vec3_at(d.cvel + 6 * stance_leg.thigh);
+    f->set_velocity(stance_leg.hip, q_stance_thigh.conjugate() * (w_thigh - w_wanted));
+  }
+  // Swing hip: the thigh to its heading-frame goal (balance feedback, IK), the pelvis's rotation
+  // fed forward; a trailing foot still on the floor makes it a spring.
+  const models::RigLeg& swing_leg = rig_->leg(swing);
+  f->set_target(swing_leg.hip, q_pelvis.conjugate() * q_thigh_goal, d.time + t);
+  if (swing_down) {
+    const double k = p.hip_kp * gain_scale_;
+    f->set_spring(swing_leg.hip, k, k * t);
+    return;
+  }
+  const Quaterniond q_thigh = sim::quat_at(d.xquat + 4 * swing_leg.thigh);
+  const Vector3d w_wanted = rotation_vector(q_thigh_goal * q_thigh.conjugate()) / t;
+  f->set_velocity(swing_leg.hip, q_thigh.conjugate() * (w_wanted - w_pelvis));
 }
 
 void TorqueWalker::advance_phases(const mjModel& m, const mjData& d, const sim::CenterOfMass& com) {
@@ -545,6 +601,11 @@ Vector3d TorqueWalker::hold_upper_body(ControlFrame* f, const mjModel& m, const 
   for (std::size_t g = 0; g < groups.size(); ++g) {
     const JointGroup& jg = groups[g];
     if (leg_[g]) continue;
+    if (actuation_ == WalkerActuation::kVelocity) {
+      // The standing pose (zero angles) with the walker's optimal time.
+      f->set_joint_angles(static_cast<int>(g), Vector3d::Zero(), d.time + params_.damping_time_s);
+      continue;
+    }
     if (!jg.ball) {
       for (int k = 0; k < jg.dof_count; ++k) {
         const double tau = hinge_pd(f, m, d, jg.dof_begin + k, 0.0, kp_[g]);
@@ -649,6 +710,20 @@ void TorqueWalker::leg_joints(ControlFrame* f, const mjModel& m, const mjData& d
     const JointGroup& ankle = groups[static_cast<std::size_t>(leg.ankle)];
     const double swing_knee = placed ? ik.knee_flexion_rad : ph.swing_knee_rad;
     const double share = !foot_down ? 0.0 : (ph.swing_foot_down ? 0.5 : 1.0);
+    if (actuation_ == WalkerActuation::kVelocity) {
+      hinge_target(f, d, leg.knee, stance ? ph.stance_knee_rad : swing_knee,
+                   stance ? p.stance_knee_kp : p.knee_kp, foot_down);
+      double dorsiflexion = stance ? ph.stance_ankle_rad : ph.swing_ankle_rad;
+      if (!stance && !ph.swing_foot_down) {
+        dorsiflexion =
+            level_sole_dorsiflexion(state_.heading, sim::quat_at(d.xquat + 4 * leg.shank),
+                                    ph.swing_ankle_rad, p.toe_up_rad);
+      }
+      hinge_target(f, d, leg.ankle, dorsiflexion, foot_down ? p.stance_ankle_kp : p.ankle_kp,
+                   foot_down);
+      if (leg.toe >= 0) hinge_target(f, d, leg.toe, 0.0, p.toe_kp, foot_down);
+      continue;
+    }
     hinge_pd(f, m, d, knee.dof_begin, stance ? ph.stance_knee_rad : swing_knee,
              stance ? p.stance_knee_kp : p.knee_kp, !stance && placed ? state_.ik_knee_rate : 0.0,
              knee_weight_support(m, d, s, share));

@@ -304,3 +304,59 @@ TEST_CASE_METHOD(biodyn::testing::SimulationTest,
     CHECK(on[static_cast<std::size_t>(v)] == off[static_cast<std::size_t>(v)]);
   }
 }
+
+TEST_CASE_METHOD(biodyn::testing::SimulationTest,
+                 "With velocity actuation the walker sets targets, springs and velocity wishes, "
+                 "never torques",
+                 "[gait]") {
+  // The paper's velocity-based controllers (§3) under the same gait: the swing leg and the
+  // upper body reach targets (their torques from the whole-body solve), the legs with a foot on
+  // the floor are springs, the hips carry velocity wishes (stance: the pelvis's world
+  // orientation, §4.1; swing: the thigh's heading-frame goal).
+  sim::Simulation sim(testing::generated_character());
+  const mjModel& m = sim.model();
+  mjData& d = sim.data();
+  const models::Rig rig(m);
+  mj_forward(&m, &d);
+  controllers::TorqueWalker walker(rig, controllers::TorqueWalkerParams{});
+  walker.set_actuation(controllers::WalkerActuation::kVelocity);
+  walker.reset(d);
+  controllers::ControlFrame frame(rig, m.nv);
+  frame.begin_step();
+  const controllers::StepReport report{};
+  walker.drive({m, d, rig, report}, &frame);
+  using controllers::DofMode;
+  const auto mode = [&](int group) {
+    return frame.command(rig.groups()[static_cast<std::size_t>(group)].dof_begin).mode;
+  };
+  const auto torque_fixed = [&](int group) {
+    const controllers::DofCommand& c =
+        frame.command(rig.groups()[static_cast<std::size_t>(group)].dof_begin);
+    return std::isfinite(c.torque_min_Nm) && c.torque_min_Nm == c.torque_max_Nm;
+  };
+  const models::RigLeg& stance = rig.leg(walker.stance_side());
+  const models::RigLeg& swing = rig.leg(1 - walker.stance_side());
+  CHECK(mode(stance.knee) == DofMode::kSpring);
+  CHECK(mode(stance.ankle) == DofMode::kSpring);
+  CHECK(mode(swing.knee) == DofMode::kTarget);
+  CHECK(mode(swing.ankle) == DofMode::kTarget);
+  CHECK(mode(swing.hip) == DofMode::kVelocity);
+  CHECK(mode(stance.hip) == DofMode::kVelocity);  // the stance foot is on the floor
+  CHECK(mode(rig.group("lumbar")) == DofMode::kTarget);
+  for (std::size_t g = 0; g < rig.groups().size(); ++g) {
+    INFO(rig.groups()[g].name);
+    CHECK_FALSE(torque_fixed(static_cast<int>(g)));
+  }
+  // The same walker with torques: every DOF's torque prescribed.
+  walker.set_actuation(controllers::WalkerActuation::kTorque);
+  frame.begin_step();
+  walker.drive({m, d, rig, report}, &frame);
+  for (std::size_t g = 0; g < rig.groups().size(); ++g) {
+    INFO(rig.groups()[g].name);
+    CHECK(torque_fixed(static_cast<int>(g)));
+  }
+  CHECK(controllers::parse_walker_actuation("velocity", "--controller") ==
+        controllers::WalkerActuation::kVelocity);
+  CHECK_THROWS_WITH(controllers::parse_walker_actuation("pd", "--controller"),
+                    Catch::Matchers::Contains("--controller: expected torque or velocity"));
+}

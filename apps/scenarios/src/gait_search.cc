@@ -26,6 +26,8 @@ using nlohmann::json;
 constexpr double kFallCost = 1000;
 /// A walk's mean speed may miss the command by this fraction before it costs.
 constexpr double kSpeedTolerance = 0.10;
+/// deg: a mean curve this far (RMS) from the normative one costs 1 (then squared).
+constexpr double kCurveScale_deg = 10;
 /// Frames per second of the recorded motion the gait figures come from.
 constexpr double kRecordHz = 100;
 /// How far outside its band a figure costs 1 (then squared), by unit.
@@ -56,6 +58,8 @@ CaseOutcome walk_case(const GaitSearchParams& p, const SearchCase& c, const std:
   run.config.character.mass_kg = c.mass_kg;
   run.config.speed_m_s = c.speed_m_s;
   run.config.gait_json = json;
+  run.config.walker_actuation = p.actuation;
+  run.config.reaction_time_s = c.reaction_time_s;
   run.config.gait_source = "search candidate";
   run.duration_s = p.duration_s;
   const models::CharacterSpec spec = run.config.model_spec();
@@ -90,6 +94,9 @@ CaseOutcome walk_case(const GaitSearchParams& p, const SearchCase& c, const std:
   try {
     const GaitAnalysis g = analyse_gait(in);
     out.figures = g.figures;
+    // The mean curves' distance from the normative ones: 1 per 10 deg RMS (squared), so that
+    // among gaits inside the bands the one closer to the curves wins.
+    for (double rms : g.rms_from_normative_deg) out.cost += std::pow(rms / kCurveScale_deg, 2);
     for (const GaitFigure& f : g.figures) {
       if (!std::isfinite(f.value)) {
         out.cost += 25;
@@ -143,8 +150,10 @@ std::string candidate_json(const std::string& base_json,
   return j.dump(1);
 }
 
-GaitSearchParams default_gait_search(const std::string& base_json) {
+GaitSearchParams default_gait_search(const std::string& base_json,
+                                     controllers::WalkerActuation actuation) {
   GaitSearchParams p;
+  p.actuation = actuation;
   json base = json::parse(base_json);
   // A double support first: the trailing foot pushes off (its ankle plantarflexes) while the
   // leading leg takes the load (human stance ~60 % needs ~10 % double support per step).
@@ -168,7 +177,7 @@ GaitSearchParams default_gait_search(const std::string& base_json) {
       {"/states/0/swing_ankle_rad", -0.5, 0.1},
       {"/states/0/stance_knee_rad", 0.0, 0.5},
       {"/states/0/stance_ankle_rad", -0.2, 0.2},
-      {"/states/1/duration_s", 0.2, 0.5},
+      {"/states/1/duration_s", 0.15, 0.5},
       {"/states/1/swing_hip_rad", 0.2, 0.9},
       {"/states/1/swing_knee_rad", 0.6, 1.4},
       {"/states/1/stance_knee_rad", -0.05, 0.35},
@@ -190,6 +199,11 @@ GaitSearchParams default_gait_search(const std::string& base_json) {
   };
   p.cases = {{1.80, 80, 1.0, true},  {1.80, 80, 1.3, true},  {1.55, 50, 1.0, true},
              {1.95, 120, 1.0, true}, {1.80, 80, 0.5, false}, {1.80, 80, 1.5, false}};
+  if (actuation == controllers::WalkerActuation::kVelocity) {
+    for (SearchCase& c : p.cases)
+      if (!c.gait) c.reaction_time_s = 0.1;
+    p.cases.push_back({1.80, 80, 1.0, false, 0.1});
+  }
   return p;
 }
 

@@ -52,6 +52,7 @@ WalkScenario::WalkScenario(sim::Simulation* sim, ScenarioConfig config)
   stand_pose_ = controllers::pose_scenario("stand", rig_.groups(), 0)[0];
   pipeline_.reset_in_pose(stand_pose_);
   walker_.reset(sim->data());
+  walker_.set_actuation(config_.walker_actuation);
   walker_.set_heading_rate(config_.heading_rate_deg_s / kDegPerRad);
   walker_.set_speed(config_.speed_m_s);
   pipeline_.set_driver(&walker_);

@@ -237,6 +237,23 @@ TEST_CASE("biodyn walk writes the walk JSON and says what the weld assumes", "[a
   CHECK(j["inputs"]["timestep_s"] == 0.002);
 }
 
+TEST_CASE("biodyn walk --controller velocity walks on the velocity-based controllers",
+          "[apps][cli][walk]") {
+  const fs::path dir = fresh_dir("walk_velocity");
+  const Run r = run_biodyn("walk --controller velocity --duration 1.5 --json w.json", dir);
+  INFO(r.out << r.err);
+  REQUIRE(r.exit_code == 0);
+  CHECK(r.out.find("controller velocity") != std::string::npos);
+  const auto j = nlohmann::json::parse(slurp(dir / "w.json"));
+  CHECK(j["inputs"]["controller"] == "velocity");
+  CHECK(j["max_root_force"] == 0.0);
+  // The first step is taken (the walker has struck once) on the whole-body solve's torques.
+  CHECK(j["steps"].get<int>() >= 1);
+  const Run bad = run_biodyn("walk --controller pd --duration 1", dir);
+  CHECK(bad.exit_code == 2);
+  CHECK(bad.err.find("--controller: expected torque or velocity, got 'pd'") != std::string::npos);
+}
+
 TEST_CASE("biodyn walk --timestep steps the model at that timestep", "[apps][cli][walk]") {
   const fs::path dir = fresh_dir("walk_timestep");
   const Run r =

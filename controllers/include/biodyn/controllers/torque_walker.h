@@ -156,6 +156,23 @@ void apply_torque_walker_json(const std::string& json_text, const std::string& s
 /// Every field as a JSON object that apply_torque_walker_json reads back identically.
 std::string torque_walker_json(const TorqueWalkerParams& params);
 
+/// How the walker's targets become joint torques.
+enum class WalkerActuation {
+  /// PD torques (SIMBICON), every DOF torque-specified through the joint controllers' limits.
+  kTorque,
+  /// The paper's velocity-based controllers (§3): each joint's target with an optimal time
+  /// t = damping_time_s (w = theta v / t), its torque from the whole-body solve
+  /// (sim/hybrid_dynamics.h); the stance hip holds the pelvis's world orientation (§4.1) and the
+  /// swing thigh its heading-frame goal as velocity wishes; the legs with a foot on the floor
+  /// are springs with the PD gains (prescribing their accelerations closes a loop through the
+  /// ground that the solve meets by launching the body; controllers/README.md).
+  kVelocity,
+};
+/// "torque" / "velocity".
+const char* to_string(WalkerActuation a);
+/// Parses "torque" | "velocity"; throws sim::InvalidArgument naming `field` and the value.
+WalkerActuation parse_walker_actuation(const std::string& text, const std::string& field);
+
 /// One strike of the torque walker.
 struct TorqueWalkerStrike {
   double time_s = 0;
@@ -246,6 +263,9 @@ class TorqueWalker : public ControlDriver {
   const std::vector<Eigen::Vector2d>& support_polygon() const { return state_.support; }
   const std::vector<Eigen::Vector2d>& tolerance_polygon() const { return state_.tolerance; }
   void drive(const ControlInput& in, ControlFrame* frame) override;
+  /// Torques (default) or the velocity-based controllers; from the next drive() on.
+  void set_actuation(WalkerActuation a) { actuation_ = a; }
+  WalkerActuation actuation() const { return actuation_; }
 
   const TorqueWalkerParams& params() const { return params_; }
   /// Replaces the parameters from the next drive() on (the viewer's live edits); the current
@@ -295,9 +315,20 @@ class TorqueWalker : public ControlDriver {
                                const Eigen::Vector3d& com_velocity_H);
   /// The non-leg groups' PD gains from the params (trunk, arms, distal).
   void set_gains();
+  /// Velocity actuation: hinge group `group` (its first DOF) to `angle` with the walker's
+  /// optimal time, or a spring of gain `kp` about it when `spring`.
+  void hinge_target(ControlFrame* f, const mjData& d, int group, double angle, double kp,
+                    bool spring) const;
+  /// Velocity actuation of the hips: the swing thigh to `q_thigh_goal` (world), the stance hip
+  /// holding the pelvis at `q_pelvis_goal` (world); `swing_down`: the trailing foot is on the
+  /// floor (double support), its hip a spring.
+  void hip_targets(ControlFrame* f, const mjModel& m, const mjData& d,
+                   const Eigen::Quaterniond& q_thigh_goal, const Eigen::Quaterniond& q_pelvis_goal,
+                   bool swing_down) const;
 
   TorqueWalkerParams params_;
   TorqueWalkerState state_;
+  WalkerActuation actuation_ = WalkerActuation::kTorque;
   const models::Rig* rig_;
   double gain_scale_ = 1;  // body mass / 80 kg
   double body_mass_kg_ = 0;

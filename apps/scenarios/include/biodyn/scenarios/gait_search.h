@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "biodyn/controllers/torque_walker.h"
 #include "biodyn/scenarios/gait_analysis.h"
 
 namespace biodyn::scenarios {
@@ -26,12 +27,15 @@ struct SearchCase {
   double height_m = 1.8, mass_kg = 80, speed_m_s = 1.0;
   /// Judged on the gait figures (else only on not falling and the speed).
   bool gait = true;
+  double reaction_time_s = 0;  ///< s; > 0 replaces every joint's t_r
 };
 
 struct GaitSearchParams {
   std::string base_json;  ///< the walker's parameters the search starts from (all fields)
   std::vector<SearchDimension> dimensions;
   std::vector<SearchCase> cases;
+  /// The walker's actuation the candidates walk with (torque_walker.h).
+  controllers::WalkerActuation actuation = controllers::WalkerActuation::kTorque;
   double duration_s = 16;     ///< s per walk
   double analyse_from_s = 6;  ///< s, the gait figures from here (after the start-up)
   int population = 32, generations = 30;
@@ -44,8 +48,10 @@ struct GaitSearchParams {
 /// The default search: a double support with push-off put first in the walker's default states,
 /// the phases' targets and the leg gains, on 1.80 m / 80 kg at 1.0 and 1.3 m/s and 1.55 m /
 /// 50 kg and 1.95 m / 120 kg at 1.0 m/s (judged on the gait), and 1.80 m / 80 kg at 0.5 and
-/// 1.5 m/s (judged on walking).
-GaitSearchParams default_gait_search(const std::string& base_json);
+/// 1.5 m/s (judged on walking); with the velocity-based controllers those two walk with
+/// t_r = 100 ms, and a third at 1.0 m/s too (the reaction time the paper could not reach).
+GaitSearchParams default_gait_search(const std::string& base_json,
+                                     controllers::WalkerActuation actuation);
 
 /// What one case of one candidate gave.
 struct CaseOutcome {

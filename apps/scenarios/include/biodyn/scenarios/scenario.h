@@ -144,6 +144,9 @@ struct ScenarioConfig {
   // Walking ("walk", "stones").
   double speed_m_s = 1.0;           ///< m/s, commanded speed
   double heading_rate_deg_s = 0.0;  ///< deg/s, commanded turning rate (+ to the left)
+  /// How the walker drives the joints: PD torques (SIMBICON) or the paper's velocity-based
+  /// controllers (torque_walker.h, WalkerActuation; `--controller torque|velocity`).
+  controllers::WalkerActuation walker_actuation = controllers::WalkerActuation::kTorque;
   /// Torque-walker parameter overrides (torque_walker.h JSON; `biodyn walk --params`), optional.
   std::string gait_json, gait_source;
   /// "stones" (paper §4.2): step lengths, m, ankle to ankle along the heading, walked from the
