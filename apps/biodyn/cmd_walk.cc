@@ -338,7 +338,8 @@ Command add_walk_command(CLI::App* app) {
             scenarios::WalkRunParams p = o->walk.to_params();
             p.duration_s = o->duration_s;
             if (o->print_params) {
-              controllers::TorqueWalkerParams gp;
+              controllers::TorqueWalkerParams gp =
+                  controllers::walker_defaults(p.config.walker_actuation);
               if (!p.config.gait_json.empty())
                 controllers::apply_torque_walker_json(p.config.gait_json, p.config.gait_source,
                                                       &gp);

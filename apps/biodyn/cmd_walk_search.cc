@@ -84,12 +84,13 @@ Command add_walk_search_command(CLI::App* app) {
             check_outputs({{"-o", o->out, true}}, o->params.empty()
                                                       ? std::vector<std::string>{}
                                                       : std::vector<std::string>{o->params});
-            controllers::TorqueWalkerParams base;
+            const controllers::WalkerActuation actuation =
+                controllers::parse_walker_actuation(o->controller, "--controller");
+            controllers::TorqueWalkerParams base = controllers::walker_defaults(actuation);
             if (!o->params.empty())
               controllers::apply_torque_walker_json(read_file(o->params), o->params, &base);
-            scenarios::GaitSearchParams p = scenarios::default_gait_search(
-                controllers::torque_walker_json(base),
-                controllers::parse_walker_actuation(o->controller, "--controller"));
+            scenarios::GaitSearchParams p =
+                scenarios::default_gait_search(controllers::torque_walker_json(base), actuation);
             p.generations = o->generations;
             p.population = o->population;
             p.seed = o->seed;

@@ -25,6 +25,10 @@ void ViewOptions::add_to(CLI::App* cmd) {
   cmd->add_option("--heading-rate", heading_rate_deg_s, "walk: turning rate, deg/s (+ left)")
       ->capture_default_str();
   cmd->add_option("--weld", weld, "Foot-contact mode: off | honest | glue")->capture_default_str();
+  cmd->add_option("--controller", controller,
+                  "walk, stones: how the walker drives the joints, torque (PD torques) | velocity "
+                  "(the paper's velocity-based controllers)")
+      ->capture_default_str();
   cmd->add_option("--params", params_path, "Walker parameters (JSON, as biodyn walk --params)");
   cmd->add_option("--controller-params", controller_params_path,
                   "Joint controller parameters (JSON, as biodyn pose --params)");
@@ -99,6 +103,7 @@ scenarios::ScenarioConfig ViewOptions::to_config(std::vector<std::string>* notes
   c.steps_start_s = steps_start_s;
   c.heading_rate_deg_s = heading_rate_deg_s;
   c.weld = controllers::parse_weld_mode(weld, "--weld");
+  c.walker_actuation = controllers::parse_walker_actuation(controller, "--controller");
   if (!params_path.empty()) {
     c.gait_json = read_file(params_path);
     c.gait_source = params_path;

@@ -18,9 +18,10 @@ struct ViewOptions {
   double speed_m_s = 1.0;
   double heading_rate_deg_s = 0;
   std::string weld = "honest";
-  std::string params_path;                     ///< walker parameters (biodyn walk --params)
-  std::string controller_params_path;          ///< controller parameters (biodyn pose --params)
-  std::string motion_path;                     ///< scenario mocap: qpos CSV or BVH
+  std::string controller = "torque";   ///< walking: the walker's actuation, torque | velocity
+  std::string params_path;             ///< walker parameters (biodyn walk --params)
+  std::string controller_params_path;  ///< controller parameters (biodyn pose --params)
+  std::string motion_path;             ///< scenario mocap: qpos CSV or BVH
   double motion_from_s = 0, motion_to_s = -1;  ///< scenario mocap: the part played
   bool track = false;                          ///< scenario mocap: tracked by the controllers
   double track_lookahead_s = 0.1;

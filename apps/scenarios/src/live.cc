@@ -134,6 +134,11 @@ void LiveScenario::set_heading_rate(double deg_s) {
   record([deg_s](Scenario& s) { s.set_heading_rate(deg_s); });
 }
 
+void LiveScenario::set_walker_actuation(controllers::WalkerActuation actuation) {
+  if (!walk_) throw sim::InvalidArgument("controller: the scenario does not walk");
+  record([actuation](Scenario& s) { s.set_walker_actuation(actuation); });
+}
+
 void LiveScenario::set_weld_mode(controllers::WeldMode mode) {
   if (scenario_->pipeline() == nullptr) scenario_->set_weld_mode(mode);  // throws
   record([mode](Scenario& s) { s.set_weld_mode(mode); });

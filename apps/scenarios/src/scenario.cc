@@ -238,6 +238,10 @@ void Scenario::set_weld_mode(controllers::WeldMode) {
   throw sim::InvalidArgument("weld: the " + config_.scenario + " scenario has no controllers");
 }
 
+void Scenario::set_walker_actuation(controllers::WalkerActuation) {
+  throw sim::InvalidArgument("controller: the " + config_.scenario + " scenario does not walk");
+}
+
 void Scenario::set_walker_params(const controllers::TorqueWalkerParams&) {
   throw sim::InvalidArgument("walker parameters: the " + config_.scenario +
                              " scenario does not walk");

@@ -14,7 +14,7 @@ using Eigen::Vector2d;
 using Eigen::Vector3d;
 
 controllers::TorqueWalkerParams walker_params_from(const ScenarioConfig& c) {
-  controllers::TorqueWalkerParams p;
+  controllers::TorqueWalkerParams p = controllers::walker_defaults(c.walker_actuation);
   if (!c.gait_json.empty()) controllers::apply_torque_walker_json(c.gait_json, c.gait_source, &p);
   return p;
 }
@@ -166,6 +166,11 @@ void WalkScenario::set_walker_params(const controllers::TorqueWalkerParams& para
   walker_params_ = params;
 }
 
+void WalkScenario::set_walker_actuation(controllers::WalkerActuation actuation) {
+  walker_.set_actuation(actuation);
+  config_.walker_actuation = actuation;
+}
+
 void WalkScenario::set_speed(double m_s) {
   check_walk_speed(m_s);
   walker_.set_speed(m_s);
@@ -197,6 +202,7 @@ void WalkScenario::restore(const ScenarioState& in) {
   set_walker_params(s.walker_params);
   pipeline_.set_weld_mode(s.common.config.weld);
   restore_common(s.common);
+  walker_.set_actuation(config_.walker_actuation);  // the config of that moment
   pipeline_.restore(s.control);
   walker_.restore(s.walker);
   run_ = s.run;

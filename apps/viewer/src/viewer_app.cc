@@ -378,6 +378,8 @@ void run_command(Shared& sh, const ScriptCommand& c, const std::string& script) 
         s.set_heading_rate(number(w[2], "heading_rate"));
       } else if (w[1] == "weld") {
         s.set_weld_mode(controllers::parse_weld_mode(w[2], "weld"));
+      } else if (w[1] == "controller") {
+        s.set_walker_actuation(controllers::parse_walker_actuation(w[2], "controller"));
       } else if (w[1].rfind("walker.", 0) == 0) {
         set_walker_field(s, w[1].substr(7), number(w[2], w[1]));
       } else if (w[1] == "reaction_time") {
@@ -649,6 +651,10 @@ void control_panel(Shared& sh, UiState& ui) {
     if (ImGui::Combo("foot contact", &weld, modes, 3))
       s.set_weld_mode(static_cast<controllers::WeldMode>(weld));
     if (s.walking()) {
+      int drive = static_cast<int>(s.config().walker_actuation);
+      const char* drives[] = {"torque (PD)", "velocity-based"};
+      if (ImGui::Combo("joint drive", &drive, drives, 2))
+        s.set_walker_actuation(static_cast<controllers::WalkerActuation>(drive));
       float v = static_cast<float>(s.config().speed_m_s);
       if (ImGui::SliderFloat("speed (m/s)", &v, static_cast<float>(scenarios::kMinWalkSpeed_m_s),
                              static_cast<float>(scenarios::kMaxWalkSpeed_m_s))) {

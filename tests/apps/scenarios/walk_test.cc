@@ -222,3 +222,33 @@ TEST_CASE_METHOD(biodyn::testing::SimulationTest, "walk inputs out of range are 
   CHECK_THROWS_WITH(scenarios::run_walk(&sim, p),
                     Catch::Contains("stop-at") && Catch::Contains("25"));
 }
+
+TEST_CASE_METHOD(biodyn::testing::SimulationTest,
+                 "the velocity-based controllers walk: honest weld and none, t_r 20 and 100 ms",
+                 "[apps][walk]") {
+  // The paper's controllers (§3) under the walker's gait (WalkerActuation::kVelocity, its own
+  // defaults). At t_r = 100 ms it walks at 0.5 m/s; at 1.0 m/s it fell after 24-27 s (README).
+  struct Case {
+    controllers::WeldMode weld;
+    double reaction_time_s, speed_m_s;
+  };
+  for (const Case& c : {Case{controllers::WeldMode::kHonest, 0.02, 1.0},
+                        Case{controllers::WeldMode::kOff, 0.02, 1.5},
+                        Case{controllers::WeldMode::kHonest, 0.1, 0.5}}) {
+    sim::Simulation sim = make_default_sim();
+    scenarios::WalkRunParams p;
+    p.duration_s = 20;
+    p.config.weld = c.weld;
+    p.config.walker_actuation = controllers::WalkerActuation::kVelocity;
+    p.config.reaction_time_s = c.reaction_time_s;
+    p.config.speed_m_s = c.speed_m_s;
+    const scenarios::WalkRunResult r = scenarios::run_walk(&sim, p);
+    INFO("t_r " << c.reaction_time_s << ", " << c.speed_m_s << " m/s: fell at " << r.time_fallen_s
+                << ", steady speed " << r.steady_speed_m_s);
+    CHECK_FALSE(r.fallen);
+    CHECK(r.max_root_force_N == 0.0);
+    CHECK(r.weld_tension_steps == 0);
+    CHECK(r.steps >= 30);
+    CHECK(r.steady_speed_m_s > 0.4);
+  }
+}

@@ -173,6 +173,14 @@ const char* to_string(WalkerActuation a);
 /// Parses "torque" | "velocity"; throws sim::InvalidArgument naming `field` and the value.
 WalkerActuation parse_walker_actuation(const std::string& text, const std::string& field);
 
+/// The defaults for velocity actuation (WalkerActuation::kVelocity): the torque defaults' gait
+/// with a double support first and the phases and leg gains from `biodyn walk-search
+/// --controller velocity` (controllers/README.md says how they were found). With the torque
+/// defaults the velocity-actuated walker fell at 4 s.
+TorqueWalkerParams velocity_walker_defaults();
+/// The defaults for an actuation: TorqueWalkerParams{} or velocity_walker_defaults().
+TorqueWalkerParams walker_defaults(WalkerActuation actuation);
+
 /// One strike of the torque walker.
 struct TorqueWalkerStrike {
   double time_s = 0;

@@ -63,6 +63,7 @@ class LiveScenario {
   void set_speed(double m_s);                                           ///< walking only
   void set_heading_rate(double deg_s);                                  ///< walking only
   void set_weld_mode(controllers::WeldMode mode);
+  void set_walker_actuation(controllers::WalkerActuation actuation);  ///< walking only
   /// A horizontal (or any) force through the CoM of `body` for `duration_s`, from the next step.
   void push(const std::string& body, const Eigen::Vector3d& force_W, double duration_s);
 

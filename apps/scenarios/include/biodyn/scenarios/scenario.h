@@ -247,6 +247,8 @@ class Scenario {
   virtual void set_controller_params(const controllers::ControllerParams& params);
   virtual void set_weld_mode(controllers::WeldMode mode);
   virtual void set_walker_params(const controllers::TorqueWalkerParams& params);
+  /// The walker's actuation (torque_walker.h): PD torques or the velocity-based controllers.
+  virtual void set_walker_actuation(controllers::WalkerActuation actuation);
   virtual void set_speed(double m_s);
   virtual void set_heading_rate(double deg_s);
   /// A force through the CoM of `body` (a body id) for `duration_s`, from the next step.

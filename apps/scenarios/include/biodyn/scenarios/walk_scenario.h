@@ -52,6 +52,7 @@ class WalkScenario : public Scenario {
   void set_controller_params(const controllers::ControllerParams& params) override;
   void set_weld_mode(controllers::WeldMode mode) override;
   void set_walker_params(const controllers::TorqueWalkerParams& params) override;
+  void set_walker_actuation(controllers::WalkerActuation actuation) override;
   void set_speed(double m_s) override;
   void set_heading_rate(double deg_s) override;
 
