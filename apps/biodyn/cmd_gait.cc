@@ -128,8 +128,9 @@ AnalysedWalk analyse_simulated(const WalkOptions& walk, double duration_s, doubl
   w.label = "simulated";
   std::ostringstream s;
   s << "biodyn walk: " << to_string(spec.sex) << " " << spec.height_m << " m " << spec.mass_kg
-    << " kg, " << p.config.speed_m_s << " m/s, weld " << walk.weld << ", " << duration_s
-    << " s (cycles from " << from_s << " s; events from the ground force)";
+    << " kg, " << p.config.speed_m_s << " m/s, controller " << walk.controller << ", weld "
+    << walk.weld << ", " << duration_s << " s (cycles from " << from_s
+    << " s; events from the ground force)";
   w.source = s.str();
   w.gait = scenarios::analyse_gait(in);
   return w;
