@@ -168,7 +168,7 @@ void print_table(const std::vector<AnalysedWalk>& walks, std::ostream& out) {
   out << std::right;
 }
 
-json walk_json(const AnalysedWalk& w) {
+json analysed_walk_json(const AnalysedWalk& w) {
   const scenarios::GaitAnalysis& g = w.gait;
   json figures = json::array();
   for (const scenarios::GaitFigure& f : g.figures) {
@@ -325,7 +325,7 @@ Command add_gait_command(CLI::App* app) {
                        "cycles in degrees at every 1 % from heel strike; normative curves: "
                        "models/data/normative_gait.csv"},
                       {"walks", json::array()}};
-            for (const AnalysedWalk& w : walks) j["walks"].push_back(walk_json(w));
+            for (const AnalysedWalk& w : walks) j["walks"].push_back(analysed_walk_json(w));
             write_file_atomically(o->out + "/gait_cycle.csv", cycle_csv(walks, norm_mean, norm_sd));
             plot_cycles(o->out, walks);
             write_file_atomically(o->out + "/gait.json", json_text(j, 2) + "\n");

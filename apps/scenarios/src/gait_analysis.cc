@@ -11,11 +11,11 @@
 #include "biodyn/sim/errors.h"
 #include "biodyn/sim/model.h"
 #include "biodyn/sim/queries.h"
+#include "biodyn/sim/units.h"
 
 namespace biodyn::scenarios {
 namespace {
 
-constexpr double kDegPerRad = 180.0 / M_PI;
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
 /// What the motion gives per frame: both legs' sagittal angles (deg), the CoM, the trunk's

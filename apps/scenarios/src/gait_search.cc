@@ -51,13 +51,14 @@ class Normal {
   std::mt19937_64 rng_;
 };
 
-CaseOutcome walk_case(const GaitSearchParams& p, const SearchCase& c, const std::string& json) {
+CaseOutcome walk_case(const GaitSearchParams& p, const SearchCase& c,
+                      const std::string& walker_json) {
   WalkRunParams run;
   run.config.scenario = "walk";
   run.config.character.height_m = c.height_m;
   run.config.character.mass_kg = c.mass_kg;
   run.config.speed_m_s = c.speed_m_s;
-  run.config.gait_json = json;
+  run.config.gait_json = walker_json;
   run.config.walker_actuation = p.actuation;
   run.config.reaction_time_s = c.reaction_time_s;
   run.config.gait_source = "search candidate";
@@ -207,20 +208,20 @@ GaitSearchParams default_gait_search(const std::string& base_json,
   return p;
 }
 
-CandidateResult evaluate_candidate(const GaitSearchParams& p, const std::string& json,
+CandidateResult evaluate_candidate(const GaitSearchParams& p, const std::string& walker_json,
                                    const std::vector<double>& x) {
   CandidateResult r;
   r.x = x;
-  r.json = json;
+  r.json = walker_json;
   try {
     controllers::TorqueWalkerParams check;
-    controllers::apply_torque_walker_json(json, "candidate", &check);
+    controllers::apply_torque_walker_json(walker_json, "candidate", &check);
   } catch (const sim::InvalidArgument&) {
     r.cost = kFallCost * 2 * static_cast<double>(p.cases.size()) + 1;  // not a valid walker
     return r;
   }
   for (const SearchCase& c : p.cases) {
-    r.cases.push_back(walk_case(p, c, json));
+    r.cases.push_back(walk_case(p, c, walker_json));
     r.cost += r.cases.back().cost;
   }
   return r;

@@ -75,8 +75,8 @@ struct GenerationReport {
   CandidateResult best;          ///< the best so far (all generations)
 };
 
-/// Walks one candidate's cases (a candidate: `json`, the full parameters).
-CandidateResult evaluate_candidate(const GaitSearchParams& p, const std::string& json,
+/// Walks one candidate's cases (a candidate: `walker_json`, the full parameters).
+CandidateResult evaluate_candidate(const GaitSearchParams& p, const std::string& walker_json,
                                    const std::vector<double>& x);
 
 /// Runs the search; `on_generation` is called after each generation (progress, logs).
