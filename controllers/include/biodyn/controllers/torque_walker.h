@@ -104,7 +104,8 @@ struct TorqueWalkerParams {
   /// The stance knee also carries this fraction of the body weight as a feed-forward torque,
   /// J' f with f the weight pressed through the ankle (Coros et al. 2010's virtual force;
   /// shared equally in a double support): it holds the body without the crouch a PD needs to
-  /// make that torque. 0: off.
+  /// make that torque. 0: off. Torque actuation only (with velocity actuation the stance leg is
+  /// a spring and the whole-body solve carries the body).
   double stance_weight_support = 0;
   double toe_kp = 30;
   double trunk_kp = 600;        ///< lumbar, thorax
