@@ -35,8 +35,7 @@ struct AnalysedWalk {
 /// The <stem>.grf.csv beside a motion (biodyn walk --motion-out): each foot's vertical force,
 /// frames x 2, on the motion's frames; empty when there is none.
 Eigen::MatrixXd read_foot_forces(const std::string& motion_path, const mocap_io::Motion& motion) {
-  const std::filesystem::path p(motion_path);
-  const std::string path = (p.parent_path() / (p.stem().string() + ".grf.csv")).string();
+  const std::string path = ground_force_path(motion_path);
   if (!std::filesystem::exists(path)) return {};
   std::istringstream in(read_file(path));
   std::string line;
@@ -117,13 +116,6 @@ AnalysedWalk analyse_simulated(const WalkOptions& walk, double duration_s, doubl
   }
   const sim::Model model = sim::Model::from_string(
       models::to_mjcf(models::generate_character(spec), physics), "character");
-  scenarios::GaitInput in;
-  in.model = model.get();
-  in.times_s = rec.times_s;
-  in.qpos = rec.qpos;
-  in.foot_force_N.resize(rec.frame_count(), 2);
-  for (int side = 0; side < 2; ++side) in.foot_force_N.col(side) = rec.ground_force_N[side].col(2);
-  in.from_s = from_s;
   AnalysedWalk w;
   w.label = "simulated";
   std::ostringstream s;
@@ -132,7 +124,7 @@ AnalysedWalk analyse_simulated(const WalkOptions& walk, double duration_s, doubl
     << walk.weld << ", " << duration_s << " s (cycles from " << from_s
     << " s; events from the ground force)";
   w.source = s.str();
-  w.gait = scenarios::analyse_gait(in);
+  w.gait = scenarios::analyse_gait(scenarios::gait_input(*model, rec, from_s));
   return w;
 }
 

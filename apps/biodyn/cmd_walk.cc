@@ -264,8 +264,7 @@ void write_recorded_motion(const scenarios::RecordedMotion& rec, const models::C
     grf << "\n";
   }
   const std::string text = mocap_io::format_motion_csv(motion);
-  const std::filesystem::path p(path);
-  const std::string grf_path = (p.parent_path() / (p.stem().string() + ".grf.csv")).string();
+  const std::string grf_path = ground_force_path(path);
   write_file_atomically(path, text);
   write_file_atomically(grf_path, grf.str());
   std::cout << "  motion:   " << path << " (" << rec.frame_count() << " frames) and " << grf_path
@@ -375,6 +374,11 @@ Command add_walk_command(CLI::App* app) {
               write_recorded_motion(recording, spec, physics, o->motion_out);
             return r.fallen ? kExitFailure : kExitOk;
           }};
+}
+
+std::string ground_force_path(const std::string& motion_path) {
+  const std::filesystem::path p(motion_path);
+  return (p.parent_path() / (p.stem().string() + ".grf.csv")).string();
 }
 
 nlohmann::json WalkOptions::inputs_json(const models::CharacterSpec& spec) const {

@@ -49,6 +49,9 @@ scenarios::WalkRunResult run_walk_on(const models::CharacterSpec& spec,
                                      scenarios::RecordedMotion* recording = nullptr,
                                      double record_hz = 100);
 
+/// `biodyn walk --motion-out`'s ground-force file beside the motion: <stem>.grf.csv.
+std::string ground_force_path(const std::string& motion_path);
+
 /// What a result depends on in each foot-contact mode, said in every output.
 std::string weld_assumption(const std::string& weld);
 /// The walk JSON (field names of the issue: fallen, distance, mean_speed, ...).

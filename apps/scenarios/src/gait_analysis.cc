@@ -8,6 +8,7 @@
 #include "biodyn/mocap_io/gait_events.h"
 #include "biodyn/models/rig.h"
 #include "biodyn/models/tables.h"
+#include "biodyn/scenarios/motion_recorder.h"
 #include "biodyn/sim/errors.h"
 #include "biodyn/sim/model.h"
 #include "biodyn/sim/queries.h"
@@ -310,6 +311,18 @@ void normative_gait_curves(Eigen::MatrixXd* mean_deg, Eigen::MatrixXd* sd_deg) {
       }
     }
   }
+}
+
+GaitInput gait_input(const mjModel& m, const RecordedMotion& rec, double from_s) {
+  GaitInput in;
+  in.model = &m;
+  in.times_s = rec.times_s;
+  in.qpos = rec.qpos;
+  in.foot_force_N.resize(rec.frame_count(), 2);
+  for (int side = 0; side < 2; ++side)
+    in.foot_force_N.col(side) = rec.ground_force_N[static_cast<std::size_t>(side)].col(2);
+  in.from_s = from_s;
+  return in;
 }
 
 GaitAnalysis analyse_gait(const GaitInput& in) {

@@ -84,16 +84,8 @@ CaseOutcome walk_case(const GaitSearchParams& p, const SearchCase& c,
   out.cost += std::pow(std::max(0.0, speed_error - kSpeedTolerance) / 0.05, 2);
   if (!c.gait) return out;
   const RecordedMotion rec = recorder.motion();
-  GaitInput in;
-  in.model = &sim.model();
-  in.times_s = rec.times_s;
-  in.qpos = rec.qpos;
-  in.foot_force_N.resize(rec.frame_count(), 2);
-  for (int side = 0; side < 2; ++side)
-    in.foot_force_N.col(side) = rec.ground_force_N[static_cast<std::size_t>(side)].col(2);
-  in.from_s = p.analyse_from_s;
   try {
-    const GaitAnalysis g = analyse_gait(in);
+    const GaitAnalysis g = analyse_gait(gait_input(sim.model(), rec, p.analyse_from_s));
     out.figures = g.figures;
     // The mean curves' distance from the normative ones: 1 per 10 deg RMS (squared), so that
     // among gaits inside the bands the one closer to the curves wins.

@@ -10,12 +10,12 @@
 #include "biodyn/scenarios/gait_analysis.h"
 #include "biodyn/sim/errors.h"
 #include "biodyn/sim/model.h"
+#include "biodyn/sim/units.h"
 
 using namespace biodyn;
 
 namespace {
 
-constexpr double kRadPerDeg = M_PI / 180.0;
 constexpr double kCycle_s = 1.0, kRate_hz = 100, kStance = 0.6;
 constexpr int kCycles = 8;
 

@@ -15,6 +15,8 @@
 
 namespace biodyn::scenarios {
 
+struct RecordedMotion;
+
 /// Points of a mean cycle: every 1 % from 0 to 100 %.
 inline constexpr int kGaitCyclePoints = 101;
 /// N: a foot is on the floor while its vertical ground force is above this.
@@ -85,6 +87,10 @@ struct GaitAnalysis {
 /// The normative curves at kGaitCyclePoints (models/data/normative_gait.csv, interpolated by a
 /// periodic cubic through its key values): mean and SD, kGaitCyclePoints x 3, deg.
 void normative_gait_curves(Eigen::MatrixXd* mean_deg, Eigen::MatrixXd* sd_deg);
+
+/// A recorded simulated walk (motion_recorder.h) as the analysis's input: its poses, and each
+/// foot's vertical ground force for the events; cycles from `from_s`.
+GaitInput gait_input(const mjModel& m, const RecordedMotion& rec, double from_s);
 
 /// Analyses `in`. Throws sim::InvalidArgument naming what is wrong (sizes, a model without
 /// legs, no complete cycle within the range).
