@@ -2,20 +2,24 @@
 
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <exception>
 #include <filesystem>
 #include <fstream>
 #include <iomanip>
 #include <iostream>
 #include <map>
+#include <mutex>
 #include <sstream>
 #include <system_error>
+#include <thread>
 
 #include "biodyn/mocap_io/motion_csv.h"
 #include "biodyn/models/body_file.h"
 #include "biodyn/sim/errors.h"
 #include "biodyn/sim/file_io.h"
 #include "biodyn/sim/log.h"
+#include "biodyn/sim/model.h"
 
 namespace biodyn::apps {
 
@@ -257,6 +261,34 @@ void plot_with_gnuplot(const std::string& command, const std::string& script_pat
                      std::to_string(status) + "): " + output);
   }
   std::filesystem::rename(png_tmp, png);
+}
+
+void run_batch(std::size_t count, int threads, const std::string& mjcf, const std::string& label,
+               const std::function<void(sim::Simulation*, std::size_t)>& job) {
+  std::atomic<std::size_t> next{0}, done{0};
+  std::mutex mutex;
+  std::string first_error;
+  ProgressBar bar(label);
+  std::vector<std::thread> workers;
+  for (int t = 0; t < threads; ++t) {
+    workers.emplace_back([&]() {
+      try {
+        sim::Simulation sim(sim::Model::from_string(mjcf, "<character>"));  // this worker's copy
+        for (std::size_t i = next++; i < count; i = next++) {
+          job(&sim, i);
+          const std::size_t n = ++done;
+          std::lock_guard<std::mutex> lock(mutex);
+          bar.update(static_cast<double>(n) / static_cast<double>(count));
+        }
+      } catch (const std::exception& e) {
+        std::lock_guard<std::mutex> lock(mutex);
+        if (first_error.empty()) first_error = e.what();
+        next = count;
+      }
+    });
+  }
+  for (std::thread& w : workers) w.join();
+  if (!first_error.empty()) throw sim::Error(label + ": " + first_error);
 }
 
 void install_console_log(bool verbose) {

@@ -3,12 +3,15 @@
 /// the console log sink.
 
 #include <CLI/CLI.hpp>
+#include <cstddef>
+#include <functional>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <utility>
 #include <vector>
 
 #include "biodyn/sim/file_io.h"
+#include "biodyn/sim/simulation.h"
 
 #include "biodyn/models/character.h"
 #include "biodyn/scenarios/scenario.h"
@@ -112,6 +115,13 @@ inline void write_file_atomically(const std::string& path, const std::string& te
 /// if gnuplot cannot start or fails (with its output).
 void plot_with_gnuplot(const std::string& command, const std::string& script_path,
                        const std::string& png_tmp, const std::string& png);
+
+/// A batch of independent runs: job(sim, i) for every i in [0, count) on `threads` workers,
+/// each with its own simulation of `mjcf` (results do not depend on the thread count when
+/// every run resets its simulation); a progress bar labelled `label`. The first error stops
+/// the workers and is thrown as sim::Error("<label>: <what>").
+void run_batch(std::size_t count, int threads, const std::string& mjcf, const std::string& label,
+               const std::function<void(sim::Simulation*, std::size_t)>& job);
 
 /// Installs a log sink printing warnings and errors to stderr (debug/info only if verbose).
 void install_console_log(bool verbose);

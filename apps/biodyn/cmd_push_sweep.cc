@@ -2,12 +2,10 @@
 // duration x onset phase (scenarios/push_sweep.h), on all cores: one model copy per worker
 // thread; results do not depend on the thread count (every cell is its own deterministic run).
 #include <algorithm>
-#include <atomic>
 #include <filesystem>
 #include <iomanip>
 #include <iostream>
 #include <memory>
-#include <mutex>
 #include <nlohmann/json.hpp>
 #include <sstream>
 #include <thread>
@@ -40,31 +38,9 @@ std::vector<scenarios::PushCellResult> run_cells(const scenarios::PushSweepSpec&
                                                  const std::vector<scenarios::PushSweepCell>& cells,
                                                  int threads) {
   std::vector<scenarios::PushCellResult> results(cells.size());
-  std::atomic<std::size_t> next{0}, done{0};
-  std::mutex error_mutex;
-  std::string first_error;
-  ProgressBar bar("push-sweep");
-  std::mutex bar_mutex;
-  std::vector<std::thread> workers;
-  for (int t = 0; t < threads; ++t) {
-    workers.emplace_back([&]() {
-      try {
-        sim::Simulation sim(sim::Model::from_string(mjcf, "<character>"));  // this worker's copy
-        for (std::size_t i = next++; i < cells.size(); i = next++) {
-          results[i] = scenarios::run_push_cell(&sim, spec, cells[i]);
-          const std::size_t n = ++done;
-          std::lock_guard<std::mutex> lock(bar_mutex);
-          bar.update(static_cast<double>(n) / static_cast<double>(cells.size()));
-        }
-      } catch (const std::exception& e) {
-        std::lock_guard<std::mutex> lock(error_mutex);
-        if (first_error.empty()) first_error = e.what();
-        next = cells.size();
-      }
-    });
-  }
-  for (std::thread& w : workers) w.join();
-  if (!first_error.empty()) throw sim::Error("push-sweep: " + first_error);
+  run_batch(cells.size(), threads, mjcf, "push-sweep", [&](sim::Simulation* sim, std::size_t i) {
+    results[i] = scenarios::run_push_cell(sim, spec, cells[i]);
+  });
   return results;
 }
 

@@ -165,14 +165,21 @@ nlohmann::json walk_json(const scenarios::WalkRunResult& r) {
     j["stones"] = {
         {"start_s", st.start_s},
         {"targets", st.targets_m},
+        {"lateral_offsets", st.lateral_m},
         {"lengths", st.lengths_m},
+        {"target_across", st.target_across_m},
+        {"across", st.across_m},
         {"errors", st.errors_m},
+        {"out_of_reach_steps", st.out_of_reach},
         {"rms_error", st.rms_error_m},
         {"max_error", st.max_error_m},
         {"complete", st.complete},
         {"method",
          "paper §4.2: in late swing the 2D IK triangle hip-knee-ankle puts the swing ankle on "
-         "its target (step lengths ankle to ankle along the heading, at the strike)"}};
+         "its target (step lengths ankle to ankle along the heading, at the strike); with "
+         "lateral offsets the thigh's roll puts it across too (across: left of the stance "
+         "ankle) and the error is the 2D distance; a foot comes down when the capture point "
+         "leads the stone as the next steps need (LIPM preview)"}};
   }
   return j;
 }
@@ -217,7 +224,19 @@ void print_walk_summary(const scenarios::WalkRunResult& r, std::ostream& out) {
     for (double t : st.targets_m) out << ' ' << t;
     out << "\n    walked ";
     for (double l : st.lengths_m) out << ' ' << l;
+    if (!st.lateral_m.empty()) {
+      out << "\n    across planned";
+      for (double a : st.target_across_m) out << ' ' << a;
+      out << "\n    across walked ";
+      for (double a : st.across_m) out << ' ' << a;
+    }
     out << "\n";
+    for (int k : st.out_of_reach) {
+      const auto i = static_cast<std::size_t>(k - 1);
+      out << "    step " << k << ": the stone at " << st.targets_m[i]
+          << " m is out of reach; stepped to the closest reachable point, " << st.lengths_m[i]
+          << " m\n";
+    }
   }
 }
 
@@ -300,7 +319,7 @@ Command add_walk_command(CLI::App* app) {
   struct Options {
     WalkOptions walk;
     double duration_s = 20;
-    std::string steps;
+    std::string steps, step_offsets;
     double steps_start_s = 5.0;
     double stop_at_s = -1;
     std::string json, csv, motion_out;
@@ -316,6 +335,9 @@ Command add_walk_command(CLI::App* app) {
       "--steps", o->steps,
       "Stepping stones: step lengths, m (ankle to ankle along the heading), e.g. 0.60,0.20,0.50; "
       "walked from the first strike after --steps-start");
+  cmd->add_option("--step-offsets", o->step_offsets,
+                  "Stones in 2D: each stone's offset, m, left (+) of its foot's line (the lines "
+                  "the hips' spacing apart), one per --steps length, e.g. 0.05,-0.1,0");
   cmd->add_option("--steps-start", o->steps_start_s,
                   "When the stepping stones begin (steady walking first), s")
       ->capture_default_str();
@@ -349,8 +371,13 @@ Command add_walk_command(CLI::App* app) {
               p.config.scenario = "stones";
               p.config.steps_m =
                   parse_number_list(o->steps, "--steps", "step lengths in m separated by commas");
+              if (!o->step_offsets.empty())
+                p.config.steps_lateral_m = parse_number_list(
+                    o->step_offsets, "--step-offsets", "lateral offsets in m separated by commas");
               p.config.steps_start_s = o->steps_start_s;
             }
+            if (o->steps.empty() && !o->step_offsets.empty())
+              throw sim::InvalidArgument("--step-offsets: only with --steps");
             p.config.stop_at_s = o->stop_at_s;
             p.validate();
             const models::CharacterSpec spec = p.config.model_spec();
@@ -396,6 +423,28 @@ nlohmann::json WalkOptions::inputs_json(const models::CharacterSpec& spec) const
     j["muscle_params"] = muscles.params_path;
   }
   return j;
+}
+
+std::string WalkOptions::replay_args() const {
+  std::ostringstream a;
+  a << std::setprecision(6);
+  if (!character.body_path.empty()) {
+    a << "--body-file '" << character.body_path << "' --mass " << character.mass_kg;
+  } else {
+    a << "--height " << character.height_m << " --mass " << character.mass_kg << " --sex "
+      << character.sex << " --detail " << character.detail;
+    if (!character.overrides_path.empty()) a << " --overrides '" << character.overrides_path << "'";
+  }
+  a << " --weld " << weld << " --controller " << controller << " --reaction-time "
+    << reaction_time_s << " --timestep " << timestep_s;
+  if (!params_path.empty()) a << " --params '" << params_path << "'";
+  if (!controller_params_path.empty())
+    a << " --controller-params '" << controller_params_path << "'";
+  if (muscles.muscles == "on") {
+    a << " --muscles on --tendons " << muscles.tendons;
+    if (!muscles.params_path.empty()) a << " --muscle-params '" << muscles.params_path << "'";
+  }
+  return a.str();
 }
 
 Command add_push_command(CLI::App* app) {

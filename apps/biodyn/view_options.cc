@@ -165,8 +165,8 @@ nlohmann::json stones_json(const std::vector<double>& plan_m,
   for (const scenarios::Stone& st : stones) {
     if (std::isnan(st.walked_m)) continue;
     walked.push_back(st.walked_m);
-    errors.push_back(st.walked_m - st.target_m);
-    sq += (st.walked_m - st.target_m) * (st.walked_m - st.target_m);
+    errors.push_back(st.error_m());
+    sq += st.error_m() * st.error_m();
   }
   // No step walked yet: no error to report (null, "n/a"), rather than a perfect 0.
   const nlohmann::json rms =

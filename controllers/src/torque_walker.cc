@@ -63,6 +63,7 @@ constexpr NamedField kFields[] = {BIODYN_FIELD(sagittal_cd),
                                   BIODYN_FIELD(step_clearance_m),
                                   BIODYN_FIELD(placement_gain),
                                   BIODYN_FIELD(placed_wait_s),
+                                  BIODYN_FIELD(placed_tuck_m),
                                   BIODYN_FIELD(stop_brake_rad_per_m_s),
                                   BIODYN_FIELD(stop_speed_m_s),
                                   BIODYN_FIELD(tolerance_fraction)};
@@ -401,15 +402,26 @@ void TorqueWalker::request_stop() {
   state_.speed_m_s = 0;
 }
 
-void TorqueWalker::validate_plan(const std::vector<double>& lengths_m) {
+void TorqueWalker::validate_plan(const std::vector<double>& lengths_m,
+                                 const std::vector<double>& widths_m) {
   for (std::size_t i = 0; i < lengths_m.size(); ++i)
     check(lengths_m[i] >= 0 && lengths_m[i] <= 1.5, "planned step " + std::to_string(i + 1),
           "must be in [0, 1.5] m", lengths_m[i]);
+  if (widths_m.empty()) return;
+  check(widths_m.size() == lengths_m.size(), "planned widths",
+        "must be one per planned step (" + std::to_string(lengths_m.size()) + ")",
+        static_cast<double>(widths_m.size()));
+  for (std::size_t i = 0; i < widths_m.size(); ++i)
+    check(widths_m[i] >= -0.3 && widths_m[i] <= 0.8,
+          "planned step " + std::to_string(i + 1) + " width", "must be in [-0.3, 0.8] m",
+          widths_m[i]);
 }
 
-void TorqueWalker::plan_steps(const std::vector<double>& lengths_m) {
-  validate_plan(lengths_m);
+void TorqueWalker::plan_steps(const std::vector<double>& lengths_m,
+                              const std::vector<double>& widths_m) {
+  validate_plan(lengths_m, widths_m);
   state_.plan = lengths_m;
+  state_.plan_width = widths_m;
   state_.plan_next = 0;
 }
 
@@ -610,11 +622,21 @@ void TorqueWalker::on_strike(const mjData& d, const sim::CenterOfMass& com, int 
         std::clamp(st.roll_integral + p.lateral_integral_rad_per_m * sideways, -limit, limit);
   }
   st.com_at_strike = com_now;
-  st.last_strike = {d.time, swing, ch * delta.x() + sh * delta.y(),
-                    std::abs(-sh * delta.x() + ch * delta.y()), st.swing_target_m};
-  st.swing_target_m = st.plan_next < static_cast<int>(st.plan.size())
-                          ? st.plan[static_cast<std::size_t>(st.plan_next++)]
-                          : std::numeric_limits<double>::quiet_NaN();
+  st.last_strike = {d.time,
+                    swing,
+                    ch * delta.x() + sh * delta.y(),
+                    std::abs(-sh * delta.x() + ch * delta.y()),
+                    st.swing_target_m,
+                    st.swing_width_m,
+                    !std::isnan(st.swing_target_m) && st.swing_out_of_reach};
+  st.swing_out_of_reach = false;
+  st.swing_width_m = std::numeric_limits<double>::quiet_NaN();
+  st.swing_target_m = std::numeric_limits<double>::quiet_NaN();
+  if (st.plan_next < static_cast<int>(st.plan.size())) {
+    const auto k = static_cast<std::size_t>(st.plan_next++);
+    st.swing_target_m = st.plan[k];
+    if (k < st.plan_width.size()) st.swing_width_m = st.plan_width[k];
+  }
   ++st.strikes;
   if (base_polygon_rule_active()) ++st.rule_steps;
   st.rule_length_m = st.rule_width_m = std::numeric_limits<double>::quiet_NaN();
@@ -627,6 +649,7 @@ void TorqueWalker::on_strike(const mjData& d, const sim::CenterOfMass& com, int 
       const double v = ch * com.velocity_W.x() + sh * com.velocity_W.y();
       if (v < p.stop_speed_m_s) {
         st.plan.assign(1, 0.0);
+        st.plan_width.clear();
         st.plan_next = 0;
         st.swing_target_m = st.plan[static_cast<std::size_t>(st.plan_next++)];
       }
@@ -703,7 +726,11 @@ LegTriangle TorqueWalker::placed_step_ik(const mjData& d, const TorqueWalkerPhas
   if (landing) {
     // Out of reach on the floor (after placed_wait_s): the closest reachable point instead
     // (paper §4.2), so the foot comes down rather than waiting longer for the hip.
-    dx = std::clamp(dx, -reach_ahead(dz), reach_ahead(dz));
+    const double reachable = reach_ahead(dz);
+    // The stone beyond the leg's reach now (the strike says so if it comes now): the foot
+    // comes down at the closest reachable point (after placed_wait_s).
+    st.swing_out_of_reach = std::abs(stance_ankle.x() + target - hip.x()) > reachable;
+    dx = std::clamp(dx, -reachable, reachable);
   }
   const LegTriangle ik = solve_leg_triangle(leg.thigh_length_m, leg.shank_length_m,
                                             Vector3d(dx, 0, dz), 1.0, 0.0, kMaxSwingKnee_rad);
@@ -722,7 +749,19 @@ LegTriangle TorqueWalker::placed_step_ik(const mjData& d, const TorqueWalkerPhas
   st.ik_time_s = d.time;
   st.ik_pitch = ik.hip_flexion_rad;
   st.ik_knee = ik.knee_flexion_rad;
-  return ik;
+  LegTriangle tucked = ik;
+  {
+    // Until the swing ankle has passed the stance ankle, the knee stays at least as flexed as
+    // the free gait's (the phase's swing knee): a far target's IK leg is nearly straight and
+    // its toes would scuff the floor at mid-swing.
+    const Vector3d ankle = st.heading.to_heading(sim::vec3_at(d.xpos + 3 * leg.foot));
+    if (!landing && ankle.x() - stance_ankle.x() < p.placed_tuck_m &&
+        ik.knee_flexion_rad < ph.swing_knee_rad) {
+      tucked.knee_flexion_rad = ph.swing_knee_rad;
+      st.ik_knee_rate = 0;
+    }
+  }
+  return tucked;
 }
 
 double TorqueWalker::knee_weight_support(const mjModel& m, const mjData& d, int side,
@@ -810,6 +849,16 @@ Vector2d TorqueWalker::swing_thigh_angles(const mjData& d, const TorqueWalkerPha
       !placed && (!std::isnan(st.rule_length_m) || !std::isnan(st.rule_width_m));
   const Vector3d hip = st.heading.to_heading(Vector3d(
       sim::vec3_at(d.xpos + 3 * leg.thigh) - sim::vec3_at(d.xpos + 3 * rig_->leg(st.stance).foot)));
+  if (placed && !std::isnan(st.swing_width_m)) {
+    // A planned width: the thigh rolled so that the leg below the hip puts the ankle that far
+    // across from the stance ankle (in late swing aiming past it by placement_gain x the miss).
+    const Vector3d ankle =
+        st.heading.to_heading(Vector3d(sim::vec3_at(d.xpos + 3 * leg.foot) -
+                                       sim::vec3_at(d.xpos + 3 * rig_->leg(st.stance).foot)));
+    double across = out * st.swing_width_m;
+    if (ph.ends_at_strike) across -= p.placement_gain * (ankle.y() - across);
+    roll = std::atan2(across - hip.y(), std::max(hip.z(), 0.3));
+  }
   if (placed && closing_step()) {
     // The closing step of a stop puts the feet side by side at the standing width (the hips'
     // spacing), where the standing controller's pose expects them; the balance feedback's

@@ -255,6 +255,14 @@ TEST_CASE_METHOD(biodyn::testing::SimulationTest,
                                                       Catch::Matchers::Contains("-0.2"));
   gait.plan_steps({0.5, 0.3});
   CHECK(gait.planned_steps_left() == 2);
+  // Widths: one per length, each within [-0.3, 0.8] m.
+  CHECK_THROWS_WITH(gait.plan_steps({0.5, 0.3}, {0.2}),
+                    Catch::Matchers::Contains("one per planned step"));
+  CHECK_THROWS_WITH(
+      gait.plan_steps({0.5, 0.3}, {0.2, 0.9}),
+      Catch::Matchers::Contains("planned step 2 width") && Catch::Matchers::Contains("0.9"));
+  gait.plan_steps({0.5, 0.3, 0.4}, {0.2, -0.05, 0.1});
+  CHECK(gait.planned_steps_left() == 3);
 }
 
 TEST_CASE_METHOD(biodyn::testing::SimulationTest,

@@ -124,6 +124,12 @@ void ScenarioConfig::validate() const {
                 "steps: only the stones scenario walks planned steps");
   if (steps_m.size() > 1000)
     fail("steps", "at most 1000 step lengths", static_cast<double>(steps_m.size()));
+  refuse_unless(steps_lateral_m.empty() || steps_lateral_m.size() == steps_m.size(),
+                "step offsets: one per step length");
+  for (std::size_t i = 0; i < steps_lateral_m.size(); ++i) {
+    if (!(std::abs(steps_lateral_m[i]) <= 0.3))
+      fail("step offset " + std::to_string(i + 1), "must be within +-0.3 m", steps_lateral_m[i]);
+  }
   controllers::TorqueWalker::validate_plan(steps_m);
   if (!(steps_start_s >= 0) || !std::isfinite(steps_start_s))
     fail("steps start", "must be a time >= 0 s", steps_start_s);

@@ -496,12 +496,18 @@ WalkRunResult run_walk(sim::Simulation* sim, const WalkRunParams& params,
   if (!params.config.steps_m.empty()) {
     SteppingStonesResult stones;
     stones.targets_m = params.config.steps_m;
+    stones.lateral_m = params.config.steps_lateral_m;
     stones.start_s = scenario.stones_start_s();
     double sq = 0;
     for (const Stone& st : scenario.stones()) {
       if (std::isnan(st.walked_m)) continue;
-      const double e = st.walked_m - st.target_m;
+      const double e = st.error_m();
       stones.lengths_m.push_back(st.walked_m);
+      if (st.across_planned) {
+        stones.across_m.push_back(st.walked_across_m);
+        stones.target_across_m.push_back(st.across_m);
+      }
+      if (st.out_of_reach) stones.out_of_reach.push_back(static_cast<int>(stones.lengths_m.size()));
       stones.errors_m.push_back(e);
       sq += e * e;
       stones.max_error_m = std::max(stones.max_error_m, std::abs(e));

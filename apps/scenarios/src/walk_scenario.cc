@@ -91,10 +91,16 @@ void WalkScenario::on_strike() {
   // strike at or after steps_start_s (from the swing that starts now).
   if (!std::isnan(st.target_length_m) && !run_.stones.empty() &&
       std::isnan(run_.stones.back().walked_m)) {
-    run_.stones.back().walked_m = st.step_length_m;
+    Stone& stone = run_.stones.back();
+    stone.walked_m = st.step_length_m;
+    const int struck = rig_.leg(st.side).foot, other = rig_.leg(1 - st.side).foot;
+    const double h = walker_.heading_rad();
+    stone.walked_across_m = -std::sin(h) * (d.xpos[3 * struck] - d.xpos[3 * other]) +
+                            std::cos(h) * (d.xpos[3 * struck + 1] - d.xpos[3 * other + 1]);
+    stone.out_of_reach = st.target_out_of_reach;
   }
   if (!config_.steps_m.empty() && !run_.stones_planned && d.time >= config_.steps_start_s) {
-    walker_.plan_steps(config_.steps_m);
+    walker_.plan_steps(config_.steps_m, planned_widths());
     run_.stones_planned = true;
     run_.stones_start_s = d.time;
   }
@@ -124,6 +130,29 @@ void WalkScenario::on_strike() {
   run_.push_end_s = push.start_s + push.duration_s;
 }
 
+double Stone::error_m() const {
+  return across_planned ? std::hypot(walked_m - target_m, walked_across_m - across_m)
+                        : walked_m - target_m;
+}
+
+std::vector<double> WalkScenario::planned_widths() const {
+  // The walkway: each foot's line the hips' spacing w apart, centred on the stance foot where
+  // the plan starts; stone k lies o_k left of its line, so from the stone before (o_-1 = 0) the
+  // step's width is w + (o_k - o_k-1), signed outwards for the swing side.
+  std::vector<double> widths;
+  if (config_.steps_lateral_m.empty()) return widths;
+  // The plan starts with the swing after the next strike: the current stance leg's.
+  int swing = walker_.stance_side();
+  double before = 0;
+  for (const double offset : config_.steps_lateral_m) {
+    const double out = swing == models::kLeft ? 1.0 : -1.0;
+    widths.push_back(rig_.hip_spacing_m() + out * (offset - before));
+    before = offset;
+    swing = 1 - swing;
+  }
+  return widths;
+}
+
 void WalkScenario::place_stone() {
   if (std::isnan(walker_.swing_target_m())) return;
   // The swing's stone, from the walker's reference: the stance ankle (which rolls forward a
@@ -142,7 +171,10 @@ void WalkScenario::place_stone() {
     Stone stone;
     stone.side = swing;
     stone.target_m = walker_.swing_target_m();
-    stone.across_m = (swing_at - stance).dot(across);
+    stone.across_planned = !std::isnan(walker_.swing_width_m());
+    stone.across_m = stone.across_planned
+                         ? (swing == models::kLeft ? 1.0 : -1.0) * walker_.swing_width_m()
+                         : (swing_at - stance).dot(across);
     run_.stones.push_back(stone);
   }
   Stone& stone = run_.stones.back();

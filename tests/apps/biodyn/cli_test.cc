@@ -2,6 +2,7 @@
 // written on bad input.
 #include <filesystem>
 #include <fstream>
+#include <iomanip>
 #include <nlohmann/json.hpp>
 #include <sstream>
 
@@ -286,6 +287,73 @@ TEST_CASE("biodyn walk --steps reports the stepping stones, a bad length is refu
   CHECK(bad.exit_code == 2);
   CHECK(bad.err.find("--steps") != std::string::npos);
   CHECK_FALSE(fs::exists(dir / "b.json"));
+  // Stones in 2D: one offset per length; alone, or of another count, refused.
+  const Run offsets_alone = run_biodyn("walk --duration 9 --step-offsets 0.1 --json b.json", dir);
+  CHECK(offsets_alone.exit_code == 2);
+  CHECK(offsets_alone.err.find("--step-offsets") != std::string::npos);
+  const Run miscount =
+      run_biodyn("walk --duration 9 --steps 0.5,0.3 --step-offsets 0.1 --json b.json", dir);
+  CHECK(miscount.exit_code == 2);
+  CHECK(miscount.err.find("one per step length") != std::string::npos);
+  const Run wide =
+      run_biodyn("walk --duration 9 --steps 0.5,0.3 --step-offsets 0.1,0.5 --json b.json", dir);
+  CHECK(wide.exit_code == 2);
+  CHECK(wide.err.find("step offset 2") != std::string::npos);
+  CHECK(wide.err.find("0.5") != std::string::npos);
+  CHECK_FALSE(fs::exists(dir / "b.json"));
+}
+
+TEST_CASE("biodyn walk --steps says which stone was out of reach and where the foot came down",
+          "[apps][cli][walk][stones]") {
+  const fs::path dir = fresh_dir("walk_stones_reach");
+  const Run r = run_biodyn("walk --duration 8 --weld off --steps 0.5,1.5 --json s.json", dir);
+  INFO(r.out << r.err);
+  REQUIRE(r.exit_code <= 1);  // a split this long may end in a fall: the report is the subject
+  CHECK(r.out.find("step 2: the stone at 1.500 m is out of reach; stepped to the closest "
+                   "reachable point") != std::string::npos);
+  const auto j = nlohmann::json::parse(slurp(dir / "s.json"));
+  CHECK(j["stones"]["out_of_reach_steps"] == nlohmann::json::array({2}));
+  CHECK(j["stones"]["lengths"][1].get<double>() < 1.45);  // measured 1.36 m
+}
+
+TEST_CASE(
+    "biodyn stones-sweep: the same sequences on 1 and 2 threads, a failure's replay line "
+    "walks it again to the bit",
+    "[apps][cli][walk][stones]") {
+  const fs::path dir = fresh_dir("stones_sweep");
+  const std::string args = "stones-sweep --sequences 3 --seed 11 --lateral 0 ";
+  const Run one = run_biodyn(args + "--threads 1 -o one", dir);
+  INFO(one.out << one.err);
+  REQUIRE(one.exit_code == 0);
+  const Run two = run_biodyn(args + "--threads 2 -o two", dir);
+  REQUIRE(two.exit_code == 0);
+  CHECK(slurp(dir / "one" / "sequences.csv") == slurp(dir / "two" / "sequences.csv"));
+  CHECK(fs::file_size(dir / "one" / "errors.png") > 1000);
+  const auto j = nlohmann::json::parse(slurp(dir / "one" / "summary.json"));
+  CHECK(j["sequences"] == 3);
+  const int passed = j["passed"].get<int>();
+  CHECK(one.out.find(std::to_string(passed) + " of 3") != std::string::npos);
+  // Every failure names its seed and a `biodyn walk` line; that line runs the same walk.
+  REQUIRE(j["failed"].size() == static_cast<std::size_t>(3 - passed));
+  for (const auto& f : j["failed"]) {
+    const std::string seed = std::to_string(f["seed"].get<int>());
+    CHECK(one.out.find("FAILED seed " + seed) != std::string::npos);
+    const std::string replay = f["replay"].get<std::string>();
+    REQUIRE(replay.rfind("biodyn walk ", 0) == 0);
+    const Run again = run_biodyn(replay.substr(7) + " --json again.json", dir);
+    INFO(again.out << again.err);
+    const auto a = nlohmann::json::parse(slurp(dir / "again.json"));
+    const std::string csv = slurp(dir / "one" / "sequences.csv");
+    const std::size_t line = csv.find("\n" + seed + ",");
+    REQUIRE(line != std::string::npos);
+    std::ostringstream rms;
+    rms << std::setprecision(10) << a["stones"]["rms_error"].get<double>();
+    CHECK(csv.find(rms.str(), line) < csv.find('\n', line + 1));
+  }
+  const Run bad = run_biodyn("stones-sweep --sequences 0 -o bad", dir);
+  CHECK(bad.exit_code == 2);
+  CHECK(bad.err.find("sequences") != std::string::npos);
+  CHECK_FALSE(fs::exists(dir / "bad"));
 }
 
 TEST_CASE("biodyn push-sweep gives the same results on 1 and 2 threads, with a plot",

@@ -89,6 +89,12 @@ TEST_CASE_METHOD(biodyn::testing::SimulationTest,
   std::vector<sim::OverlayGeom> out;
   s.run_until(9.0);
   viewer::build_overlays(s, viewer::OverlayOptions{}, &buffers, &out);
+  // An instant with a foot flat on the floor (on a heel or toe edge the hull is a segment).
+  for (double t = 9.02; t < 10.0 && buffers.hull.size() < 3; t += 0.02) {
+    s.run_until(t);
+    viewer::build_overlays(s, viewer::OverlayOptions{}, &buffers, &out);
+  }
+  REQUIRE(buffers.hull.size() >= 3);
   int boxes = 0, lines = 0;
   for (const sim::OverlayGeom& g : out) {
     boxes += g.kind == sim::OverlayGeom::Kind::kBox;

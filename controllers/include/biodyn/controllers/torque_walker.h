@@ -134,6 +134,10 @@ struct TorqueWalkerParams {
   /// ankle at the clearance height for up to this long (the hip catches up) before it comes
   /// down at the closest reachable point.
   double placed_wait_s = 0.15;
+  /// Constrained stepping: until the swing ankle is this far ahead of the stance ankle, the
+  /// knee flexes at least as far as the phase's swing knee (a far target's IK leg is nearly
+  /// straight, and its toes scuff the floor at mid-swing).
+  double placed_tuck_m = -0.1;
   /// Stopping: while braking, the swing thigh pitches this much further per m/s of forward
   /// CoM speed (the foot lands ahead of the CoM); once the CoM is slower than stop_speed_m_s
   /// at a strike, the next step brings the feet side by side.
@@ -190,6 +194,11 @@ struct TorqueWalkerStrike {
   double step_width_m = 0;   ///< across it
   double target_length_m =
       std::numeric_limits<double>::quiet_NaN();  ///< the planned length; NaN: a free step
+  /// The planned width (plan_steps' widths_m); NaN: the balance feedback's.
+  double target_width_m = std::numeric_limits<double>::quiet_NaN();
+  /// A planned step whose target the leg could not reach: it landed at the closest reachable
+  /// point (paper §4.2).
+  bool target_out_of_reach = false;
 };
 
 /// What the torque walker carries from one step to the next (a copyable aggregate).
@@ -216,9 +225,11 @@ struct TorqueWalkerState {
   bool rule_bound = false;  ///< the rule's step has overridden the balance feedback this swing
   std::vector<Eigen::Vector2d> support, tolerance;  ///< the last evaluated polygons (world xy)
   // Constrained stepping.
-  std::vector<double> plan;
+  std::vector<double> plan, plan_width;  // lengths; widths (empty: the balance feedback's)
   int plan_next = 0;
   double swing_target_m = std::numeric_limits<double>::quiet_NaN();
+  double swing_width_m = std::numeric_limits<double>::quiet_NaN();
+  bool swing_out_of_reach = false;  ///< the current placed step's target is beyond the leg
   bool stopping = false, stopped = false;
   // The last IK solution of a placed step, for its rates.
   bool ik_valid = false;
@@ -246,11 +257,15 @@ class TorqueWalker : public ControlDriver {
   double phase_duration_s(int phase) const;
   /// Constrained stepping: the next steps' lengths, m, along the heading (ankle to ankle),
   /// from the swing that starts at the next strike; afterwards the steps are free again.
-  /// Replaces any plan not yet walked. Throws sim::InvalidArgument for a length outside
-  /// [0, 1.5] m (naming its index).
-  void plan_steps(const std::vector<double>& lengths_m);
+  /// `widths_m` (empty, or one per length): each step's width, m, ankle to ankle across the
+  /// heading, positive with the swing foot on its own side (negative: a cross-over); without
+  /// it the balance feedback places the foot across. Replaces any plan not yet walked. Throws
+  /// sim::InvalidArgument for a length outside [0, 1.5] m or a width outside [-0.3, 0.8] m
+  /// (naming its index), or a widths list of another size.
+  void plan_steps(const std::vector<double>& lengths_m, const std::vector<double>& widths_m = {});
   /// The check plan_steps makes, without a walker (to refuse a plan before a run starts).
-  static void validate_plan(const std::vector<double>& lengths_m);
+  static void validate_plan(const std::vector<double>& lengths_m,
+                            const std::vector<double>& widths_m = {});
   /// Stopping back to standing: the speed command drops to 0 and the steps brake (the swing
   /// foot lands further ahead, stop_brake_rad_per_m_s) until the CoM is slower than
   /// stop_speed_m_s at a strike; then one planned step (as above) brings the feet side by
@@ -264,6 +279,8 @@ class TorqueWalker : public ControlDriver {
   int planned_steps_left() const { return static_cast<int>(state_.plan.size()) - state_.plan_next; }
   /// The current swing's planned length (NaN for a free step).
   double swing_target_m() const { return state_.swing_target_m; }
+  /// The current swing's planned width (NaN: free across).
+  double swing_width_m() const { return state_.swing_width_m; }
   /// Base-polygon balance: whether the rule moves the current swing's strike, and how many
   /// steps it has moved since reset(). The last evaluated support and tolerance polygons
   /// (world xy, counter-clockwise; empty when not evaluated).

@@ -153,6 +153,10 @@ struct ScenarioConfig {
   /// first strike at or after steps_start_s (steady walking first); free steps after. Empty:
   /// the paper's (paper_stepping_stones_m).
   std::vector<double> steps_m;
+  /// Stones placed in 2D: each stone's offset, m, to the left of its foot's line (the walkway's
+  /// lines lie the hips' spacing apart, centred on the stance foot where the plan starts);
+  /// empty: the balance feedback places the feet across. One per step length.
+  std::vector<double> steps_lateral_m;
   double steps_start_s = 5.0;
   /// s; >= 0: from this time the walker stops (a half step, then the feet side by side) and the
   /// character is handed to the standing controller (pose "stand" with its balance).

@@ -62,10 +62,16 @@ struct WalkPushOutcome {
 
 /// How the stepping stones were walked.
 struct SteppingStonesResult {
-  double start_s = -1;                      ///< s, the strike the plan started from (-1: never)
-  std::vector<double> targets_m;            ///< the planned lengths
-  std::vector<double> lengths_m;            ///< the lengths walked (as many as were walked)
-  std::vector<double> errors_m;             ///< walked - planned
+  double start_s = -1;                  ///< s, the strike the plan started from (-1: never)
+  std::vector<double> targets_m;        ///< the planned lengths
+  std::vector<double> lateral_m;        ///< the stones' lateral offsets (empty: free)
+  std::vector<double> lengths_m;        ///< the lengths walked (as many as were walked)
+  std::vector<double> across_m;         ///< left of the stance ankle, walked (2D stones)
+  std::vector<double> target_across_m;  ///< ... and planned (2D stones)
+  std::vector<double> errors_m;         ///< Stone::error_m: 2D distance, or walked - planned
+  /// The steps (1-based) whose stone was out of the leg's reach: each came down at the closest
+  /// reachable point instead (its walked length and width say where).
+  std::vector<int> out_of_reach;
   double rms_error_m = 0, max_error_m = 0;  ///< over the steps walked
   bool complete = false;                    ///< every planned step was walked
 };

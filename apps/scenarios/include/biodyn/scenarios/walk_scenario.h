@@ -21,16 +21,24 @@ namespace biodyn::scenarios {
 
 /// One planned step of the stepping stones. Where its length puts the swing foot's ankle: from
 /// the stance ankle (the walker's reference; it rolls forward a little during the swing, and the
-/// stone with it until the strike) along the heading, as far across as the swing ankle was when
-/// the swing began (the walker plans lengths, not widths).
+/// stone with it until the strike) along the heading; across by the planned width (stones
+/// placed in 2D, ScenarioConfig::steps_lateral_m), else as far across as the swing ankle was
+/// when the swing began (the balance feedback places the foot across).
 struct Stone {
   Eigen::Vector2d ankle_W = Eigen::Vector2d::Zero();  ///< m, world xy
   double heading_rad = 0;
-  int side = 0;         ///< the swing foot (0 left, 1 right)
-  double target_m = 0;  ///< planned length
-  double across_m = 0;  ///< m, left of the stance ankle (heading frame)
+  int side = 0;                 ///< the swing foot (0 left, 1 right)
+  double target_m = 0;          ///< planned length
+  double across_m = 0;          ///< m, left of the stance ankle (heading frame)
+  bool across_planned = false;  ///< across_m is the plan's (2D stones), not the balance's
   double walked_m =
       std::numeric_limits<double>::quiet_NaN();  ///< length at the strike; NaN: in swing
+  double walked_across_m = std::numeric_limits<double>::quiet_NaN();  ///< left, at the strike
+  /// The target was beyond the leg's reach: the foot came down at the closest reachable point.
+  bool out_of_reach = false;
+  /// m, the miss at the strike: the distance from the stone in 2D with a planned width, else
+  /// walked - planned length.
+  double error_m() const;
 };
 
 class WalkScenario : public Scenario {
@@ -93,6 +101,9 @@ class WalkScenario : public Scenario {
   void on_strike();
   /// The current swing's stone follows the stance ankle until the strike fixes it.
   void place_stone();
+  /// The plan's step widths from config().steps_lateral_m (empty without it), from the swing
+  /// after the next strike (plan_steps).
+  std::vector<double> planned_widths() const;
 
   controllers::ControllerParams params_;
   controllers::TorqueWalkerParams walker_params_;
