@@ -10,6 +10,7 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
+#include "biodyn/sim/errors.h"
 #include "biodyn/sim/units.h"
 
 namespace biodyn::models {
@@ -122,6 +123,46 @@ void add_defaults(tinyxml2::XMLElement* root, const PhysicsOptions& o) {
          {"group", std::to_string(kMarkerSiteGroup)},
          {"rgba", "0.1 0.3 1 1"}});
   child(defaults, "motor", {{"ctrllimited", "true"}});
+}
+
+/// A static box of the ground: half sizes, centre, pitch about +y (rad).
+void add_ground_box(tinyxml2::XMLElement* world, const std::string& name, const Vector3d& half,
+                    const Vector3d& centre, double pitch_rad) {
+  child(world, "geom",
+        {{"name", name},
+         {"type", "box"},
+         {"size", fmt(half)},
+         {"pos", fmt(centre)},
+         {"euler", "0 " + fmt(pitch_rad) + " 0"},
+         {"material", "grid"},
+         {"contype", std::to_string(kFloorContype)},
+         {"conaffinity", std::to_string(kFloorConaffinity)}});
+}
+
+/// The terrain's boxes (Terrain): ramps as thin boxes pitched about +y whose top faces run from
+/// the floor to the plateau; plateaus and steps as boxes standing on the floor.
+void add_terrain(tinyxml2::XMLElement* world, const Terrain& t) {
+  constexpr double kHalfWidth_m = 2.0, kRampHalfThickness_m = 0.1;
+  if (t.kind == Terrain::Kind::kFlat) return;
+  const bool hill = t.kind == Terrain::Kind::kHill;
+  const double slope = t.slope_deg * kRadPerDeg;
+  const double ramp = hill ? t.ramp_m : 0.0;
+  const double height = hill ? ramp * std::tan(slope) : t.step_m;
+  const double x_plateau = t.start_m + ramp;
+  add_ground_box(world, "terrain_plateau", Vector3d(t.plateau_m / 2, kHalfWidth_m, height / 2),
+                 Vector3d(x_plateau + t.plateau_m / 2, 0, height / 2), 0);
+  if (!hill) return;
+  const double half_length = ramp / std::cos(slope) / 2;
+  for (const double sign : {1.0, -1.0}) {
+    // Up (sign +1) before the plateau, down after it: the top face's middle, less the half
+    // thickness along its normal.
+    const double x_mid = sign > 0 ? t.start_m + ramp / 2 : x_plateau + t.plateau_m + ramp / 2;
+    const Vector3d normal(-sign * std::sin(slope), 0, std::cos(slope));
+    const Vector3d centre = Vector3d(x_mid, 0, height / 2) - kRampHalfThickness_m * normal;
+    add_ground_box(world, sign > 0 ? "terrain_ramp_up" : "terrain_ramp_down",
+                   Vector3d(half_length, kHalfWidth_m, kRampHalfThickness_m), centre,
+                   -sign * slope);
+  }
 }
 
 /// <worldbody> with the light and the floor; the segments' bodies go in it.
@@ -315,6 +356,7 @@ std::string to_mjcf(const Character& c, const PhysicsOptions& o) {
   add_assets(root);
   add_defaults(root, o);
   tinyxml2::XMLElement* world = add_world(root);
+  add_terrain(world, o.terrain);
 
   // Segments come parents first: each body nests in its parent's.
   std::map<std::string, tinyxml2::XMLElement*> body_elements;
@@ -442,6 +484,39 @@ std::string summary_json(const Character& c) {
         "length (standing pose); F_max by body mass / 75.337 kg (README, Muscles)";
   }
   return j.dump(2) + "\n";
+}
+
+double Terrain::height_at(double x) const {
+  if (kind == Kind::kFlat) return 0;
+  if (kind == Kind::kSteps) return x >= start_m && x <= start_m + plateau_m ? step_m : 0.0;
+  const double rise = std::tan(slope_deg * kRadPerDeg);
+  const double x_down = start_m + ramp_m + plateau_m;
+  if (x <= start_m || x >= x_down + ramp_m) return 0;
+  if (x < start_m + ramp_m) return (x - start_m) * rise;
+  if (x <= x_down) return ramp_m * rise;
+  return (x_down + ramp_m - x) * rise;
+}
+
+void Terrain::validate() const {
+  const auto check = [](bool ok, const std::string& field, const std::string& rule, double v) {
+    if (!ok) {
+      std::ostringstream s;
+      s << "terrain " << field << ": " << rule << ", got " << v;
+      throw sim::InvalidArgument(s.str());
+    }
+  };
+  check(start_m >= 1 && start_m <= 100, "start", "must be in [1, 100] m", start_m);
+  check(slope_deg > 0 && slope_deg <= 20, "slope", "must be in (0, 20] deg", slope_deg);
+  check(ramp_m > 0 && ramp_m <= 20, "ramp", "must be in (0, 20] m", ramp_m);
+  check(step_m > 0 && step_m <= 0.3, "step", "must be in (0, 0.3] m", step_m);
+  check(plateau_m >= 0.5 && plateau_m <= 50, "plateau", "must be in [0.5, 50] m", plateau_m);
+}
+
+Terrain::Kind parse_terrain_kind(const std::string& text, const std::string& field) {
+  if (text == "flat") return Terrain::Kind::kFlat;
+  if (text == "hill") return Terrain::Kind::kHill;
+  if (text == "steps") return Terrain::Kind::kSteps;
+  throw sim::InvalidArgument(field + ": expected flat, hill or steps, got '" + text + "'");
 }
 
 }  // namespace biodyn::models

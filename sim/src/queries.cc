@@ -37,7 +37,8 @@ void floor_contacts(const mjModel& m, const mjData& d, int floor_geom,
   out->clear();
   for (int i = 0; i < d.ncon; ++i) {
     const mjContact& c = d.contact[i];
-    if (c.geom1 != floor_geom && c.geom2 != floor_geom) continue;
+    const bool ground1 = is_ground(m, c.geom1, floor_geom);
+    if (!ground1 && !is_ground(m, c.geom2, floor_geom)) continue;
     if (c.exclude != 0 || c.efc_address < 0) continue;  // not an active constraint
     mjtNum f_local[6];
     mj_contactForce(&m, &d, i, f_local);
@@ -48,7 +49,7 @@ void floor_contacts(const mjModel& m, const mjData& d, int floor_geom,
           f_local[r] * Eigen::Vector3d(c.frame[3 * r], c.frame[3 * r + 1], c.frame[3 * r + 2]);
     }
     Eigen::Vector3d normal(c.frame[0], c.frame[1], c.frame[2]);
-    const bool body_is_geom2 = (c.geom1 == floor_geom);
+    const bool body_is_geom2 = ground1;
     FloorContact fc;
     fc.geom = body_is_geom2 ? c.geom2 : c.geom1;
     fc.body = m.geom_bodyid[fc.geom];
@@ -67,7 +68,9 @@ int floor_contact_count(const mjModel& m, const mjData& d, int floor_geom, int b
   int count = 0;
   for (int i = 0; i < d.ncon; ++i) {
     const mjContact& c = d.contact[i];
-    const int other = c.geom1 == floor_geom ? c.geom2 : c.geom2 == floor_geom ? c.geom1 : -1;
+    const int other = is_ground(m, c.geom1, floor_geom)   ? c.geom2
+                      : is_ground(m, c.geom2, floor_geom) ? c.geom1
+                                                          : -1;
     if (other >= 0 && m.geom_bodyid[other] == body && c.dist <= max_distance_m) ++count;
   }
   return count;

@@ -9,6 +9,7 @@
 #include "biodyn/models/character.h"
 #include "biodyn/models/mjcf.h"
 #include "biodyn/models/tables.h"
+#include "biodyn/sim/queries.h"
 #include "biodyn/sim/simulation.h"
 #include "biodyn/sim/units.h"
 #include "model_checks.h"
@@ -252,4 +253,40 @@ TEST_CASE("Summary JSON lists every segment", "[models][mjcf]") {
     CHECK_THAT(json, Catch::Contains("\"" + s.name + "\""));
   CHECK_THAT(json, Catch::Contains("\"total_mass_kg\""));
   CHECK_THAT(json, Catch::Contains("\"inertia_kg_m2\""));
+}
+
+TEST_CASE_METHOD(biodyn::testing::SimulationTest,
+                 "Terrain: the hill's and the steps' top faces are where height_at says, and are "
+                 "ground",
+                 "[models][mjcf][terrain]") {
+  const models::Character c = models::generate_character({});
+  for (const models::Terrain::Kind kind :
+       {models::Terrain::Kind::kHill, models::Terrain::Kind::kSteps}) {
+    models::PhysicsOptions o;
+    o.terrain.kind = kind;
+    o.terrain.slope_deg = 6;
+    o.terrain.step_m = 0.07;
+    sim::Simulation sim(sim::Model::from_string(models::to_mjcf(c, o), "<terrain>"));
+    const mjModel& m = sim.model();
+    mjData& d = sim.data();
+    mj_forward(&m, &d);
+    const int floor = mj_name2id(&m, mjOBJ_GEOM, "floor");
+    REQUIRE(floor >= 0);
+    // Rays down from 2 m, beside the character (y = 1 m), every 10 cm across the terrain.
+    for (double x = 4.0; x < 20.0; x += 0.1) {
+      const mjtNum from[3] = {x, 1.0, 2.0}, down[3] = {0, 0, -1};
+      int hit = -1;
+      const mjtNum dist = mj_ray(&m, &d, from, down, nullptr, 1, -1, &hit);
+      INFO("x " << x);
+      REQUIRE(hit >= 0);
+      CHECK(sim::is_ground(m, hit, floor));
+      CHECK(2.0 - dist == Approx(o.terrain.height_at(x)).margin(1e-3));
+    }
+    CHECK(o.terrain.height_at(o.terrain.start_m + 1.0) > 0.0);
+  }
+  models::Terrain bad;
+  bad.slope_deg = 30;
+  CHECK_THROWS_WITH(bad.validate(), Catch::Contains("terrain slope") && Catch::Contains("30"));
+  CHECK_THROWS_WITH(models::parse_terrain_kind("mountain", "--terrain"),
+                    Catch::Contains("--terrain") && Catch::Contains("mountain"));
 }

@@ -6,6 +6,7 @@
 #include <mujoco/mujoco.h>
 
 #include "biodyn/models/rig.h"
+#include "biodyn/sim/queries.h"
 
 namespace biodyn::scenarios {
 
@@ -29,7 +30,9 @@ class FallWatch {
     if (pelvis >= 0 && d.xpos[3 * pelvis + 2] < fraction_ * pelvis_start_) return true;
     for (int c = 0; c < d.ncon; ++c) {
       const mjContact& con = d.contact[c];
-      const int other = con.geom1 == floor ? con.geom2 : con.geom2 == floor ? con.geom1 : -1;
+      const int other = sim::is_ground(m, con.geom1, floor)   ? con.geom2
+                        : sim::is_ground(m, con.geom2, floor) ? con.geom1
+                                                              : -1;
       if (other >= 0 && con.dist <= 0 && !foot_body(m.geom_bodyid[other])) return true;
     }
     return false;

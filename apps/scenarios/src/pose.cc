@@ -112,7 +112,9 @@ class PoseMetrics : public StepObserver {
     contact_points_.clear();
     for (int c = 0; c < d.ncon; ++c) {
       const mjContact& con = d.contact[c];
-      const int other = con.geom1 == floor ? con.geom2 : con.geom2 == floor ? con.geom1 : -1;
+      const int other = sim::is_ground(m, con.geom1, floor)   ? con.geom2
+                        : sim::is_ground(m, con.geom2, floor) ? con.geom1
+                                                              : -1;
       if (other < 0 || con.dist > kSupportGap_m) continue;
       if (s.rig().is_foot_part(m.geom_bodyid[other]))
         contact_points_.emplace_back(con.pos[0], con.pos[1]);

@@ -303,6 +303,52 @@ TEST_CASE("biodyn walk --steps reports the stepping stones, a bad length is refu
   CHECK_FALSE(fs::exists(dir / "b.json"));
 }
 
+TEST_CASE("biodyn walk --terrain hill and steps: up 5 deg and down, up 5 cm and down, no fall",
+          "[apps][cli][walk][terrain]") {
+  const fs::path dir = fresh_dir("walk_terrain");
+  for (const std::string terrain : {"hill", "steps"}) {
+    const Run r = run_biodyn(
+        "walk --terrain " + terrain + " --duration 22 --weld honest --csv t.csv --json t.json",
+        dir);
+    INFO(terrain << ": " << r.out << r.err);
+    REQUIRE(r.exit_code == 0);
+    CHECK(r.out.find("terrain: from 6 m") != std::string::npos);
+    const auto j = nlohmann::json::parse(slurp(dir / "t.json"));
+    CHECK_FALSE(j["fallen"].get<bool>());
+    CHECK(j["inputs"]["terrain"]["kind"] == terrain);
+    // Walked over it, not around: the CoM rose by the plateau's height (0.35 m, 0.05 m) and the
+    // walk ended past the far side (x > 17 m, 13 m), back on the floor.
+    std::istringstream csv(slurp(dir / "t.csv"));
+    std::string line;
+    std::getline(csv, line);  // header: time_s,com_x,com_y,com_z,...
+    double z0 = -1, z_max = 0, x_end = 0, z_end = 0;
+    while (std::getline(csv, line)) {
+      std::istringstream row(line);
+      std::string cell;
+      double v[4];
+      for (double& x : v) {
+        std::getline(row, cell, ',');
+        x = std::stod(cell);
+      }
+      if (z0 < 0) z0 = v[3];
+      z_max = std::max(z_max, v[3]);
+      x_end = v[1];
+      z_end = v[3];
+    }
+    const bool hill = terrain == "hill";
+    CHECK(z_max - z0 > (hill ? 0.3 : 0.04));
+    CHECK(x_end > (hill ? 17.0 : 13.0));
+    CHECK(std::abs(z_end - z0) < 0.05);
+  }
+  const Run bad = run_biodyn("walk --terrain mountain --duration 5 --json b.json", dir);
+  CHECK(bad.exit_code == 2);
+  CHECK(bad.err.find("--terrain") != std::string::npos);
+  CHECK(bad.err.find("mountain") != std::string::npos);
+  const Run steep = run_biodyn("walk --terrain hill --terrain-slope 40 --duration 5", dir);
+  CHECK(steep.exit_code == 2);
+  CHECK(steep.err.find("terrain slope") != std::string::npos);
+}
+
 TEST_CASE("biodyn walk --steps says which stone was out of reach and where the foot came down",
           "[apps][cli][walk][stones]") {
   const fs::path dir = fresh_dir("walk_stones_reach");

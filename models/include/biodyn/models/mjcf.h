@@ -10,6 +10,30 @@ namespace biodyn::models {
 
 /// Simulation settings written into <option>/<size>, chosen for stable humanoid contact in
 /// MuJoCo 2.2.2 (mujoco-2.2.2.md, walking-notes.md).
+/// Ground beside the floor plane (issue 28: slopes and steps), static boxes along +x (the
+/// character starts facing +x) from start_m on, 4 m wide; every geom of the world body is
+/// ground to the contact queries (sim/queries.h).
+struct Terrain {
+  enum class Kind {
+    kFlat,
+    /// A ramp up at slope_deg over ramp_m, a plateau of plateau_m, a ramp down as steep.
+    kHill,
+    /// A step up of step_m, a plateau of plateau_m, a step down as high.
+    kSteps,
+  };
+  Kind kind = Kind::kFlat;
+  double start_m = 6.0;
+  double slope_deg = 5.0;
+  double ramp_m = 4.0;
+  double step_m = 0.05;
+  double plateau_m = 3.0;
+  /// m, the ground's height at x (world; 0 on the floor).
+  double height_at(double x) const;
+  void validate() const;  ///< throws sim::InvalidArgument naming the field
+};
+/// "flat" | "hill" | "steps"; throws sim::InvalidArgument naming `field` and the value.
+Terrain::Kind parse_terrain_kind(const std::string& text, const std::string& field);
+
 struct PhysicsOptions {
   double timestep_s = 0.002;  ///< s; 2 ms with armature ~0.1 was stable for a walker here
   /// Elliptic friction cones with impratio 5 reduce foot creep (mujoco-2.2.2.md).
@@ -34,6 +58,8 @@ struct PhysicsOptions {
   /// s, solref time constant of the foot-contact welds (MuJoCo's default; written as at least
   /// 2 timesteps).
   double weld_time_constant_s = 0.02;
+  /// The scene's ground beside the floor.
+  Terrain terrain;
 };
 
 /// Names of the foot-contact weld equalities: "foot_weld_l", "foot_weld_r" (body1 = foot,

@@ -40,6 +40,13 @@ struct FloorContact {
   double distance = 0.0;  ///< m, signed distance (negative = penetration)
 };
 
+/// Whether `geom` is ground: `floor_geom` itself, or (with a floor) any other geom fixed to the
+/// world body, the terrain beside the floor (models::Terrain).
+inline bool is_ground(const mjModel& m, int geom, int floor_geom) {
+  return geom == floor_geom || (floor_geom >= 0 && geom >= 0 && m.geom_bodyid[geom] == 0 &&
+                                m.geom_bodyid[floor_geom] == 0);
+}
+
 /// Appends to `out` (after clearing it) every active contact between `floor_geom` and another
 /// geom, with the contact force acting on the non-floor body. Reuses `out`'s capacity: no
 /// allocation once it has grown to the contact count.
