@@ -323,6 +323,7 @@ void TorqueWalkerParams::validate() const {
         placement_gain);
   check(placed_wait_s >= 0 && placed_wait_s <= 0.5, w + "placed_wait_s", "must be in [0, 0.5] s",
         placed_wait_s);
+  check(std::abs(placed_tuck_m) <= 1, w + "placed_tuck_m", "must be within +-1 m", placed_tuck_m);
   check(speed_lean_limit_rad >= 0 && speed_lean_limit_rad <= 0.5, w + "speed_lean_limit_rad",
         "must be in [0, 0.5] rad", speed_lean_limit_rad);
 }
@@ -725,10 +726,9 @@ LegTriangle TorqueWalker::placed_step_ik(const mjData& d, const TorqueWalkerPhas
   }
   if (landing) {
     // Out of reach on the floor (after placed_wait_s): the closest reachable point instead
-    // (paper §4.2), so the foot comes down rather than waiting longer for the hip.
+    // (paper §4.2), so the foot comes down rather than waiting longer for the hip; a strike
+    // while the stone is beyond reach says so.
     const double reachable = reach_ahead(dz);
-    // The stone beyond the leg's reach now (the strike says so if it comes now): the foot
-    // comes down at the closest reachable point (after placed_wait_s).
     st.swing_out_of_reach = std::abs(stance_ankle.x() + target - hip.x()) > reachable;
     dx = std::clamp(dx, -reachable, reachable);
   }
