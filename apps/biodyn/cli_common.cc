@@ -263,6 +263,52 @@ void plot_with_gnuplot(const std::string& command, const std::string& script_pat
   std::filesystem::rename(png_tmp, png);
 }
 
+void TerrainOptions::add_to(CLI::App* cmd) {
+  cmd->add_option("--terrain", kind,
+                  "Ground ahead: flat | hill (a ramp up at --terrain-slope, a 3 m plateau, a ramp "
+                  "down) | steps (a step up of --terrain-step, a 3 m plateau, a step down)")
+      ->capture_default_str();
+  cmd->add_option("--terrain-slope", shape.slope_deg, "Hill slope, deg (ramps 4 m long)")
+      ->capture_default_str();
+  cmd->add_option("--terrain-step", shape.step_m, "Step height, m")->capture_default_str();
+  cmd->add_option("--terrain-start", shape.start_m,
+                  "Where the terrain begins, m ahead of the start (walking straight on)")
+      ->capture_default_str();
+}
+
+models::Terrain TerrainOptions::to_terrain() const {
+  models::Terrain t = shape;
+  t.kind = models::parse_terrain_kind(kind, "--terrain");
+  t.validate();
+  return t;
+}
+
+std::string TerrainOptions::text() const {
+  std::ostringstream s;
+  if (kind == "hill") {
+    s << ", terrain: from " << shape.start_m << " m a " << shape.ramp_m << " m ramp up at "
+      << shape.slope_deg << " deg, a " << shape.plateau_m << " m plateau, a ramp down";
+  } else if (kind == "steps") {
+    s << ", terrain: from " << shape.start_m << " m a " << 100 * shape.step_m << " cm step up, a "
+      << shape.plateau_m << " m plateau, a step down";
+  }
+  return s.str();
+}
+
+std::string TerrainOptions::args() const {
+  if (kind == "flat") return "";
+  std::ostringstream a;
+  a << std::setprecision(6) << " --terrain " << kind << " --terrain-slope " << shape.slope_deg
+    << " --terrain-step " << shape.step_m << " --terrain-start " << shape.start_m;
+  return a.str();
+}
+
+nlohmann::json TerrainOptions::json() const {
+  if (kind == "flat") return nullptr;
+  return {{"kind", kind},           {"start_m", shape.start_m}, {"slope_deg", shape.slope_deg},
+          {"ramp_m", shape.ramp_m}, {"step_m", shape.step_m},   {"plateau_m", shape.plateau_m}};
+}
+
 void run_batch(std::size_t count, int threads, const std::string& mjcf, const std::string& label,
                const std::function<void(sim::Simulation*, std::size_t)>& job) {
   std::atomic<std::size_t> next{0}, done{0};

@@ -14,6 +14,7 @@
 #include "biodyn/sim/simulation.h"
 
 #include "biodyn/models/character.h"
+#include "biodyn/models/mjcf.h"
 #include "biodyn/scenarios/scenario.h"
 
 namespace biodyn::apps {
@@ -58,6 +59,21 @@ struct MuscleOptions {
   /// Throws sim::InvalidArgument naming the option and the value (or the parameter file's
   /// muscle, field and value: the file is checked against the muscles here).
   scenarios::MuscleConfig to_config() const;
+};
+
+/// The ground ahead (models::Terrain): --terrain flat|hill|steps, --terrain-slope,
+/// --terrain-step, --terrain-start.
+struct TerrainOptions {
+  std::string kind = "flat";
+  models::Terrain shape;
+  void add_to(CLI::App* cmd);
+  /// Throws sim::InvalidArgument naming the option and the value.
+  models::Terrain to_terrain() const;
+  /// ", terrain: ..." for a summary's first line ("" on flat ground).
+  std::string text() const;
+  /// The options as command-line arguments ("" on flat ground).
+  std::string args() const;
+  nlohmann::json json() const;  ///< null on flat ground
 };
 
 /// A run's muscle report (scenario.h) for the JSON summaries: tendons, and per joint the shares

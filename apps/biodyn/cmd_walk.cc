@@ -43,16 +43,7 @@ void WalkOptions::add_to(CLI::App* cmd) {
       "Joint controller parameters (JSON as biodyn pose --params; the viewer saves both)");
   cmd->add_option("--timestep", timestep_s, "Physics timestep, s, in [0.0005, 0.004]")
       ->capture_default_str();
-  cmd->add_option("--terrain", terrain,
-                  "Ground ahead: flat | hill (a ramp up at --terrain-slope, a 3 m plateau, a ramp "
-                  "down) | steps (a step up of --terrain-step, a 3 m plateau, a step down)")
-      ->capture_default_str();
-  cmd->add_option("--terrain-slope", terrain_shape.slope_deg, "Hill slope, deg (ramps 4 m long)")
-      ->capture_default_str();
-  cmd->add_option("--terrain-step", terrain_shape.step_m, "Step height, m")->capture_default_str();
-  cmd->add_option("--terrain-start", terrain_shape.start_m,
-                  "Where the terrain begins, m ahead of the start (walking straight on)")
-      ->capture_default_str();
+  terrain.add_to(cmd);
   muscles.add_to(cmd);
 }
 
@@ -63,9 +54,7 @@ models::PhysicsOptions WalkOptions::physics() const {
   }
   models::PhysicsOptions o;
   o.timestep_s = timestep_s;  // to_mjcf keeps the limit and weld time constants >= 2 steps
-  o.terrain = terrain_shape;
-  o.terrain.kind = models::parse_terrain_kind(terrain, "--terrain");
-  o.terrain.validate();
+  o.terrain = terrain.to_terrain();
   return o;
 }
 
@@ -400,7 +389,7 @@ Command add_walk_command(CLI::App* app) {
                       << " s, weld " << o->walk.weld << ", controller " << o->walk.controller
                       << ", speed " << p.config.speed_m_s << " m/s, heading rate "
                       << p.config.heading_rate_deg_s << " deg/s, timestep "
-                      << 1000 * o->walk.timestep_s << " ms" << o->walk.terrain_text() << "\n";
+                      << 1000 * o->walk.timestep_s << " ms" << o->walk.terrain.text() << "\n";
             if (!o->motion_out.empty()) check_outputs({{"--motion-out", o->motion_out, false}}, {});
             std::string trace;
             scenarios::RecordedMotion recording;
@@ -430,33 +419,13 @@ nlohmann::json WalkOptions::inputs_json(const models::CharacterSpec& spec) const
   j["reaction_time_s"] = reaction_time_s;
   j["params"] = params_path;
   j["timestep_s"] = timestep_s;
-  if (terrain != "flat") {
-    j["terrain"] = {{"kind", terrain},
-                    {"start_m", terrain_shape.start_m},
-                    {"slope_deg", terrain_shape.slope_deg},
-                    {"ramp_m", terrain_shape.ramp_m},
-                    {"step_m", terrain_shape.step_m},
-                    {"plateau_m", terrain_shape.plateau_m}};
-  }
+  if (terrain.kind != "flat") j["terrain"] = terrain.json();
   if (muscles.muscles == "on") {
     j["muscles"] = "on";
     j["tendons"] = muscles.tendons;
     j["muscle_params"] = muscles.params_path;
   }
   return j;
-}
-
-std::string WalkOptions::terrain_text() const {
-  std::ostringstream s;
-  const models::Terrain& t = terrain_shape;
-  if (terrain == "hill") {
-    s << ", terrain: from " << t.start_m << " m a " << t.ramp_m << " m ramp up at " << t.slope_deg
-      << " deg, a " << t.plateau_m << " m plateau, a ramp down";
-  } else if (terrain == "steps") {
-    s << ", terrain: from " << t.start_m << " m a " << 100 * t.step_m << " cm step up, a "
-      << t.plateau_m << " m plateau, a step down";
-  }
-  return s.str();
 }
 
 std::string WalkOptions::replay_args() const {
@@ -471,10 +440,7 @@ std::string WalkOptions::replay_args() const {
   }
   a << " --weld " << weld << " --controller " << controller << " --reaction-time "
     << reaction_time_s << " --timestep " << timestep_s;
-  if (terrain != "flat") {
-    a << " --terrain " << terrain << " --terrain-slope " << terrain_shape.slope_deg
-      << " --terrain-step " << terrain_shape.step_m << " --terrain-start " << terrain_shape.start_m;
-  }
+  a << terrain.args();
   if (!params_path.empty()) a << " --params '" << params_path << "'";
   if (!controller_params_path.empty())
     a << " --controller-params '" << controller_params_path << "'";
@@ -525,7 +491,7 @@ Command add_push_command(CLI::App* app) {
                       << " deg from the heading, at " << o->push.onset_phase
                       << " of the stride after " << o->push.settle_strides << " strides; weld "
                       << o->walk.weld << ", speed " << p.config.speed_m_s << " m/s, timestep "
-                      << 1000 * o->walk.timestep_s << " ms" << o->walk.terrain_text() << "\n";
+                      << 1000 * o->walk.timestep_s << " ms" << o->walk.terrain.text() << "\n";
             std::string trace;
             const scenarios::WalkRunResult r =
                 run_walk_on(spec, physics, p, !o->csv.empty(), "push", &trace);

@@ -68,6 +68,7 @@ void ViewOptions::add_to(CLI::App* cmd) {
                       "scenario stones: when the stones begin (steady walking first), s")
           ->capture_default_str());
   muscles.add_to(cmd);
+  terrain.add_to(cmd);
 }
 
 scenarios::ScenarioConfig ViewOptions::to_config(std::vector<std::string>* notes) const {
@@ -119,6 +120,7 @@ scenarios::ScenarioConfig ViewOptions::to_config(std::vector<std::string>* notes
     c.controller_source = controller_params_path;
   }
   c.muscles = muscles.to_config();
+  c.terrain = terrain.to_terrain();
   return c;
 }
 

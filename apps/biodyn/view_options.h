@@ -29,6 +29,7 @@ struct ViewOptions {
   std::string steps;  ///< scenario stones: lengths, m, comma-separated
   double steps_start_s = 5.0;
   MuscleOptions muscles;                ///< --muscles on|off, --tendons, --muscle-params
+  TerrainOptions terrain;               ///< --terrain and its shape (walking scenarios)
   CLI::Option* speed_option = nullptr;  ///< to tell a given --speed from the default
   std::vector<CLI::Option*> only_with_stones, only_with_track,
       only_with_mocap;  ///< refused outside their scenario

@@ -25,10 +25,7 @@ struct WalkOptions {
   /// s, physics timestep. 2 ms is the default of every biodyn model; 3 ms walks the same
   /// (controllers/README.md, "Timestep and speed") at 1.5x the speed.
   double timestep_s = 0.002;
-  /// The ground (models::Terrain): --terrain flat|hill|steps, --terrain-slope (deg),
-  /// --terrain-step (m), --terrain-start (m).
-  std::string terrain = "flat";
-  models::Terrain terrain_shape;
+  TerrainOptions terrain;
   MuscleOptions muscles;
 
   /// Adds the character options and --speed --heading-rate --weld --controller --reaction-time
@@ -44,8 +41,6 @@ struct WalkOptions {
   /// These options as `biodyn walk` arguments (without --speed and --heading-rate): to replay
   /// one run of a batch alone.
   std::string replay_args() const;
-  /// ", terrain: ..." for a summary's first line ("" on flat ground).
-  std::string terrain_text() const;
 };
 
 /// Builds the character's simulation and runs the walk with a progress bar labelled `label`; the

@@ -17,8 +17,10 @@ LiveScenario::LiveScenario(ScenarioConfig config) {
   // The model's body with the muscles' tendons when the muscles are on (the pipeline binds to
   // them).
   const models::Character character = models::generate_character(config.model_spec());
+  models::PhysicsOptions physics;
+  physics.terrain = config.terrain;
   sim_ = std::make_unique<sim::Simulation>(
-      sim::Model::from_string(models::to_mjcf(character), "generated character"));
+      sim::Model::from_string(models::to_mjcf(character, physics), "generated character"));
   scenario_ = make_scenario(sim_.get(), config);
   walk_ = scenario_->walk();
   mocap_ = scenario_->mocap();

@@ -124,6 +124,7 @@ void ScenarioConfig::validate() const {
                 "steps: only the stones scenario walks planned steps");
   if (steps_m.size() > 1000)
     fail("steps", "at most 1000 step lengths", static_cast<double>(steps_m.size()));
+  terrain.validate();
   refuse_unless(steps_lateral_m.empty() || steps_lateral_m.size() == steps_m.size(),
                 "step offsets: one per step length");
   for (std::size_t i = 0; i < steps_lateral_m.size(); ++i) {

@@ -473,3 +473,20 @@ TEST_CASE_METHOD(biodyn::testing::SimulationTest,
   walk_track.track = true;
   CHECK_THROWS_WITH(LiveScenario(walk_track), Catch::Matchers::Contains("only the mocap scenario"));
 }
+
+TEST_CASE_METHOD(biodyn::testing::SimulationTest,
+                 "Live terrain: the viewer's walk has the hill in its scene and climbs it",
+                 "[apps][live][terrain]") {
+  scenarios::ScenarioConfig config;
+  config.terrain.kind = models::Terrain::Kind::kHill;
+  scenarios::LiveScenario s(config);
+  const mjModel& m = s.simulation().model();
+  CHECK(mj_name2id(&m, mjOBJ_GEOM, "terrain_ramp_up") >= 0);
+  CHECK(mj_name2id(&m, mjOBJ_GEOM, "terrain_plateau") >= 0);
+  const double z0 = s.simulation().data().subtree_com[2];
+  s.run_until(12.0);  // on the plateau by then (it starts at 10 m)
+  CHECK_FALSE(s.scenario().fallen());
+  CHECK(s.simulation().data().subtree_com[2] - z0 > 0.25);
+  config.terrain.slope_deg = -1;
+  CHECK_THROWS_WITH(scenarios::LiveScenario(config), Catch::Contains("terrain slope"));
+}

@@ -25,6 +25,7 @@
 #include "biodyn/controllers/motion_tracker.h"
 #include "biodyn/controllers/torque_walker.h"
 #include "biodyn/models/character.h"
+#include "biodyn/models/mjcf.h"
 #include "biodyn/models/rig.h"
 #include "biodyn/muscles/muscle_drive.h"
 #include "biodyn/muscles/muscle_set.h"
@@ -158,6 +159,9 @@ struct ScenarioConfig {
   /// empty: the balance feedback places the feet across. One per step length.
   std::vector<double> steps_lateral_m;
   double steps_start_s = 5.0;
+  /// The ground ahead (models::Terrain) in the scene the live scenario builds (the CLI's walks
+  /// build theirs with the physics options).
+  models::Terrain terrain;
   /// s; >= 0: from this time the walker stops (a half step, then the feet side by side) and the
   /// character is handed to the standing controller (pose "stand" with its balance).
   double stop_at_s = -1;
