@@ -26,6 +26,7 @@ struct StonesOptions {
   scenarios::StoneSweepSpec spec;
   int threads = 0;
   std::string out;
+  CLI::App* cmd = nullptr;
 };
 
 std::string joined(const std::vector<double>& v) {
@@ -102,6 +103,9 @@ void plot_errors(const StonesOptions& o, const std::string& dir,
 }
 
 int run_stones(StonesOptions& o) {
+  if (o.cmd->count("--speed") > 0)
+    throw sim::InvalidArgument(
+        "--speed: stones-sweep draws each sequence's speed from --speed-min .. --speed-max");
   scenarios::StoneSweepSpec& spec = o.spec;
   spec.walk = o.walk.to_params();
   spec.validate();
@@ -208,6 +212,7 @@ Command add_stones_sweep_command(CLI::App* app) {
   o->walk.add_to(cmd);
   cmd->add_option("--out,-o", o->out, "Output directory (sequences.csv, summary.json, errors.png)")
       ->required();
+  o->cmd = cmd;
   return {cmd, [o]() { return run_stones(*o); }};
 }
 

@@ -399,6 +399,9 @@ TEST_CASE(
   const Run bad = run_biodyn("stones-sweep --sequences 0 -o bad", dir);
   CHECK(bad.exit_code == 2);
   CHECK(bad.err.find("sequences") != std::string::npos);
+  const Run speed = run_biodyn("stones-sweep --sequences 2 --speed 0.7 -o bad", dir);
+  CHECK(speed.exit_code == 2);
+  CHECK(speed.err.find("--speed-min") != std::string::npos);
   CHECK_FALSE(fs::exists(dir / "bad"));
 }
 
