@@ -212,7 +212,8 @@ int run_sweep(SweepOptions& o) {
             << " directions x " << spec.durations_s.size() << " durations x " << spec.phases
             << " phases) on " << threads << " threads; " << o.body << " pushes after "
             << o.settle_strides << " steady strides, speed " << spec.walk.config.speed_m_s
-            << " m/s, weld " << o.walk.weld << ", timestep " << 1000 * o.walk.timestep_s << " ms\n"
+            << " m/s, weld " << o.walk.weld << ", timestep " << 1000 * o.walk.timestep_s << " ms"
+            << o.walk.terrain.text() << "\n"
             << "  " << weld_assumption(o.walk.weld) << "\n";
   const std::vector<scenarios::PushCellResult> results = run_cells(spec, mjcf, cells, threads);
   const scenarios::PushSweepSummary summary = scenarios::summarize_push_sweep(spec, results);

@@ -78,6 +78,7 @@ Command add_render_command(CLI::App* app) {
               summary["tracking"] = tracking_json(scenario.tracking_report());
             if (scenario.muscles() != nullptr)
               summary["muscles"] = muscles_json(scenario.muscle_report());
+            if (o->view.terrain.kind != "flat") summary["terrain"] = o->view.terrain.json();
             if (!o->summary_path.empty()) {
               write_file_atomically(o->summary_path, summary.dump(1) + "\n");
             }
@@ -86,7 +87,8 @@ Command add_render_command(CLI::App* app) {
                       << " frames " << o->size << "; physics "
                       << summary["physics_realtime_factor"].get<double>()
                       << "x real time, rendering " << summary["render_frames_per_s"].get<double>()
-                      << " frames/s\n  " << o->view.assumption() << "\n";
+                      << " frames/s" << o->view.terrain.text() << "\n  " << o->view.assumption()
+                      << "\n";
             const std::string stones = stones_line(scenario.config().steps_m, scenario.stones());
             if (!stones.empty()) std::cout << "  " << stones << "\n";
             const std::string tracking = tracking_line(scenario.tracking_report());

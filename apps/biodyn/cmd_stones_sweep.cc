@@ -74,16 +74,26 @@ std::string results_csv(const std::vector<scenarios::StoneSequenceResult>& resul
   return csv.str();
 }
 
-// errors.png: each sequence's step error RMS against its speed, passed or not, and the limit.
+// errors.png: each sequence's step error RMS against its speed, passed or not, and the limit
+// (one data block per group that has sequences: gnuplot's `index` counts blocks).
 void plot_errors(const StonesOptions& o, const std::string& dir,
                  const std::vector<scenarios::StoneSequenceResult>& results) {
-  std::ostringstream data;
-  for (int passed = 1; passed >= 0; --passed) {
+  std::ostringstream data, plot;
+  int block = 0;
+  for (const bool passed : {true, false}) {
+    int n = 0;
     for (const scenarios::StoneSequenceResult& r : results) {
-      if (r.passed == static_cast<bool>(passed))
-        data << r.sequence.speed_m_s << ' ' << 100 * r.rms_error_m << ' ' << r.walked << '\n';
+      if (r.passed != passed) continue;
+      data << r.sequence.speed_m_s << ' ' << 100 * r.rms_error_m << ' ' << r.walked << '\n';
+      ++n;
     }
+    if (n == 0) continue;
     data << "\n\n";
+    plot << "'" << dir << "/errors.dat' index " << block++ << " using 1:2 with points "
+         << (passed ? "pt 7 lc rgb '#2a9d3a' title 'walked to the end'"
+                    : "pt 2 ps 1.5 lc rgb '#c0392b' title 'failed (fell, or error above the "
+                      "limit)'")
+         << ", ";
   }
   write_file_atomically(dir + "/errors.dat", data.str());
   std::ostringstream gp;
@@ -93,10 +103,8 @@ void plot_errors(const StonesOptions& o, const std::string& dir,
      << "set key outside bottom center horizontal\n"
      << "set title 'Stepping stones: " << results.size() << " random sequences of " << o.spec.stones
      << " stones (weld " << o.walk.weld << ", " << o.walk.controller << ")'\n"
-     << "plot '" << dir << "/errors.dat' index 0 using 1:2 with points pt 7 lc rgb '#2a9d3a' "
-     << "title 'walked to the end', '" << dir << "/errors.dat' index 1 using 1:2 with points "
-     << "pt 2 ps 1.5 lc rgb '#c0392b' title 'failed (fell, or error above the limit)', "
-     << 100 * o.spec.rms_limit_m << " with lines dt 2 lc rgb 'black' title 'limit'\n";
+     << "plot " << plot.str() << 100 * o.spec.rms_limit_m
+     << " with lines dt 2 lc rgb 'black' title 'limit'\n";
   write_file_atomically(dir + "/errors.gp", gp.str());
   plot_with_gnuplot("stones-sweep", dir + "/errors.gp", dir + "/errors.png.tmp",
                     dir + "/errors.png");
@@ -109,6 +117,7 @@ int run_stones(StonesOptions& o) {
   scenarios::StoneSweepSpec& spec = o.spec;
   spec.walk = o.walk.to_params();
   spec.validate();
+  check_outputs({{"-o", o.out, true}}, {});
   std::vector<scenarios::StoneSequence> sequences;
   for (int k = 0; k < spec.sequences; ++k)
     sequences.push_back(
@@ -120,12 +129,14 @@ int run_stones(StonesOptions& o) {
   const std::string mjcf =
       models::to_mjcf(models::generate_character(character_spec), o.walk.physics());
   std::cout << "biodyn stones-sweep: " << spec.sequences << " random sequences of " << spec.stones
-            << " stones (lengths " << spec.length_min_m << "-" << spec.length_max_m
-            << " m, lateral offsets within +-" << spec.lateral_m << " m, speed "
-            << spec.speed_min_m_s << "-" << spec.speed_max_m_s << " m/s), seeds " << spec.seed
-            << ".." << spec.seed + static_cast<std::uint64_t>(spec.sequences - 1) << ", weld "
-            << o.walk.weld << ", controller " << o.walk.controller << ", " << threads
-            << " threads\n  " << weld_assumption(o.walk.weld) << "\n";
+            << " stones (lengths " << spec.length_min_m << "-" << spec.length_max_m << " m, "
+            << (spec.lateral_m > 0 ? "lateral offsets within +-" + joined({spec.lateral_m}) + " m"
+                                   : std::string("lengths only"))
+            << ", speed " << spec.speed_min_m_s << "-" << spec.speed_max_m_s << " m/s), seeds "
+            << spec.seed << ".." << spec.seed + static_cast<std::uint64_t>(spec.sequences - 1)
+            << ", weld " << o.walk.weld << ", controller " << o.walk.controller << ", " << threads
+            << " threads" << o.walk.terrain.text() << "\n  " << weld_assumption(o.walk.weld)
+            << "\n";
   const std::vector<scenarios::StoneSequenceResult> results =
       run_sequences(spec, mjcf, sequences, threads);
 

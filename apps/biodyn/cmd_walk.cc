@@ -216,7 +216,9 @@ void print_walk_summary(const scenarios::WalkRunResult& r, std::ostream& out) {
         << (r.standing_at_end ? "standing" : "NOT standing still") << ", CoM "
         << 100 * r.final_com_speed_m_s << " cm/s\n";
   }
-  if (r.stones) {
+  if (r.stones && r.stones->start_s < 0) {
+    out << "  stepping stones: not started (no strike after --steps-start before the end)\n";
+  } else if (r.stones) {
     const scenarios::SteppingStonesResult& st = *r.stones;
     out << "  stepping stones from " << std::setprecision(2) << st.start_s
         << " s: " << st.lengths_m.size() << " of " << st.targets_m.size()
@@ -438,8 +440,9 @@ std::string WalkOptions::replay_args() const {
       << character.sex << " --detail " << character.detail;
     if (!character.overrides_path.empty()) a << " --overrides '" << character.overrides_path << "'";
   }
-  a << " --weld " << weld << " --controller " << controller << " --reaction-time "
-    << reaction_time_s << " --timestep " << timestep_s;
+  a << " --heading-rate " << heading_rate_deg_s << " --weld " << weld << " --controller "
+    << controller << " --timestep " << timestep_s;
+  if (reaction_time_s > 0) a << " --reaction-time " << reaction_time_s;  // 0: the default
   a << terrain.args();
   if (!params_path.empty()) a << " --params '" << params_path << "'";
   if (!controller_params_path.empty())

@@ -38,8 +38,8 @@ struct WalkOptions {
   /// The run parameters (reads the params file). Throws sim::InvalidArgument.
   scenarios::WalkRunParams to_params() const;
   nlohmann::json inputs_json(const models::CharacterSpec& spec) const;
-  /// These options as `biodyn walk` arguments (without --speed and --heading-rate): to replay
-  /// one run of a batch alone.
+  /// These options as `biodyn walk` arguments (without --speed): to replay one run of a batch
+  /// alone.
   std::string replay_args() const;
 };
 

@@ -164,6 +164,9 @@ void WalkScenario::place_stone() {
   const Vector2d stance(d.xpos[3 * stance_body], d.xpos[3 * stance_body + 1]);
   const Vector2d along(std::cos(walker_.heading_rad()), std::sin(walker_.heading_rad()));
   const Vector2d across(-along.y(), along.x());
+  // The stop's closing step is planned too, but it is not one of the stones.
+  if (run_.stone_pending && run_.stones.size() >= config_.steps_m.size())
+    run_.stone_pending = false;
   if (run_.stone_pending) {
     run_.stone_pending = false;
     const int swing_body = rig_.leg(swing).foot;

@@ -360,6 +360,17 @@ TEST_CASE("biodyn walk --steps says which stone was out of reach and where the f
   const auto j = nlohmann::json::parse(slurp(dir / "s.json"));
   CHECK(j["stones"]["out_of_reach_steps"] == nlohmann::json::array({2}));
   CHECK(j["stones"]["lengths"][1].get<double>() < 1.45);  // measured 1.36 m
+  // A stop during the stones: its closing step (feet side by side) is not a stone.
+  const Run stop = run_biodyn(
+      "walk --duration 12 --steps 0.5,0.4,0.5,0.4,0.5 --stop-at 6 --json stop.json", dir);
+  INFO(stop.out << stop.err);
+  const auto js = nlohmann::json::parse(slurp(dir / "stop.json"));
+  CHECK(js["stones"]["lengths"].size() == 5);
+  CHECK(js["stones"]["complete"] == true);
+  CHECK(stop.out.find("5 of 5 steps walked") != std::string::npos);
+  // Stones that never start say so (no start time, no RMS).
+  const Run late = run_biodyn("walk --duration 6 --steps 0.5,0.4 --steps-start 5.9", dir);
+  CHECK(late.out.find("stepping stones: not started") != std::string::npos);
 }
 
 TEST_CASE(
@@ -367,7 +378,8 @@ TEST_CASE(
     "walks it again to the bit",
     "[apps][cli][walk][stones]") {
   const fs::path dir = fresh_dir("stones_sweep");
-  const std::string args = "stones-sweep --sequences 3 --seed 11 --lateral 0 ";
+  // A turning walk: the replay line must carry every walk option (here --heading-rate).
+  const std::string args = "stones-sweep --sequences 3 --seed 11 --lateral 0 --heading-rate 4 ";
   const Run one = run_biodyn(args + "--threads 1 -o one", dir);
   INFO(one.out << one.err);
   REQUIRE(one.exit_code == 0);
@@ -399,6 +411,13 @@ TEST_CASE(
   const Run bad = run_biodyn("stones-sweep --sequences 0 -o bad", dir);
   CHECK(bad.exit_code == 2);
   CHECK(bad.err.find("sequences") != std::string::npos);
+  // No sequence passed: the plot has the failed group only (not drawn as passed).
+  const Run lateral = run_biodyn("stones-sweep --sequences 2 --seed 3 --threads 1 -o lat", dir);
+  REQUIRE(lateral.exit_code == 0);
+  REQUIRE(nlohmann::json::parse(slurp(dir / "lat" / "summary.json"))["passed"] == 0);
+  const std::string gp = slurp(dir / "lat" / "errors.gp");
+  CHECK(gp.find("failed") != std::string::npos);
+  CHECK(gp.find("walked to the end") == std::string::npos);
   const Run speed = run_biodyn("stones-sweep --sequences 2 --speed 0.7 -o bad", dir);
   CHECK(speed.exit_code == 2);
   CHECK(speed.err.find("--speed-min") != std::string::npos);
