@@ -237,9 +237,11 @@ void print_walk_summary(const scenarios::WalkRunResult& r, std::ostream& out) {
     out << "\n";
     for (int k : st.out_of_reach) {
       const auto i = static_cast<std::size_t>(k - 1);
-      out << "    step " << k << ": the stone at " << st.targets_m[i]
-          << " m is out of reach; stepped to the closest reachable point, " << st.lengths_m[i]
-          << " m\n";
+      out << "    step " << k << ": the stone at " << st.targets_m[i] << " m is out of reach; ";
+      if (i < st.lengths_m.size())
+        out << "stepped to the closest reachable point, " << st.lengths_m[i] << " m\n";
+      else
+        out << "the character fell reaching for it\n";
     }
   }
 }

@@ -20,6 +20,9 @@ constexpr double kReferenceMass_kg = 80.0;
 constexpr double kMaxSwingKnee_rad = 2.0;
 // A placed step leaves early swing once its ankle is this close behind the target, m.
 constexpr double kPlacedLandingReach_m = 0.02;
+// The plan's speed (plan_speed_gain) differs from the command by at most this, m/s (a stone
+// out of reach would otherwise lean the body far forward).
+constexpr double kPlanSpeedLimit_m_s = 0.3;
 // The longest leg a placed step lands with, as a fraction of thigh + shank.
 constexpr double kPlacedReachFraction = 0.97;  // the IK's most flexed knee (the joint allows 2.36)
 
@@ -64,6 +67,7 @@ constexpr NamedField kFields[] = {BIODYN_FIELD(sagittal_cd),
                                   BIODYN_FIELD(placement_gain),
                                   BIODYN_FIELD(placed_wait_s),
                                   BIODYN_FIELD(placed_tuck_m),
+                                  BIODYN_FIELD(plan_speed_gain),
                                   BIODYN_FIELD(stop_brake_rad_per_m_s),
                                   BIODYN_FIELD(stop_speed_m_s),
                                   BIODYN_FIELD(tolerance_fraction)};
@@ -324,6 +328,8 @@ void TorqueWalkerParams::validate() const {
   check(placed_wait_s >= 0 && placed_wait_s <= 0.5, w + "placed_wait_s", "must be in [0, 0.5] s",
         placed_wait_s);
   check(std::abs(placed_tuck_m) <= 1, w + "placed_tuck_m", "must be within +-1 m", placed_tuck_m);
+  check(plan_speed_gain >= 0 && plan_speed_gain <= 10, w + "plan_speed_gain", "must be in [0, 10]",
+        plan_speed_gain);
   check(speed_lean_limit_rad >= 0 && speed_lean_limit_rad <= 0.5, w + "speed_lean_limit_rad",
         "must be in [0, 0.5] rad", speed_lean_limit_rad);
 }
@@ -428,9 +434,14 @@ void TorqueWalker::plan_steps(const std::vector<double>& lengths_m,
 
 double TorqueWalker::speed_lean_rad() const {
   const TorqueWalkerParams& p = params_;
-  return std::clamp(
-      p.speed_lean_rad_per_m_s * (state_.speed_m_s - p.reference_speed_m_s) + state_.lean_integral,
-      -p.speed_lean_limit_rad, p.speed_lean_limit_rad);
+  const double v =
+      std::isnan(state_.plan_speed_m_s)
+          ? state_.speed_m_s
+          : state_.speed_m_s +
+                p.plan_speed_gain * std::clamp(state_.plan_speed_m_s - state_.speed_m_s,
+                                               -kPlanSpeedLimit_m_s, kPlanSpeedLimit_m_s);
+  return std::clamp(p.speed_lean_rad_per_m_s * (v - p.reference_speed_m_s) + state_.lean_integral,
+                    -p.speed_lean_limit_rad, p.speed_lean_limit_rad);
 }
 
 double TorqueWalker::phase_duration_s(int phase) const {
@@ -622,6 +633,8 @@ void TorqueWalker::on_strike(const mjData& d, const sim::CenterOfMass& com, int 
     st.roll_integral =
         std::clamp(st.roll_integral + p.lateral_integral_rad_per_m * sideways, -limit, limit);
   }
+  if (std::isnan(st.swing_target_m) && st.strikes > 0)
+    st.free_step_s = d.time - st.last_strike.time_s;
   st.com_at_strike = com_now;
   st.last_strike = {d.time,
                     swing,
@@ -637,6 +650,18 @@ void TorqueWalker::on_strike(const mjData& d, const sim::CenterOfMass& com, int 
     const auto k = static_cast<std::size_t>(st.plan_next++);
     st.swing_target_m = st.plan[k];
     if (k < st.plan_width.size()) st.swing_width_m = st.plan_width[k];
+  }
+  st.plan_speed_m_s = std::numeric_limits<double>::quiet_NaN();
+  if (st.free_step_s > 0 && st.plan_next <= static_cast<int>(st.plan.size()) &&
+      !std::isnan(st.swing_target_m) && !st.stopping) {
+    // The plan's speed at the free gait's step time: this and the next two stones' mean length
+    // (plan_speed_gain).
+    double sum = 0;
+    int n = 0;
+    for (std::size_t j = static_cast<std::size_t>(st.plan_next) - 1; j < st.plan.size() && n < 3;
+         ++j, ++n)
+      sum += st.plan[j];
+    st.plan_speed_m_s = sum / n / st.free_step_s;
   }
   ++st.strikes;
   if (base_polygon_rule_active()) ++st.rule_steps;

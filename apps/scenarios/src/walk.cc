@@ -500,7 +500,12 @@ WalkRunResult run_walk(sim::Simulation* sim, const WalkRunParams& params,
     stones.start_s = scenario.stones_start_s();
     double sq = 0;
     for (const Stone& st : scenario.stones()) {
-      if (std::isnan(st.walked_m)) continue;
+      if (std::isnan(st.walked_m)) {
+        // In swing at the end (a fall): out of reach if the leg could not reach it then.
+        if (st.out_of_reach)
+          stones.out_of_reach.push_back(static_cast<int>(stones.lengths_m.size()) + 1);
+        continue;
+      }
       const double e = st.error_m();
       stones.lengths_m.push_back(st.walked_m);
       if (st.across_planned) {

@@ -182,6 +182,9 @@ void WalkScenario::place_stone() {
   }
   Stone& stone = run_.stones.back();
   if (!std::isnan(stone.walked_m)) return;
+  // Until the strike: whether the stone is beyond the leg's reach now (a fall reaching for it
+  // leaves it so).
+  stone.out_of_reach = walker_.state().swing_out_of_reach;
   stone.heading_rad = walker_.heading_rad();
   stone.ankle_W = stance + stone.target_m * along + stone.across_m * across;
 }

@@ -355,11 +355,15 @@ TEST_CASE("biodyn walk --steps says which stone was out of reach and where the f
   const Run r = run_biodyn("walk --duration 8 --weld off --steps 0.5,1.5 --json s.json", dir);
   INFO(r.out << r.err);
   REQUIRE(r.exit_code <= 1);  // a split this long may end in a fall: the report is the subject
-  CHECK(r.out.find("step 2: the stone at 1.500 m is out of reach; stepped to the closest "
-                   "reachable point") != std::string::npos);
+  // Either the foot came down short (measured 1.36 m) or the split felled the character first.
+  CHECK(r.out.find("step 2: the stone at 1.500 m is out of reach; ") != std::string::npos);
   const auto j = nlohmann::json::parse(slurp(dir / "s.json"));
   CHECK(j["stones"]["out_of_reach_steps"] == nlohmann::json::array({2}));
-  CHECK(j["stones"]["lengths"][1].get<double>() < 1.45);  // measured 1.36 m
+  if (j["stones"]["lengths"].size() == 2) {
+    CHECK(j["stones"]["lengths"][1].get<double>() < 1.45);
+  } else {
+    CHECK(r.out.find("the character fell reaching for it") != std::string::npos);
+  }
   // A stop during the stones: its closing step (feet side by side) is not a stone.
   const Run stop = run_biodyn(
       "walk --duration 12 --steps 0.5,0.4,0.5,0.4,0.5 --stop-at 6 --json stop.json", dir);

@@ -70,7 +70,8 @@ struct SteppingStonesResult {
   std::vector<double> target_across_m;  ///< ... and planned (2D stones)
   std::vector<double> errors_m;         ///< Stone::error_m: 2D distance, or walked - planned
   /// The steps (1-based) whose stone was out of the leg's reach: each came down at the closest
-  /// reachable point instead (its walked length and width say where).
+  /// reachable point instead (its walked length and width say where), or, the one after the
+  /// last walked, the character fell reaching for it.
   std::vector<int> out_of_reach;
   double rms_error_m = 0, max_error_m = 0;  ///< over the steps walked
   bool complete = false;                    ///< every planned step was walked
