@@ -640,6 +640,7 @@ void TorqueWalker::on_strike(const mjData& d, const sim::CenterOfMass& com, int 
                     swing,
                     ch * delta.x() + sh * delta.y(),
                     std::abs(-sh * delta.x() + ch * delta.y()),
+                    -sh * delta.x() + ch * delta.y(),
                     st.swing_target_m,
                     st.swing_width_m,
                     !std::isnan(st.swing_target_m) && st.swing_out_of_reach};

@@ -146,8 +146,7 @@ void add_terrain(tinyxml2::XMLElement* world, const Terrain& t) {
   if (t.kind == Terrain::Kind::kFlat) return;
   const bool hill = t.kind == Terrain::Kind::kHill;
   const double slope = t.slope_deg * kRadPerDeg;
-  const double ramp = hill ? t.ramp_m : 0.0;
-  const double height = hill ? ramp * std::tan(slope) : t.step_m;
+  const double ramp = t.ramp_length_m(), height = t.plateau_height_m();
   const double x_plateau = t.start_m + ramp;
   add_ground_box(world, "terrain_plateau", Vector3d(t.plateau_m / 2, kHalfWidth_m, height / 2),
                  Vector3d(x_plateau + t.plateau_m / 2, 0, height / 2), 0);
@@ -486,15 +485,28 @@ std::string summary_json(const Character& c) {
   return j.dump(2) + "\n";
 }
 
+double Terrain::ramp_length_m() const { return kind == Kind::kHill ? ramp_m : 0.0; }
+
+double Terrain::plateau_height_m() const {
+  switch (kind) {
+    case Kind::kHill:
+      return ramp_m * std::tan(slope_deg * kRadPerDeg);
+    case Kind::kSteps:
+      return step_m;
+    case Kind::kFlat:
+      break;
+  }
+  return 0;
+}
+
 double Terrain::height_at(double x) const {
   if (kind == Kind::kFlat) return 0;
-  if (kind == Kind::kSteps) return x >= start_m && x <= start_m + plateau_m ? step_m : 0.0;
-  const double rise = std::tan(slope_deg * kRadPerDeg);
-  const double x_down = start_m + ramp_m + plateau_m;
-  if (x <= start_m || x >= x_down + ramp_m) return 0;
-  if (x < start_m + ramp_m) return (x - start_m) * rise;
-  if (x <= x_down) return ramp_m * rise;
-  return (x_down + ramp_m - x) * rise;
+  const double ramp = ramp_length_m(), height = plateau_height_m();
+  const double x_top = start_m + ramp, x_down = x_top + plateau_m;
+  if (x < start_m || x > x_down + ramp) return 0;
+  if (x < x_top) return height * (x - start_m) / ramp;  // (a step has no ramp: x_top = start)
+  if (x <= x_down) return height;
+  return height * (x_down + ramp - x) / ramp;
 }
 
 void Terrain::validate() const {

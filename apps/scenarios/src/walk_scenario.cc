@@ -93,10 +93,7 @@ void WalkScenario::on_strike() {
       std::isnan(run_.stones.back().walked_m)) {
     Stone& stone = run_.stones.back();
     stone.walked_m = st.step_length_m;
-    const int struck = rig_.leg(st.side).foot, other = rig_.leg(1 - st.side).foot;
-    const double h = walker_.heading_rad();
-    stone.walked_across_m = -std::sin(h) * (d.xpos[3 * struck] - d.xpos[3 * other]) +
-                            std::cos(h) * (d.xpos[3 * struck + 1] - d.xpos[3 * other + 1]);
+    stone.walked_across_m = st.step_across_m;
     stone.out_of_reach = st.target_out_of_reach;
   }
   if (!config_.steps_m.empty() && !run_.stones_planned && d.time >= config_.steps_start_s) {

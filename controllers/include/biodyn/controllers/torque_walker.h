@@ -199,6 +199,7 @@ struct TorqueWalkerStrike {
   int side = 0;              ///< the foot that struck (0 left, 1 right)
   double step_length_m = 0;  ///< along the heading, ankle to ankle
   double step_width_m = 0;   ///< across it
+  double step_across_m = 0;  ///< across it, signed: the struck ankle left of the other
   double target_length_m =
       std::numeric_limits<double>::quiet_NaN();  ///< the planned length; NaN: a free step
   /// The planned width (plan_steps' widths_m); NaN: the balance feedback's.

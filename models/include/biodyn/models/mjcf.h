@@ -29,7 +29,9 @@ struct Terrain {
   double plateau_m = 3.0;
   /// m, the ground's height at x (world; 0 on the floor).
   double height_at(double x) const;
-  void validate() const;  ///< throws sim::InvalidArgument naming the field
+  double ramp_length_m() const;     ///< m along x of each ramp (0: steps, flat)
+  double plateau_height_m() const;  ///< m (0: flat)
+  void validate() const;            ///< throws sim::InvalidArgument naming the field
 };
 /// "flat" | "hill" | "steps"; throws sim::InvalidArgument naming `field` and the value.
 Terrain::Kind parse_terrain_kind(const std::string& text, const std::string& field);
