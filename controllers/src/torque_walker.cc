@@ -42,6 +42,7 @@ constexpr NamedField kFields[] = {BIODYN_FIELD(sagittal_cd),
                                   BIODYN_FIELD(frontal_cd),
                                   BIODYN_FIELD(frontal_cv),
                                   BIODYN_FIELD(swing_hip_out_rad),
+                                  BIODYN_FIELD(max_swing_roll_rad),
                                   BIODYN_FIELD(toe_up_rad),
                                   BIODYN_FIELD(pelvis_pitch_rad),
                                   BIODYN_FIELD(start_pitch_rad),
@@ -305,6 +306,8 @@ void TorqueWalkerParams::validate() const {
                                                      {"frontal_cv", frontal_cv}};
   for (const auto& [name, c] : feedback)
     check(std::abs(c) <= 10, w + name, "must be within +-10", c);
+  check(max_swing_roll_rad > 0 && max_swing_roll_rad <= M_PI / 2, w + "max_swing_roll_rad",
+        "must be in (0, pi/2] rad", max_swing_roll_rad);
   check(stance_weight_support >= 0 && stance_weight_support <= 1.5, w + "stance_weight_support",
         "must be in [0, 1.5] body weights", stance_weight_support);
   check(reference_speed_m_s > 0 && reference_speed_m_s <= 3, w + "reference_speed_m_s",
@@ -909,6 +912,9 @@ Vector2d TorqueWalker::swing_thigh_angles(const mjData& d, const TorqueWalkerPha
       roll = bound;
     }
   }
+  // The roll's outward bound (max_swing_roll_rad), but not for a width the plan or the stop set.
+  if (!(placed && (!std::isnan(st.swing_width_m) || closing_step())))
+    roll = out > 0 ? std::min(roll, p.max_swing_roll_rad) : std::max(roll, -p.max_swing_roll_rad);
   return {pitch, roll};
 }
 

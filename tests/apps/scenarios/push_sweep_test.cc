@@ -163,3 +163,25 @@ TEST_CASE_METHOD(
   CHECK(std::fmod(first.max_survived_N, 200.0) == 0.0);
   if (first.first_failure_N > 0) CHECK(first.first_failure_N == first.max_survived_N + 200);
 }
+
+TEST_CASE_METHOD(testing::SimulationTest,
+                 "A hard sideways push is caught over side steps of a bounded roll, not one split",
+                 "[scenarios][push]") {
+  // 350 N x 0.2 s to the left at the right foot's strike (the left leg swings next), honest weld:
+  // unbounded, the balance feedback's side step was 0.84 m wide and its slanted leg gave way at
+  // the next strike (controllers/README.md, max_swing_roll_rad).
+  PushSweepSpec spec;
+  spec.walk.config.weld = controllers::WeldMode::kHonest;
+  spec.walk.config.walk_push = scenarios::WalkPush{};
+  spec.walk.duration_s = 30;
+  spec.fixed_force_N = 350;
+  const PushSweepCell cell{90, 0.2, 0.5};
+  sim::Simulation s(biodyn::testing::generated_character());
+  const PushCellResult bounded = scenarios::run_push_cell(&s, spec, cell);
+  INFO(bounded.failure);
+  CHECK(bounded.outcome == PushOutcome::kSurvived);
+  spec.walk.config.gait_json = R"({"max_swing_roll_rad": 1.5})";
+  spec.walk.config.gait_source = "test";
+  const PushCellResult unbounded = scenarios::run_push_cell(&s, spec, cell);
+  CHECK(unbounded.outcome == PushOutcome::kFell);
+}

@@ -88,9 +88,14 @@ struct TorqueWalkerParams {
   double frontal_cd = -0.020;         ///< rad/m of CoM beside the stance ankle
   double frontal_cv = 0.480;          ///< rad per m/s of sideways CoM velocity
   double swing_hip_out_rad = -0.075;  ///< swing thigh roll outwards (the step width offset)
-  double toe_up_rad = 0.070;          ///< swing sole pitch, toes up
-  double pelvis_pitch_rad = 0.125;    ///< forward lean of the pelvis in the world
-  double start_pitch_rad = 0.073;     ///< extra lean for the first start_time_s (from standing)
+  /// A free step's swing thigh rolls outwards at most this far (balance feedback and
+  /// base-polygon rule). Unbounded, a 350 N x 0.2 s sideways push (capture point 0.3-0.4 m out)
+  /// got a side step 0.84-0.92 m wide whose slanted leg gave way at the next strike; bounded, the
+  /// body is caught over two or three side steps (controllers/README.md).
+  double max_swing_roll_rad = 0.25;
+  double toe_up_rad = 0.070;        ///< swing sole pitch, toes up
+  double pelvis_pitch_rad = 0.125;  ///< forward lean of the pelvis in the world
+  double start_pitch_rad = 0.073;   ///< extra lean for the first start_time_s (from standing)
   double start_time_s = 1.934;
   double torso_kp = 1273;
   double hip_kp = 434;
