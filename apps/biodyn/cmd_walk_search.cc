@@ -61,7 +61,8 @@ Command add_walk_search_command(CLI::App* app) {
       "Search the torque walker's parameters against human gait (cross-entropy; the cost: falls, "
       "speed, and the gait figures of biodyn gait outside their human bands) on 1.80 m / 80 kg at "
       "1.0 and 1.3 m/s, 1.55 m / 50 kg and 1.95 m / 120 kg at 1.0 m/s, and walking at 0.5 and "
-      "1.5 m/s");
+      "1.5 m/s (--controller velocity: these two at t_r 100 ms, and every body walking at 1.0 m/s "
+      "at t_r 100 ms)");
   cmd->add_option("--params", o->params,
                   "Walker parameters to start from (JSON; default: the walker's defaults with a "
                   "double support put first)");

@@ -195,7 +195,11 @@ GaitSearchParams default_gait_search(const std::string& base_json,
   if (actuation == controllers::WalkerActuation::kVelocity) {
     for (SearchCase& c : p.cases)
       if (!c.gait) c.reaction_time_s = 0.1;
+    // t_r 100 ms on every body (the first searches had it on 1.80 m / 80 kg only, and their
+    // best fell within 2 s of the start on 1.55 m / 50 kg and 1.95 m / 120 kg).
     p.cases.push_back({1.80, 80, 1.0, false, 0.1});
+    p.cases.push_back({1.55, 50, 1.0, false, 0.1});
+    p.cases.push_back({1.95, 120, 1.0, false, 0.1});
   }
   return p;
 }
