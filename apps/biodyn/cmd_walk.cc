@@ -180,8 +180,9 @@ nlohmann::json walk_json(const scenarios::WalkRunResult& r) {
          "paper §4.2: in late swing the 2D IK triangle hip-knee-ankle puts the swing ankle on "
          "its target (step lengths ankle to ankle along the heading, at the strike); with "
          "lateral offsets the thigh's roll puts it across too (across: left of the stance "
-         "ankle) and the error is the 2D distance; a foot comes down when the capture point "
-         "leads the stone as the next steps need (LIPM preview)"}};
+         "ankle) and the error is the 2D distance; a foot comes down once its ankle is within "
+         "2 cm of the stone (one out of reach waits up to placed_wait_s for the hip); the lean "
+         "follows the speed the next stones ask (plan_speed_gain)"}};
   }
   return j;
 }
