@@ -865,8 +865,13 @@ Vector2d TorqueWalker::swing_thigh_angles(const mjData& d, const TorqueWalkerPha
   double pitch = placed
                      ? ik.hip_flexion_rad
                      : brake + ph.swing_hip_rad + p.sagittal_cd * rel.x() + p.sagittal_cv * vel.x();
-  double roll = out * p.swing_hip_out_rad + p.frontal_cd * rel.y() + p.frontal_cv * vel.y() +
-                st.roll_integral;
+  // The roll outwards is bounded (max_swing_roll_rad) for the balance feedback and the
+  // base-polygon rule, not for a width the plan or the stop sets.
+  const auto bounded = [&p, out](double r) {
+    return out > 0 ? std::min(r, p.max_swing_roll_rad) : std::max(r, -p.max_swing_roll_rad);
+  };
+  double roll = bounded(out * p.swing_hip_out_rad + p.frontal_cd * rel.y() +
+                        p.frontal_cv * vel.y() + st.roll_integral);
   // The thigh angle that puts the nearly straight leg's ankle `offset` (m, heading frame) from
   // the hip, along or across the heading.
   const models::RigLeg& leg = rig_->leg(swing);
@@ -906,15 +911,12 @@ Vector2d TorqueWalker::swing_thigh_angles(const mjData& d, const TorqueWalkerPha
       pitch = bound;
     }
     if (!std::isnan(st.rule_width_m)) {
-      const double roll_rule = straight_leg_angle(out * st.rule_width_m - hip.y());
+      const double roll_rule = bounded(straight_leg_angle(out * st.rule_width_m - hip.y()));
       const double bound = out > 0 ? std::max(roll, roll_rule) : std::min(roll, roll_rule);
       if (bound != roll) st.rule_bound = true;
       roll = bound;
     }
   }
-  // The roll's outward bound (max_swing_roll_rad), but not for a width the plan or the stop set.
-  if (!(placed && (!std::isnan(st.swing_width_m) || closing_step())))
-    roll = out > 0 ? std::min(roll, p.max_swing_roll_rad) : std::max(roll, -p.max_swing_roll_rad);
   return {pitch, roll};
 }
 

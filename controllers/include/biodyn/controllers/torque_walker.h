@@ -91,7 +91,8 @@ struct TorqueWalkerParams {
   /// A free step's swing thigh rolls outwards at most this far (balance feedback and
   /// base-polygon rule). Unbounded, a 350 N x 0.2 s sideways push (capture point 0.3-0.4 m out)
   /// got a side step 0.84-0.92 m wide whose slanted leg gave way at the next strike; bounded, the
-  /// body is caught over two or three side steps (controllers/README.md).
+  /// body is caught over two or three side steps. It binds without a push too: in the first
+  /// step from standing and in turns faster than ~30 deg/s (controllers/README.md).
   double max_swing_roll_rad = 0.25;
   double toe_up_rad = 0.070;        ///< swing sole pitch, toes up
   double pelvis_pitch_rad = 0.125;  ///< forward lean of the pelvis in the world
