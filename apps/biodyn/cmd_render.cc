@@ -73,7 +73,8 @@ Command add_render_command(CLI::App* app) {
             // Only when the motion's header decided the body (a .csv motion): said so.
             if (!body_notes.empty()) summary["body_notes"] = body_notes;
             if (o->view.scenario == "stones")
-              summary["stones"] = stones_json(scenario.config().steps_m, scenario.stones());
+              summary["stones"] = stones_json(scenario.config().steps_m, scenario.stones(),
+                                              scenario.config().steps_lateral_m);
             if (scenario.tracker() != nullptr)
               summary["tracking"] = tracking_json(scenario.tracking_report());
             if (scenario.muscles() != nullptr)

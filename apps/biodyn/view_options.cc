@@ -63,6 +63,10 @@ void ViewOptions::add_to(CLI::App* cmd) {
       cmd->add_option("--steps", steps,
                       "scenario stones: step lengths, m (ankle to ankle along the heading), "
                       "e.g. 0.60,0.20,0.50 (default: the paper's 0.60,0.20,0.50,0.16,0.50,0.30)"));
+  only_with_stones.push_back(cmd->add_option(
+      "--step-offsets", step_offsets,
+      "scenario stones, with --steps: stones in 2D, each stone's offset, m, left (+) of its foot's "
+      "line (as biodyn walk --step-offsets), one per --steps length, e.g. 0.05,-0.1,0"));
   only_with_stones.push_back(
       cmd->add_option("--steps-start", steps_start_s,
                       "scenario stones: when the stones begin (steady walking first), s")
@@ -100,6 +104,11 @@ scenarios::ScenarioConfig ViewOptions::to_config(std::vector<std::string>* notes
     c.steps_m = parse_number_list(steps, "--steps", "step lengths in m separated by commas");
     if (c.steps_m.empty())
       throw sim::InvalidArgument("--steps: give at least one step length, got '" + steps + "'");
+  }
+  if (!step_offsets.empty()) {
+    if (c.steps_m.empty()) throw sim::InvalidArgument("--step-offsets: only with --steps");
+    c.steps_lateral_m = parse_number_list(step_offsets, "--step-offsets",
+                                          "lateral offsets in m separated by commas");
   }
   c.steps_start_s = steps_start_s;
   c.heading_rate_deg_s = heading_rate_deg_s;
@@ -161,25 +170,39 @@ std::string ViewOptions::assumption() const {
 }
 
 nlohmann::json stones_json(const std::vector<double>& plan_m,
-                           const std::vector<scenarios::Stone>& stones) {
+                           const std::vector<scenarios::Stone>& stones,
+                           const std::vector<double>& lateral_m) {
   nlohmann::json walked = nlohmann::json::array(), errors = nlohmann::json::array();
+  nlohmann::json target_across = nlohmann::json::array(), walked_across = nlohmann::json::array();
   double sq = 0;
   for (const scenarios::Stone& st : stones) {
     if (std::isnan(st.walked_m)) continue;
     walked.push_back(st.walked_m);
     errors.push_back(st.error_m());
+    target_across.push_back(st.across_m);
+    walked_across.push_back(st.walked_across_m);
     sq += st.error_m() * st.error_m();
   }
   // No step walked yet: no error to report (null, "n/a"), rather than a perfect 0.
   const nlohmann::json rms =
       errors.empty() ? nlohmann::json(nullptr)
                      : nlohmann::json(std::sqrt(sq / static_cast<double>(errors.size())));
-  return {{"targets_m", plan_m},
-          {"walked_m", walked},
-          {"errors_m", errors},
-          {"rms_error_m", rms},
-          {"definition",
-           "step length ankle to ankle along the heading at each strike, against the plan"}};
+  nlohmann::json j = {
+      {"targets_m", plan_m},
+      {"walked_m", walked},
+      {"errors_m", errors},
+      {"rms_error_m", rms},
+      {"definition",
+       "step length ankle to ankle along the heading at each strike, against the plan"}};
+  if (!lateral_m.empty()) {
+    j["lateral_offsets_m"] = lateral_m;
+    j["target_across_m"] = target_across;
+    j["walked_across_m"] = walked_across;
+    j["definition"] =
+        "step ankle to ankle at each strike, along the heading (length) and across it (left of "
+        "the stance ankle), against the plan; the error is the 2D distance to the stone";
+  }
+  return j;
 }
 
 nlohmann::json tracking_json(const scenarios::TrackingReport& r) {

@@ -26,7 +26,8 @@ struct ViewOptions {
   bool track = false;                          ///< scenario mocap: tracked by the controllers
   double track_lookahead_s = 0.1;
   bool track_open_loop = false;
-  std::string steps;  ///< scenario stones: lengths, m, comma-separated
+  std::string steps;         ///< scenario stones: lengths, m, comma-separated
+  std::string step_offsets;  ///< scenario stones: lateral offsets, m, one per length (2D)
   double steps_start_s = 5.0;
   MuscleOptions muscles;                ///< --muscles on|off, --tendons, --muscle-params
   TerrainOptions terrain;               ///< --terrain and its shape (walking scenarios)
@@ -36,7 +37,7 @@ struct ViewOptions {
 
   /// Adds --scenario, the character options, --speed, --heading-rate, --weld, --params,
   /// --controller-params, --motion, --motion-from, --motion-to, --track (and its options), --steps,
-  /// --steps-start, --muscles, --tendons, --muscle-params.
+  /// --step-offsets, --steps-start, --muscles, --tendons, --muscle-params.
   void add_to(CLI::App* cmd);
   /// Reads the files; throws sim::InvalidArgument naming the option or file.
   /// `notes` (optional) receives what the user should know about the body chosen (a motion
@@ -52,9 +53,11 @@ nlohmann::json tracking_json(const scenarios::TrackingReport& r);
 std::string tracking_line(const scenarios::TrackingReport& r);  ///< "" when not tracked
 
 /// scenario stones: the plan, the lengths walked so far, their errors and RMS (JSON), and one
-/// line for the terminal ("" without a plan).
+/// line for the terminal ("" without a plan). With lateral offsets (2D stones) the JSON has
+/// them and the widths planned and walked, and each error is the 2D distance to the stone.
 nlohmann::json stones_json(const std::vector<double>& plan_m,
-                           const std::vector<scenarios::Stone>& stones);
+                           const std::vector<scenarios::Stone>& stones,
+                           const std::vector<double>& lateral_m = {});
 std::string stones_line(const std::vector<double>& plan_m,
                         const std::vector<scenarios::Stone>& stones);
 

@@ -1,6 +1,7 @@
 // `biodyn render` headless (issue 6): the video has the frames asked for and the PNG shows the
 // character where the camera looks (non-background pixels in the middle, floor and sky at the
 // edges); bad options are refused in one line with nothing written.
+#include <cmath>
 #include <filesystem>
 #include <nlohmann/json.hpp>
 
@@ -77,7 +78,6 @@ TEST_CASE("biodyn render --scenario stones walks the paper's stones and draws th
   CHECK(green_before < 60);
   CHECK(green > green_before + 200);
 
-  // --steps belongs to the stones scenario.
   // The stones' options belong to the stones scenario; an empty plan is refused.
   for (const char* args : {"render --scenario walk --steps 0.5 --png x.png",
                            "render --scenario walk --steps-start 3 --png x.png",
@@ -86,6 +86,42 @@ TEST_CASE("biodyn render --scenario stones walks the paper's stones and draws th
     INFO(args << ": " << bad.err);
     CHECK(bad.exit_code == 2);
     CHECK(bad.err.find("--steps") != std::string::npos);
+    CHECK_FALSE(fs::exists(dir / "x.png"));
+  }
+}
+
+TEST_CASE("biodyn render --scenario stones --step-offsets films stones in 2D",
+          "[apps][render][stones]") {
+  const fs::path dir = biodyn::testing::fresh_dir("render_test", "stones_2d");
+  const auto r = run_biodyn(
+      "render --scenario stones --steps 0.5,0.5 --step-offsets 0.03,-0.03 --duration 7.5 --size "
+      "320x240 --png s2d.png --summary s2d.json",
+      dir);
+  INFO(r.out << r.err);
+  REQUIRE(r.exit_code == 0);
+  CHECK(r.out.find("stepping stones: 2 of 2 planned steps walked") != std::string::npos);
+  const nlohmann::json s = nlohmann::json::parse(slurp(dir / "s2d.json"));
+  const nlohmann::json& st = s["stones"];
+  CHECK(st["lateral_offsets_m"] == nlohmann::json({0.03, -0.03}));
+  REQUIRE(st["target_across_m"].size() == 2);
+  REQUIRE(st["walked_across_m"].size() == 2);
+  // The first stone: its foot's line moved 3 cm left (towards the stance foot: the right foot
+  // swings first), and the foot came down within 2 cm of it across (measured 0.1 cm).
+  const double miss =
+      std::abs(st["walked_across_m"][0].get<double>() - st["target_across_m"][0].get<double>());
+  CHECK(miss < 0.02);
+  CHECK(st["definition"].get<std::string>().find("2D") != std::string::npos);
+  // Offsets need lengths, one each, and the stones scenario.
+  for (const char* args :
+       {"render --scenario stones --step-offsets 0.1 --png x.png",
+        "render --scenario stones --steps 0.5,0.5 --step-offsets 0.1 --png x.png",
+        "render --scenario walk --step-offsets 0.1 --png x.png"}) {
+    const auto bad = run_biodyn(args, dir);
+    INFO(args << ": " << bad.err);
+    CHECK(bad.exit_code == 2);
+    const bool names_offsets = bad.err.find("step offsets") != std::string::npos ||
+                               bad.err.find("--step-offsets") != std::string::npos;
+    CHECK(names_offsets);
     CHECK_FALSE(fs::exists(dir / "x.png"));
   }
 }
