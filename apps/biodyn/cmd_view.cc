@@ -73,10 +73,7 @@ Command add_view_command(CLI::App* app) {
                                   {"pushes", st.pushes},
                                   {"assumption", o->view.assumption()}};
               if (o->view.scenario == "stones")
-                j["stones"] = stones_json(st.stones_plan_m, st.stones,
-                                          config.steps_lateral_m.size() == st.stones_plan_m.size()
-                                              ? config.steps_lateral_m
-                                              : std::vector<double>{});
+                j["stones"] = stones_json(st.stones_plan_m, st.stones, config.steps_lateral_m);
               if (st.tracking.tracked) j["tracking"] = tracking_json(st.tracking);
               if (st.muscles) j["muscles"] = muscles_json(st.muscles);
               write_file_atomically(o->summary_path, j.dump(1) + "\n");

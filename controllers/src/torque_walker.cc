@@ -20,8 +20,8 @@ constexpr double kReferenceMass_kg = 80.0;
 constexpr double kMaxSwingKnee_rad = 2.0;
 // A placed step leaves early swing once its ankle is this close behind the target, m.
 constexpr double kPlacedLandingReach_m = 0.02;
-// The plan's speed (plan_speed_gain) differs from the command by at most this, m/s (a stone
-// out of reach would otherwise lean the body far forward).
+// The plan's speed (plan_speed_gain) is taken within this of the command before the gain,
+// m/s (a stone out of reach would otherwise lean the body far forward).
 constexpr double kPlanSpeedLimit_m_s = 0.3;
 // The longest leg a placed step lands with, as a fraction of thigh + shank.
 constexpr double kPlacedReachFraction = 0.97;  // the IK's most flexed knee (the joint allows 2.36)

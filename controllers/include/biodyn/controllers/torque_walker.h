@@ -146,8 +146,9 @@ struct TorqueWalkerParams {
   double placed_tuck_m = -0.1;
   /// Constrained stepping, speed by preview: during a plan the lean's feed-forward follows the
   /// speed the stones ask, the mean length of this and the next two stones over the last free
-  /// step's time (within 0.3 m/s of the command), by this gain (v = v_cmd + gain (v_plan -
-  /// v_cmd) in speed_lean_rad_per_m_s): short stones ahead lean the body back before it
+  /// step's time, by this gain: the feed-forward (speed_lean_rad_per_m_s) is for the speed
+  /// v_cmd + gain x (v_plan - v_cmd), the difference held within +-0.3 m/s (so up to +-0.9 m/s
+  /// from the command at the default gain). Short stones ahead lean the body back before it
   /// reaches them. 0: off. Measured on random sequences (biodyn stones-sweep, lengths only):
   /// 8 -> 14 of 24 on the tuning seed, 18 -> 26 of 50 held out (controllers/README.md).
   double plan_speed_gain = 3;
