@@ -62,6 +62,9 @@ constexpr NamedField kFields[] = {BIODYN_FIELD(sagittal_cd),
                                   BIODYN_FIELD(reference_speed_m_s),
                                   BIODYN_FIELD(speed_lean_rad_per_m_s),
                                   BIODYN_FIELD(speed_integral_rad_per_m),
+                                  BIODYN_FIELD(speed_step_gain_rad_per_m_s),
+                                  BIODYN_FIELD(speed_step_limit_rad),
+                                  BIODYN_FIELD(speed_step_fade_m_s),
                                   BIODYN_FIELD(speed_lean_limit_rad),
                                   BIODYN_FIELD(lateral_integral_rad_per_m),
                                   BIODYN_FIELD(step_clearance_m),
@@ -321,6 +324,12 @@ void TorqueWalkerParams::validate() const {
         speed_lean_rad_per_m_s);
   check(speed_integral_rad_per_m >= 0 && speed_integral_rad_per_m <= 2,
         w + "speed_integral_rad_per_m", "must be in [0, 2]", speed_integral_rad_per_m);
+  check(speed_step_gain_rad_per_m_s >= 0 && speed_step_gain_rad_per_m_s <= 2,
+        w + "speed_step_gain_rad_per_m_s", "must be in [0, 2]", speed_step_gain_rad_per_m_s);
+  check(speed_step_limit_rad >= 0 && speed_step_limit_rad <= 0.5, w + "speed_step_limit_rad",
+        "must be in [0, 0.5]", speed_step_limit_rad);
+  check(speed_step_fade_m_s > 0 && speed_step_fade_m_s <= 2, w + "speed_step_fade_m_s",
+        "must be in (0, 2]", speed_step_fade_m_s);
   check(lateral_integral_rad_per_m >= 0 && lateral_integral_rad_per_m <= 2,
         w + "lateral_integral_rad_per_m", "must be in [0, 2]", lateral_integral_rad_per_m);
   check(step_clearance_m >= 0 && step_clearance_m <= 0.5, w + "step_clearance_m",
@@ -448,7 +457,8 @@ double TorqueWalker::speed_lean_rad() const {
           : state_.speed_m_s +
                 p.plan_speed_gain * std::clamp(state_.plan_speed_m_s - state_.speed_m_s,
                                                -kPlanSpeedLimit_m_s, kPlanSpeedLimit_m_s);
-  return std::clamp(p.speed_lean_rad_per_m_s * (v - p.reference_speed_m_s) + state_.lean_integral,
+  return std::clamp(p.speed_lean_rad_per_m_s * (v - p.reference_speed_m_s) + state_.lean_integral +
+                        state_.lean_step,
                     -p.speed_lean_limit_rad, p.speed_lean_limit_rad);
 }
 
@@ -636,6 +646,12 @@ void TorqueWalker::on_strike(const mjData& d, const sim::CenterOfMass& com, int 
     st.lean_integral =
         std::clamp(st.lean_integral + p.speed_integral_rad_per_m * (st.speed_m_s - v_step) * t_step,
                    -limit, limit);
+    const double fade =
+        st.stopping
+            ? 0.0
+            : std::clamp((p.reference_speed_m_s - st.speed_m_s) / p.speed_step_fade_m_s, 0.0, 1.0);
+    st.lean_step = std::clamp(fade * p.speed_step_gain_rad_per_m_s * (st.speed_m_s - v_step),
+                              -p.speed_step_limit_rad, p.speed_step_limit_rad);
     const double sideways =
         -sh * (com_now.x() - st.com_at_strike.x()) + ch * (com_now.y() - st.com_at_strike.y());
     st.roll_integral =

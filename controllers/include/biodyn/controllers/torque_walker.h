@@ -127,6 +127,17 @@ struct TorqueWalkerParams {
   double speed_lean_rad_per_m_s = 0.1;
   double speed_integral_rad_per_m = 0.03;
   double speed_lean_limit_rad = 0.2;
+  /// The regulation's proportional part, for commands slower than the reference: after every
+  /// step whose speed the integral counts, the lean gains k (v - v_step) until the next such
+  /// step, held within +-speed_step_limit_rad. k is speed_step_gain_rad_per_m_s at commands
+  /// speed_step_fade_m_s or more below reference_speed_m_s, fading linearly to 0 at the
+  /// reference (and 0 while stopping). The integral alone swings slowly about a slow command
+  /// (0.5 m/s: 0.22-0.78 m/s over ~25 s) and the step term damps it; at and above the
+  /// reference the integral alone tracks, and the step term cost pushes (controllers/README.md).
+  /// 0: off.
+  double speed_step_gain_rad_per_m_s = 0.2;
+  double speed_step_limit_rad = 0.05;
+  double speed_step_fade_m_s = 0.2;
   /// The frontal counterpart: after every step the swing thigh's roll gains
   /// lateral_integral_rad_per_m times the CoM's sideways travel in that step (heading frame), so
   /// a steady sideways drift places the feet against it (held within +-speed_lean_limit_rad).
@@ -138,8 +149,10 @@ struct TorqueWalkerParams {
   double placement_gain = 2.0;
   /// Constrained stepping: in late swing a target still out of reach on the floor keeps the
   /// ankle at the clearance height for up to this long (the hip catches up) before it comes
-  /// down at the closest reachable point.
-  double placed_wait_s = 0.15;
+  /// down at the closest reachable point. 0.15 until the speed regulation's step term: with the
+  /// body at the command when the stones begin (not still faster), the paper's 0.60 m first
+  /// stone was beyond reach at the strike at 0.6-0.9 m/s; with 0.2 it is reached.
+  double placed_wait_s = 0.2;
   /// Constrained stepping: until the swing ankle is this far ahead of the stance ankle, the
   /// knee flexes at least as far as the phase's swing knee (a far target's IK leg is nearly
   /// straight, and its toes scuff the floor at mid-swing).
@@ -233,6 +246,7 @@ struct TorqueWalkerState {
   double ankle_height_m = 0;  ///< the ankles' height standing flat, measured at reset
   // Speed and drift regulation (rad).
   double lean_integral = 0, roll_integral = 0;
+  double lean_step = 0;  ///< the proportional part (speed_step_gain_rad_per_m_s)
   // Base-polygon balance: the rule's step length and width for this swing (NaN: not moved).
   double rule_length_m = std::numeric_limits<double>::quiet_NaN();
   double rule_width_m = std::numeric_limits<double>::quiet_NaN();
