@@ -185,3 +185,30 @@ TEST_CASE_METHOD(testing::SimulationTest,
   const PushCellResult unbounded = scenarios::run_push_cell(&s, spec, cell);
   CHECK(unbounded.outcome == PushOutcome::kFell);
 }
+
+TEST_CASE_METHOD(testing::SimulationTest,
+                 "A push from the front at a strike: no step back while the capture point is "
+                 "over the feet",
+                 "[scenarios][push]") {
+  // 1.55 m / 50 kg, 219 N (350 N x 50/80 kg) x 0.2 s from the front at the left strike,
+  // honest weld. Ungated, the base-polygon rule stepped back while the body was nearly at rest,
+  // the CoM rolled forward onto the other foot and the walker swung that loaded leg: a fall
+  // 1.05 s after the onset (controllers/README.md, back_step_capture_point).
+  models::CharacterSpec body;
+  body.height_m = 1.55;
+  body.mass_kg = 50;
+  PushSweepSpec spec;
+  spec.walk.config.weld = controllers::WeldMode::kHonest;
+  spec.walk.config.walk_push = scenarios::WalkPush{};
+  spec.walk.duration_s = 30;
+  spec.fixed_force_N = 219;
+  const PushSweepCell cell{180, 0.2, 0.0};
+  sim::Simulation s(biodyn::testing::generated_character(body));
+  const PushCellResult gated = scenarios::run_push_cell(&s, spec, cell);
+  INFO(gated.failure);
+  CHECK(gated.outcome == PushOutcome::kSurvived);
+  spec.walk.config.gait_json = R"({"back_step_capture_point": false})";
+  spec.walk.config.gait_source = "test";
+  const PushCellResult ungated = scenarios::run_push_cell(&s, spec, cell);
+  CHECK(ungated.outcome == PushOutcome::kFell);
+}
