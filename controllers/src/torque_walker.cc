@@ -428,6 +428,7 @@ void TorqueWalker::request_stop() {
   if (state_.stopping) return;
   state_.stopping = true;  // braking first: see on_strike()
   state_.speed_m_s = 0;
+  state_.lean_step = 0;  // the step term is for a walking command, not for braking
 }
 
 void TorqueWalker::validate_plan(const std::vector<double>& lengths_m,
