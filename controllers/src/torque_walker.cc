@@ -74,6 +74,7 @@ constexpr NamedField kFields[] = {BIODYN_FIELD(sagittal_cd),
                                   BIODYN_FIELD(plan_speed_gain),
                                   BIODYN_FIELD(stop_brake_rad_per_m_s),
                                   BIODYN_FIELD(stop_speed_m_s),
+                                  BIODYN_FIELD(stop_speed_per_m_s),
                                   BIODYN_FIELD(tolerance_fraction)};
 #undef BIODYN_FIELD
 
@@ -427,6 +428,7 @@ void TorqueWalker::reset(const mjData& d) {
 void TorqueWalker::request_stop() {
   if (state_.stopping) return;
   state_.stopping = true;  // braking first: see on_strike()
+  state_.stop_from_m_s = state_.speed_m_s;
   state_.speed_m_s = 0;
   state_.lean_step = 0;  // the step term is for a walking command, not for braking
 }
@@ -703,7 +705,10 @@ void TorqueWalker::on_strike(const mjData& d, const sim::CenterOfMass& com, int 
     } else if (std::isnan(st.swing_target_m) && st.plan_next >= static_cast<int>(st.plan.size())) {
       // Braking until the CoM is slow, then one step that brings the feet side by side.
       const double v = ch * com.velocity_W.x() + sh * com.velocity_W.y();
-      if (v < p.stop_speed_m_s) {
+      const double stop_speed =
+          p.stop_speed_m_s -
+          p.stop_speed_per_m_s * std::max(p.reference_speed_m_s - st.stop_from_m_s, 0.0);
+      if (v < stop_speed) {
         st.plan.assign(1, 0.0);
         st.plan_width.clear();
         st.plan_next = 0;

@@ -273,6 +273,33 @@ TEST_CASE_METHOD(biodyn::testing::SimulationTest, "the walker stops back to stan
   }
 }
 
+TEST_CASE_METHOD(biodyn::testing::SimulationTest,
+                 "a stop from a slow command waits for a lower speed before the closing step",
+                 "[apps][walk]") {
+  // 1.90 m / 85 kg woman at 0.5 m/s, stop asked at 8 s, honest weld: with the stop speed tuned
+  // from 1.0 m/s the closing step came at 0.29 m/s and she swayed backwards and fell after it.
+  models::CharacterSpec body;
+  body.height_m = 1.90;
+  body.mass_kg = 85;
+  body.sex = models::Sex::kFemale;
+  sim::Simulation sim(testing::generated_character(body));
+  const auto stop = [&](const char* gait_json) {
+    scenarios::WalkRunParams p;
+    p.duration_s = 16;
+    p.config.speed_m_s = 0.5;
+    p.config.stop_at_s = 8;
+    p.config.weld = controllers::WeldMode::kHonest;
+    p.config.gait_json = gait_json;
+    return scenarios::run_walk(&sim, p);
+  };
+  const scenarios::WalkRunResult lowered = stop("");
+  INFO("fell at " << lowered.time_fallen_s);
+  CHECK_FALSE(lowered.fallen);
+  CHECK(lowered.stopped_at_s > 0);
+  const scenarios::WalkRunResult tuned_at_1 = stop(R"({"stop_speed_per_m_s": 0})");
+  CHECK(tuned_at_1.fallen);
+}
+
 TEST_CASE_METHOD(biodyn::testing::SimulationTest, "walk inputs out of range are rejected by name",
                  "[apps][walk]") {
   sim::Simulation sim = make_default_sim();

@@ -170,6 +170,11 @@ struct TorqueWalkerParams {
   /// at a strike, the next step brings the feet side by side.
   double stop_brake_rad_per_m_s = 0.0;
   double stop_speed_m_s = 0.325;
+  /// The stop speed is lower by this per m/s that the command was below reference_speed_m_s
+  /// when the stop was asked. The stop was tuned from 1.0 m/s; from a slow command (now held by
+  /// the speed step term) the closing step came too early and some bodies swayed backwards and
+  /// fell after it (controllers/README.md, Stopping).
+  double stop_speed_per_m_s = 0.15;
   /// Base-polygon balance (paper §4.3): the tolerance polygon is the support polygon (the
   /// feet's floor contacts) scaled about its centre so that its edges lie this fraction of the
   /// polygon's extent from the centre; when the CoM's projection leaves it during a swing, the
@@ -271,6 +276,7 @@ struct TorqueWalkerState {
   /// m/s, the speed the plan asks now (NaN: no plan).
   double plan_speed_m_s = std::numeric_limits<double>::quiet_NaN();
   bool stopping = false, stopped = false;
+  double stop_from_m_s = 0;  ///< the speed command when the stop was asked
   // The last IK solution of a placed step, for its rates.
   bool ik_valid = false;
   int ik_phase = -1;
