@@ -76,7 +76,8 @@ BasePolygonStep base_polygon_rule(const std::vector<Vector2d>& support,
                                   const std::vector<Vector2d>& tolerance, double tolerance_fraction,
                                   const Vector3d& com_W, const Vector3d& com_velocity_H,
                                   const Vector2d& stance_ankle_W, const HeadingFrame& heading,
-                                  int swing_side, double foot_length, double foot_width) {
+                                  int swing_side, double foot_length, double foot_width,
+                                  double back_step_omega0) {
   BasePolygonStep step;
   if (support.size() < 3 || inside_convex(tolerance, com_W.head<2>())) return step;
   // The support polygon's extent and vertex centre in the heading frame, from the stance ankle.
@@ -99,7 +100,8 @@ BasePolygonStep base_polygon_rule(const std::vector<Vector2d>& support,
     // the gait's own step is longer: the rule binds only when the CoM has run further ahead.
     const double length = base_polygon_step(c.x() - rear, foot_length);
     if (length > 0) step.length_m = length;
-  } else if (c.x() < cx - sagittal_tol && com_velocity_H.x() < 0) {
+  } else if (c.x() < cx - sagittal_tol && com_velocity_H.x() < 0 &&
+             (back_step_omega0 <= 0 || c.x() + com_velocity_H.x() / back_step_omega0 <= rear)) {
     const double length = -base_polygon_step(front - c.x(), foot_length);
     if (length < 0) step.length_m = length;
   }

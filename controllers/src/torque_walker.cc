@@ -961,22 +961,15 @@ void TorqueWalker::apply_base_polygon_rule(const mjModel& m, const mjData& d, co
   const int stance_foot = rig_->leg(st.stance).foot;
   const Vector2d ankle(d.xpos[3 * stance_foot], d.xpos[3 * stance_foot + 1]);
   const models::Sole& sole = rig_->leg(models::kLeft).sole;
-  const BasePolygonStep rule =
-      base_polygon_rule(st.support, st.tolerance, p.tolerance_fraction, com_W, com_velocity_H,
-                        ankle, st.heading, 1 - st.stance, sole.length_m(), sole.width_m());
-  BasePolygonStep step = rule;
-  if (p.back_step_capture_point && !std::isnan(step.length_m) && step.length_m < 0) {
-    // A step back only if the capture point is behind the support polygon
-    // (back_step_capture_point).
-    double rear = std::numeric_limits<double>::infinity();
-    for (const Vector2d& w : st.support)
-      rear = std::min(rear, st.heading.to_heading(Vector2d(w - ankle)).x());
+  // back_step_capture_point: omega0 from the CoM's height above the floor under the stance foot.
+  double omega0 = 0;
+  if (p.back_step_capture_point) {
     const double floor_z = d.xpos[3 * stance_foot + 2] - st.ankle_height_m;
-    const double omega0 = std::sqrt(-m.opt.gravity[2] / std::max(com_W.z() - floor_z, 0.3));
-    const double com_x = st.heading.to_heading(Vector2d(com_W.head<2>() - ankle)).x();
-    if (com_x + com_velocity_H.x() / omega0 > rear)
-      step.length_m = std::numeric_limits<double>::quiet_NaN();
+    omega0 = std::sqrt(-m.opt.gravity[2] / std::max(com_W.z() - floor_z, 0.3));
   }
+  const BasePolygonStep step =
+      base_polygon_rule(st.support, st.tolerance, p.tolerance_fraction, com_W, com_velocity_H,
+                        ankle, st.heading, 1 - st.stance, sole.length_m(), sole.width_m(), omega0);
   if (!std::isnan(step.length_m)) {
     if (step.length_m > 0) {
       st.rule_length_m =

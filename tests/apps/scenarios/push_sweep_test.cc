@@ -35,6 +35,23 @@ PushSweepSpec small_spec() {
   return spec;
 }
 
+// One 0.2 s pelvis push of `force_N` during steady walking, honest weld, on `body`, with the
+// walker parameters `gait_json` ("" for the defaults).
+PushOutcome honest_push(const models::CharacterSpec& body, double force_N,
+                        const PushSweepCell& cell, const char* gait_json, std::string* failure) {
+  PushSweepSpec spec;
+  spec.walk.config.weld = controllers::WeldMode::kHonest;
+  spec.walk.config.walk_push = scenarios::WalkPush{};
+  spec.walk.duration_s = 30;
+  spec.fixed_force_N = force_N;
+  spec.walk.config.gait_json = gait_json;
+  spec.walk.config.gait_source = "test";
+  sim::Simulation s(biodyn::testing::generated_character(body));
+  const PushCellResult r = scenarios::run_push_cell(&s, spec, cell);
+  *failure = r.failure;
+  return r.outcome;
+}
+
 }  // namespace
 
 TEST_CASE("The sweep's cells: durations, then directions evenly from forward, then onset phases",
@@ -170,20 +187,14 @@ TEST_CASE_METHOD(testing::SimulationTest,
   // 350 N x 0.2 s to the left at the right foot's strike (the left leg swings next), honest weld:
   // unbounded, the balance feedback's side step was 0.84 m wide and its slanted leg gave way at
   // the next strike (controllers/README.md, max_swing_roll_rad).
-  PushSweepSpec spec;
-  spec.walk.config.weld = controllers::WeldMode::kHonest;
-  spec.walk.config.walk_push = scenarios::WalkPush{};
-  spec.walk.duration_s = 30;
-  spec.fixed_force_N = 350;
   const PushSweepCell cell{90, 0.2, 0.5};
-  sim::Simulation s(biodyn::testing::generated_character());
-  const PushCellResult bounded = scenarios::run_push_cell(&s, spec, cell);
-  INFO(bounded.failure);
-  CHECK(bounded.outcome == PushOutcome::kSurvived);
-  spec.walk.config.gait_json = R"({"max_swing_roll_rad": 1.5})";
-  spec.walk.config.gait_source = "test";
-  const PushCellResult unbounded = scenarios::run_push_cell(&s, spec, cell);
-  CHECK(unbounded.outcome == PushOutcome::kFell);
+  std::string failure;
+  const PushOutcome bounded = honest_push({}, 350, cell, "", &failure);
+  INFO(failure);
+  CHECK(bounded == PushOutcome::kSurvived);
+  const PushOutcome unbounded =
+      honest_push({}, 350, cell, R"({"max_swing_roll_rad": 1.5})", &failure);
+  CHECK(unbounded == PushOutcome::kFell);
 }
 
 TEST_CASE_METHOD(testing::SimulationTest,
@@ -197,18 +208,12 @@ TEST_CASE_METHOD(testing::SimulationTest,
   models::CharacterSpec body;
   body.height_m = 1.55;
   body.mass_kg = 50;
-  PushSweepSpec spec;
-  spec.walk.config.weld = controllers::WeldMode::kHonest;
-  spec.walk.config.walk_push = scenarios::WalkPush{};
-  spec.walk.duration_s = 30;
-  spec.fixed_force_N = 219;
   const PushSweepCell cell{180, 0.2, 0.0};
-  sim::Simulation s(biodyn::testing::generated_character(body));
-  const PushCellResult gated = scenarios::run_push_cell(&s, spec, cell);
-  INFO(gated.failure);
-  CHECK(gated.outcome == PushOutcome::kSurvived);
-  spec.walk.config.gait_json = R"({"back_step_capture_point": false})";
-  spec.walk.config.gait_source = "test";
-  const PushCellResult ungated = scenarios::run_push_cell(&s, spec, cell);
-  CHECK(ungated.outcome == PushOutcome::kFell);
+  std::string failure;
+  const PushOutcome gated = honest_push(body, 219, cell, "", &failure);
+  INFO(failure);
+  CHECK(gated == PushOutcome::kSurvived);
+  const PushOutcome ungated =
+      honest_push(body, 219, cell, R"({"back_step_capture_point": false})", &failure);
+  CHECK(ungated == PushOutcome::kFell);
 }

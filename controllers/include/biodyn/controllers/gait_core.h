@@ -142,6 +142,9 @@ struct BasePolygonStep {
 ///  - ahead of the tolerance band: a step forward (b_P the rear edge);
 ///  - behind it and moving backwards (`com_velocity_H`, heading frame): a step back from the
 ///    front edge (behind but moving forwards is every step's start: the CoM comes over the foot);
+///    with `back_step_omega0` > 0, only while the capture point x + v_x / back_step_omega0
+///    (Pratt et al. 2006; omega0 = sqrt(g / CoM height)) is behind the polygon's rear edge too
+///    (otherwise the body comes to rest over its feet without a step; 0: the paper's rule);
 ///  - beyond the band towards the swing side and moving that way: a wider step (b_P the stance
 ///    foot's outer edge, the foot width for the foot length). Towards the stance side the rule
 ///    would need a cross-over step: not taken (the legs would collide).
@@ -152,6 +155,6 @@ BasePolygonStep base_polygon_rule(const std::vector<Eigen::Vector2d>& support,
                                   const Eigen::Vector3d& com_velocity_H,
                                   const Eigen::Vector2d& stance_ankle_W,
                                   const HeadingFrame& heading, int swing_side, double foot_length,
-                                  double foot_width);
+                                  double foot_width, double back_step_omega0 = 0);
 
 }  // namespace biodyn::controllers
