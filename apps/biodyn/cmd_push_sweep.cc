@@ -211,9 +211,9 @@ int run_sweep(SweepOptions& o) {
   std::cout << "biodyn push-sweep: " << cells.size() << " cells (" << spec.directions
             << " directions x " << spec.durations_s.size() << " durations x " << spec.phases
             << " phases) on " << threads << " threads; " << o.body << " pushes after "
-            << o.settle_strides << " steady strides, speed " << spec.walk.config.speed_m_s
-            << " m/s, weld " << o.walk.weld << ", timestep " << 1000 * o.walk.timestep_s << " ms"
-            << o.walk.terrain.text() << "\n"
+            << o.settle_strides << " strides and 4 steady ones, speed "
+            << spec.walk.config.speed_m_s << " m/s, weld " << o.walk.weld << ", timestep "
+            << 1000 * o.walk.timestep_s << " ms" << o.walk.terrain.text() << "\n"
             << "  " << weld_assumption(o.walk.weld) << "\n";
   const std::vector<scenarios::PushCellResult> results = run_cells(spec, mjcf, cells, threads);
   const scenarios::PushSweepSummary summary = scenarios::summarize_push_sweep(spec, results);
@@ -226,7 +226,9 @@ int run_sweep(SweepOptions& o) {
       {"protocol",
        "references.md: horizontal push through the body's CoM, direction relative to the heading, "
        "onset "
-       "spread over the stride after the settle strides; survived = only the feet touch the ground "
+       "spread over the stride after the settle strides and 4 steady strides (each within 5% of "
+       "their "
+       "mean speed); survived = only the feet touch the ground "
        "for "
        "5 s after the push, pelvis >= 0.7 x standing height, stride speed back within 10% by the "
        "4th "
@@ -280,7 +282,9 @@ Command add_push_sweep_command(CLI::App* app) {
       "--fixed-force", o->spec.fixed_force_N,
       "Instead of scanning: one push of this force per cell; reports the share survived");
   cmd->add_option("--body", o->body, "Pushed body: pelvis | trunk")->capture_default_str();
-  cmd->add_option("--settle-strides", o->settle_strides, "Steady strides before the push's stride")
+  cmd->add_option(
+         "--settle-strides", o->settle_strides,
+         "Strides before the push's stride (at least: the push also waits for 4 steady strides)")
       ->capture_default_str();
   cmd->add_option("--threads", o->threads, "Worker threads (default: all cores)");
   o->walk.add_to(cmd);

@@ -476,8 +476,9 @@ Command add_push_command(CLI::App* app) {
   cmd->add_option("--onset-phase", o->push.onset_phase,
                   "Onset as a fraction of the stride (from a left strike)")
       ->capture_default_str();
-  cmd->add_option("--settle-strides", o->push.settle_strides,
-                  "Steady strides before the push's stride")
+  cmd->add_option(
+         "--settle-strides", o->push.settle_strides,
+         "Strides before the push's stride (at least: the push also waits for 4 steady strides)")
       ->capture_default_str();
   o->walk.add_to(cmd);
   cmd->add_option("--json", o->json, "Write the results as JSON here");

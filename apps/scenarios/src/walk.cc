@@ -343,14 +343,11 @@ class PushJudge : public StepObserver {
       }
     }
     if (!scheduled_ && !std::isnan(s.push_onset_s())) {
-      // Scheduled at this left strike: the speed before from the strides before it (at most 4).
+      // Scheduled at this left strike, once the strides before it were steady.
       scheduled_ = true;
       o_->onset_s = s.push_onset_s();
       o_->end_s = s.push_end_s();
-      const std::size_t n = left_strike_times_.size();
-      const std::size_t k = std::min<std::size_t>(4, n - 1);
-      o_->speed_before_m_s = (left_strike_com_[n - 1] - left_strike_com_[n - 1 - k]).norm() /
-                             (left_strike_times_[n - 1] - left_strike_times_[n - 1 - k]);
+      o_->speed_before_m_s = s.push_speed_before_m_s();
     }
     if (scheduled_ && d.time >= o_->end_s + watch_s_) {
       std::size_t after = 0;

@@ -1,9 +1,12 @@
 // The walking scenarios (walk_scenario.h).
 #include "biodyn/scenarios/walk_scenario.h"
 
+#include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "biodyn/sim/errors.h"
+#include "biodyn/sim/queries.h"
 #include "biodyn/sim/units.h"
 #include "fall_watch.h"
 
@@ -12,6 +15,10 @@ namespace {
 
 using Eigen::Vector2d;
 using Eigen::Vector3d;
+
+// A walk is steady for a push when every stride of the baseline is within this fraction of the
+// baseline's mean speed (half the recovery criterion's 10 %: walk.cc).
+constexpr double kSteadySpread = 0.05;
 
 controllers::TorqueWalkerParams walker_params_from(const ScenarioConfig& c) {
   controllers::TorqueWalkerParams p = controllers::walker_defaults(c.walker_actuation);
@@ -103,16 +110,24 @@ void WalkScenario::on_strike() {
   }
   run_.stone_pending = run_.stones_planned;
   if (st.side != 0) return;
-  // Strides start at left strikes. The push: at onset_phase of the stride after settle_strides.
-  run_.last_left_strike_s[0] = run_.last_left_strike_s[1];
-  run_.last_left_strike_s[1] = st.time_s;
+  // Strides start at left strikes. The push: at onset_phase of the stride after settle_strides,
+  // and after the walk is steady.
+  constexpr int n = kBaselineStrides + 1;
+  for (int i = 0; i + 1 < n; ++i) {
+    run_.left_strike_s[i] = run_.left_strike_s[i + 1];
+    run_.left_strike_com[i] = run_.left_strike_com[i + 1];
+  }
+  run_.left_strike_s[n - 1] = st.time_s;
+  run_.left_strike_com[n - 1] = sim::center_of_mass(sim_->model(), d).position_W.head<2>();
   ++run_.left_strikes;
   if (!config_.walk_push || !std::isnan(run_.push_onset_s) ||
       run_.left_strikes < config_.walk_push->settle_strides + 1)
     return;
+  const double speed_before = steady_stride_speed_m_s();
+  if (std::isnan(speed_before)) return;
   const WalkPush& wp = *config_.walk_push;
   const double dt = sim_->model().opt.timestep;
-  const double stride_s = run_.last_left_strike_s[1] - run_.last_left_strike_s[0];
+  const double stride_s = run_.left_strike_s[n - 1] - run_.left_strike_s[n - 2];
   const double a = walker_.heading_rad() + wp.direction_deg / kDegPerRad;
   sim::Push push;
   push.body = push_body_;
@@ -125,6 +140,23 @@ void WalkScenario::on_strike() {
   sim_->schedule_push(push);
   run_.push_onset_s = push.start_s;
   run_.push_end_s = push.start_s + push.duration_s;
+  run_.push_speed_before_m_s = speed_before;
+}
+
+double WalkScenario::steady_stride_speed_m_s() const {
+  // The mean speed over the last (at most kBaselineStrides) strides, if each stride's speed is
+  // within kSteadySpread of it: a walker still speeding up from the start (the velocity-based
+  // driver takes ~6 s to reach 0.9 m/s) has no speed to recover to yet.
+  constexpr int n = kBaselineStrides + 1;
+  const int k = std::min(kBaselineStrides, run_.left_strikes - 1);
+  const double mean = (run_.left_strike_com[n - 1] - run_.left_strike_com[n - 1 - k]).norm() /
+                      (run_.left_strike_s[n - 1] - run_.left_strike_s[n - 1 - k]);
+  for (int i = n - k; i < n; ++i) {
+    const double v = (run_.left_strike_com[i] - run_.left_strike_com[i - 1]).norm() /
+                     (run_.left_strike_s[i] - run_.left_strike_s[i - 1]);
+    if (std::abs(v - mean) > kSteadySpread * mean) return std::numeric_limits<double>::quiet_NaN();
+  }
+  return mean;
 }
 
 double Stone::error_m() const {

@@ -161,6 +161,35 @@ TEST_CASE_METHOD(biodyn::testing::SimulationTest,
   CHECK(hard.time_fallen_s > hard.push->onset_s);
 }
 
+TEST_CASE_METHOD(biodyn::testing::SimulationTest,
+                 "a push waits for steady strides: the velocity-based driver's slow start",
+                 "[apps][walk][push]") {
+  // The velocity-based driver needs ~8 s to reach its speed: after 5 strides it is at ~0.8 m/s
+  // and still gaining. A push there has no speed to be judged back to (a calm push was judged
+  // "speed not back" against the 4 strides before, 0.77 m/s, walking at 0.92 m/s after it).
+  sim::Simulation sim = make_default_sim();
+  scenarios::WalkRunParams p;
+  p.config.weld = controllers::WeldMode::kHonest;
+  p.config.walker_actuation = controllers::WalkerActuation::kVelocity;
+  scenarios::WalkPush push;
+  push.force_N = 0;
+  push.settle_strides = 5;
+  p.config.walk_push = push;
+  const scenarios::WalkRunResult calm = scenarios::run_walk(&sim, p);
+  REQUIRE(calm.push);
+  INFO(calm.push->failure << "; speed before " << calm.push->speed_before_m_s << " m/s, onset "
+                          << calm.push->onset_s << " s");
+  CHECK(calm.push->survived);
+  CHECK(calm.push->recovery_strides == 1);
+  std::vector<double> left;
+  for (std::size_t i = 1; i < calm.step_times_s.size(); i += 2)
+    left.push_back(calm.step_times_s[i]);
+  REQUIRE(left.size() > 7);
+  CHECK(calm.push->onset_s > left[6]);  // later than the 5 settle strides alone
+  for (double v : calm.push->stride_speeds_after_m_s)
+    CHECK(std::abs(v - calm.push->speed_before_m_s) < 0.05 * calm.push->speed_before_m_s);
+}
+
 TEST_CASE_METHOD(biodyn::testing::SimulationTest, "the walker steps on the paper's stepping stones",
                  "[apps][walk][stones]") {
   sim::Simulation sim = make_default_sim();

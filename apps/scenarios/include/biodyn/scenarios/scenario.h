@@ -65,15 +65,16 @@ struct TimedPush {
 
 /// One horizontal push during steady walking, through the centre of mass of the pelvis or the
 /// trunk (xfrc_applied), timed by the gait: after `settle_strides` strides (a stride starts at
-/// a left-foot strike), at `onset_phase` of the next stride (its length taken from the stride
-/// before).
+/// a left-foot strike) and once the walk is steady (the last 4 strides' speeds each within 5 % of
+/// their mean: walk_scenario.cc), at `onset_phase` of the next stride (its length taken from the
+/// stride before).
 struct WalkPush {
   double force_N = 0;           ///< N, >= 0
   double duration_s = 0.2;      ///< s, > 0
   double direction_deg = 0;     ///< deg, relative to the heading: 0 forward, 90 left
   std::string body = "pelvis";  ///< "pelvis" or "trunk" (the thorax), or any body name
   double onset_phase = 0;       ///< [0, 1), fraction of the stride
-  int settle_strides = 5;       ///< steady strides walked before the push's stride (>= 1)
+  int settle_strides = 5;       ///< strides walked before the push's stride, at least (>= 1)
   double watch_s = 5.0;         ///< s, watched after the push ends (references.md: 5 s)
 };
 

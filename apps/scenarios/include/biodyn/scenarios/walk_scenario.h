@@ -75,6 +75,9 @@ class WalkScenario : public Scenario {
   /// The push of config.walk_push once scheduled: its onset and end (s), else NaN.
   double push_onset_s() const { return run_.push_onset_s; }
   double push_end_s() const { return run_.push_end_s; }
+  /// m/s, the mean stride speed over the (at most kBaselineStrides) steady strides before the
+  /// push, once scheduled; else NaN.
+  double push_speed_before_m_s() const { return run_.push_speed_before_m_s; }
   /// The pushed body (config.walk_push), or -1.
   int push_body() const { return push_body_; }
 
@@ -84,6 +87,8 @@ class WalkScenario : public Scenario {
 
  private:
   struct State;
+  /// Strides the push's baseline speed is measured over; they must be steady (walk.h).
+  static constexpr int kBaselineStrides = 4;
   // What the scenario's schedule carries from step to step (part of its state).
   struct Run {
     int strikes_seen = 0;
@@ -92,13 +97,18 @@ class WalkScenario : public Scenario {
     std::vector<Stone> stones;
     double stopped_at_s = -1;
     int left_strikes = 0;
-    double last_left_strike_s[2] = {0, 0};  // the last two left strikes' times
+    // The last kBaselineStrides + 1 left strikes (oldest first): times and CoM xy.
+    double left_strike_s[kBaselineStrides + 1] = {};
+    Eigen::Vector2d left_strike_com[kBaselineStrides + 1] = {};
     double push_onset_s = std::numeric_limits<double>::quiet_NaN();
+    double push_speed_before_m_s = std::numeric_limits<double>::quiet_NaN();
     double push_end_s = std::numeric_limits<double>::quiet_NaN();
   };
   void advance() override;
   /// At a strike: the stones' walked lengths, the plan's start, the push's timing.
   void on_strike();
+  /// The baseline's mean stride speed if its strides are steady (walk_scenario.cc), else NaN.
+  double steady_stride_speed_m_s() const;
   /// The current swing's stone follows the stance ankle until the strike fixes it.
   void place_stone();
   /// The plan's step widths from config().steps_lateral_m (empty without it), from the swing
