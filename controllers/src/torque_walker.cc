@@ -163,6 +163,10 @@ TorqueWalkerParams velocity_walker_defaults() {
   p.phases.insert(p.phases.begin(), ds);
   p.sagittal_cd = 0.425;
   p.sagittal_cv = 0.163;
+  // Lateral velocity feedback below the torque walker's 0.48, chosen by hand on pushes
+  // (controllers/README.md: 0.36 survives more of them on the named and held-out bodies; the
+  // torque walker loses pushes with it, and 0.30 or lower falls while walking at t_r 100 ms).
+  p.frontal_cv = 0.36;
   p.toe_up_rad = 0.009;
   p.pelvis_pitch_rad = -0.04;
   p.start_pitch_rad = 0.03;

@@ -37,10 +37,13 @@ PushSweepSpec small_spec() {
 
 // One 0.2 s pelvis push of `force_N` during steady walking, honest weld, on `body`, with the
 // walker parameters `gait_json` ("" for the defaults).
-PushOutcome honest_push(const models::CharacterSpec& body, double force_N,
-                        const PushSweepCell& cell, const char* gait_json, std::string* failure) {
+PushOutcome honest_push(
+    const models::CharacterSpec& body, double force_N, const PushSweepCell& cell,
+    const char* gait_json, std::string* failure,
+    controllers::WalkerActuation actuation = controllers::WalkerActuation::kTorque) {
   PushSweepSpec spec;
   spec.walk.config.weld = controllers::WeldMode::kHonest;
+  spec.walk.config.walker_actuation = actuation;
   spec.walk.config.walk_push = scenarios::WalkPush{};
   spec.walk.duration_s = 30;
   spec.fixed_force_N = force_N;
@@ -216,4 +219,22 @@ TEST_CASE_METHOD(testing::SimulationTest,
   const PushOutcome ungated =
       honest_push(body, 219, cell, R"({"back_step_capture_point": false})", &failure);
   CHECK(ungated == PushOutcome::kFell);
+}
+
+TEST_CASE_METHOD(testing::SimulationTest,
+                 "The velocity-based driver's lateral gain: a push from the right mid-stride",
+                 "[scenarios][push]") {
+  // 350 N x 0.2 s to the left at 0.4 of the stride, 1.80 m / 80 kg: the velocity defaults'
+  // frontal_cv (0.36) recovers; the torque walker's 0.48 over the same gait falls (8 x 10 sweep:
+  // 83.8 -> 91.2 %, controllers/README.md).
+  PushSweepCell cell;
+  cell.direction_deg = 90;
+  cell.duration_s = 0.2;
+  cell.onset_phase = 0.4;
+  std::string failure;
+  const auto velocity = controllers::WalkerActuation::kVelocity;
+  CHECK(honest_push({}, 350, cell, "", &failure, velocity) == PushOutcome::kSurvived);
+  INFO(failure);
+  CHECK(honest_push({}, 350, cell, R"({"frontal_cv": 0.48})", &failure, velocity) ==
+        PushOutcome::kFell);
 }
