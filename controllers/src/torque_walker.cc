@@ -20,6 +20,10 @@ constexpr double kReferenceMass_kg = 80.0;
 constexpr double kMaxSwingKnee_rad = 2.0;
 // A placed step leaves early swing once its ankle is this close behind the target, m.
 constexpr double kPlacedLandingReach_m = 0.02;
+// A swing time phase shortens only for forward CoM speed this far above the command
+// (catch_step_s_per_m_s): the CoM's speed within a step swings by ~0.2 m/s (1.55 m / 50 kg
+// reaches 1.2 m/s at a 1.0 m/s command), and a walk's own steps stay on the clock.
+constexpr double kCatchDeadband_m_s = 0.35;
 // The plan's speed (plan_speed_gain) is taken within this of the command before the gain,
 // m/s (a stone out of reach would otherwise lean the body far forward).
 constexpr double kPlanSpeedLimit_m_s = 0.3;
@@ -71,6 +75,7 @@ constexpr NamedField kFields[] = {BIODYN_FIELD(sagittal_cd),
                                   BIODYN_FIELD(placement_gain),
                                   BIODYN_FIELD(placed_wait_s),
                                   BIODYN_FIELD(placed_tuck_m),
+                                  BIODYN_FIELD(catch_step_s_per_m_s),
                                   BIODYN_FIELD(plan_speed_gain),
                                   BIODYN_FIELD(stop_brake_rad_per_m_s),
                                   BIODYN_FIELD(stop_speed_m_s),
@@ -167,6 +172,10 @@ TorqueWalkerParams velocity_walker_defaults() {
   // (controllers/README.md: 0.36 survives more of them on the named and held-out bodies; the
   // torque walker loses pushes with it, and 0.30 or lower falls while walking at t_r 100 ms).
   p.frontal_cv = 0.36;
+  // No step-timing adaptation: with the torque walker's 0.7 s per m/s every forward push at
+  // t_r 20 ms fell (0 of 10); 0.35 gained at t_r 100 ms but lost on held-out bodies at 20 ms
+  // (controllers/README.md).
+  p.catch_step_s_per_m_s = 0;
   p.toe_up_rad = 0.009;
   p.pelvis_pitch_rad = -0.04;
   p.start_pitch_rad = 0.03;
@@ -353,6 +362,8 @@ void TorqueWalkerParams::validate() const {
         placement_gain);
   check(placed_wait_s >= 0 && placed_wait_s <= 0.5, w + "placed_wait_s", "must be in [0, 0.5] s",
         placed_wait_s);
+  check(catch_step_s_per_m_s >= 0 && catch_step_s_per_m_s <= 1, w + "catch_step_s_per_m_s",
+        "must be in [0, 1] s per m/s", catch_step_s_per_m_s);
   check(std::abs(placed_tuck_m) <= 1, w + "placed_tuck_m", "must be within +-1 m", placed_tuck_m);
   check(plan_speed_gain >= 0 && plan_speed_gain <= 10, w + "plan_speed_gain", "must be in [0, 10]",
         plan_speed_gain);
@@ -614,7 +625,17 @@ void TorqueWalker::advance_phases(const mjModel& m, const mjData& d, const sim::
   const bool struck = state_.strike.update(foot_touches_floor(m, d, *rig_, swing));
   const TorqueWalkerPhase& ph = params_.phases[static_cast<std::size_t>(state_.phase)];
   if (!ph.ends_at_strike) {
-    bool done = d.time - state_.phase_start_s >= phase_duration_s(state_.phase);
+    double duration = phase_duration_s(state_.phase);
+    // Not while stopping (the command is 0 then) or stepping on planned stones (their own
+    // timing and speed; a placed step comes down by its target, below).
+    if (!ph.swing_foot_down && params_.catch_step_s_per_m_s > 0 && !state_.stopping &&
+        std::isnan(state_.swing_target_m) && std::isnan(state_.plan_speed_m_s)) {
+      const Vector2d along = state_.heading.along();
+      const double v = along.x() * com.velocity_W.x() + along.y() * com.velocity_W.y();
+      duration -=
+          params_.catch_step_s_per_m_s * std::max(v - state_.speed_m_s - kCatchDeadband_m_s, 0.0);
+    }
+    bool done = d.time - state_.phase_start_s >= duration;
     // (Not the closing step of a stop: it starts beside its target and needs the time to
     // move the foot out to the standing width.)
     if (!done && !closing_step() && !std::isnan(state_.swing_target_m) && !ph.swing_foot_down) {

@@ -36,14 +36,16 @@ PushSweepSpec small_spec() {
 }
 
 // One 0.2 s pelvis push of `force_N` during steady walking, honest weld, on `body`, with the
-// walker parameters `gait_json` ("" for the defaults).
+// walker parameters `gait_json` ("" for the defaults); reaction_time_s 0: the default t_r.
 PushOutcome honest_push(
     const models::CharacterSpec& body, double force_N, const PushSweepCell& cell,
     const char* gait_json, std::string* failure,
-    controllers::WalkerActuation actuation = controllers::WalkerActuation::kTorque) {
+    controllers::WalkerActuation actuation = controllers::WalkerActuation::kTorque,
+    double reaction_time_s = 0) {
   PushSweepSpec spec;
   spec.walk.config.weld = controllers::WeldMode::kHonest;
   spec.walk.config.walker_actuation = actuation;
+  spec.walk.config.reaction_time_s = reaction_time_s;
   spec.walk.config.walk_push = scenarios::WalkPush{};
   spec.walk.duration_s = 30;
   spec.fixed_force_N = force_N;
@@ -53,6 +55,24 @@ PushOutcome honest_push(
   const PushCellResult r = scenarios::run_push_cell(&s, spec, cell);
   *failure = r.failure;
   return r.outcome;
+}
+
+// A parameter's worth on one push: `cell` survives with the defaults and falls with `before`
+// (walker JSON: the parameter as it was).
+void check_defaults_survive_where_before_fell(
+    const models::CharacterSpec& body, double force_N, const PushSweepCell& cell,
+    const char* before,
+    controllers::WalkerActuation actuation = controllers::WalkerActuation::kTorque,
+    double reaction_time_s = 0) {
+  std::string now_failure, before_failure;
+  const PushOutcome now =
+      honest_push(body, force_N, cell, "", &now_failure, actuation, reaction_time_s);
+  const PushOutcome then =
+      honest_push(body, force_N, cell, before, &before_failure, actuation, reaction_time_s);
+  INFO("defaults: " << (now_failure.empty() ? "survived" : now_failure) << "; " << before << ": "
+                    << (before_failure.empty() ? "survived" : before_failure));
+  CHECK(now == PushOutcome::kSurvived);
+  CHECK(then == PushOutcome::kFell);
 }
 
 }  // namespace
@@ -211,14 +231,8 @@ TEST_CASE_METHOD(testing::SimulationTest,
   models::CharacterSpec body;
   body.height_m = 1.55;
   body.mass_kg = 50;
-  const PushSweepCell cell{180, 0.2, 0.0};
-  std::string failure;
-  const PushOutcome gated = honest_push(body, 219, cell, "", &failure);
-  INFO(failure);
-  CHECK(gated == PushOutcome::kSurvived);
-  const PushOutcome ungated =
-      honest_push(body, 219, cell, R"({"back_step_capture_point": false})", &failure);
-  CHECK(ungated == PushOutcome::kFell);
+  check_defaults_survive_where_before_fell(body, 219, PushSweepCell{180, 0.2, 0.0},
+                                           R"({"back_step_capture_point": false})");
 }
 
 TEST_CASE_METHOD(testing::SimulationTest,
@@ -227,14 +241,19 @@ TEST_CASE_METHOD(testing::SimulationTest,
   // 350 N x 0.2 s to the left at 0.4 of the stride, 1.80 m / 80 kg: the velocity defaults'
   // frontal_cv (0.36) recovers; the torque walker's 0.48 over the same gait falls (8 x 10 sweep:
   // 83.8 -> 91.2 %, controllers/README.md).
-  PushSweepCell cell;
-  cell.direction_deg = 90;
-  cell.duration_s = 0.2;
-  cell.onset_phase = 0.4;
-  std::string failure;
-  const auto velocity = controllers::WalkerActuation::kVelocity;
-  CHECK(honest_push({}, 350, cell, "", &failure, velocity) == PushOutcome::kSurvived);
-  INFO(failure);
-  CHECK(honest_push({}, 350, cell, R"({"frontal_cv": 0.48})", &failure, velocity) ==
-        PushOutcome::kFell);
+  check_defaults_survive_where_before_fell({}, 350, PushSweepCell{90, 0.2, 0.4},
+                                           R"({"frontal_cv": 0.48})",
+                                           controllers::WalkerActuation::kVelocity);
+}
+
+TEST_CASE_METHOD(testing::SimulationTest,
+                 "A push from behind at t_r 100 ms: the catching step comes sooner",
+                 "[scenarios][push]") {
+  // 350 N x 0.2 s forward at 0.1 of the stride, 1.80 m / 80 kg, muscles' reaction time 100 ms.
+  // On the clock the early swing held the knee at 73 deg for 0.47 s while the body fell forward
+  // at 1.9 m/s; the foot landed on a knee bent 47 deg that the rate-limited torque could not
+  // hold. With catch_step_s_per_m_s the swing ends sooner by the forward speed over the command.
+  check_defaults_survive_where_before_fell({}, 350, PushSweepCell{0, 0.2, 0.1},
+                                           R"({"catch_step_s_per_m_s": 0})",
+                                           controllers::WalkerActuation::kTorque, 0.1);
 }

@@ -94,7 +94,12 @@ struct TorqueWalkerParams {
   /// body is caught over two or three side steps. It binds without a push too: in the first
   /// step from standing and in turns faster than ~30 deg/s (controllers/README.md).
   double max_swing_roll_rad = 0.25;
-  double toe_up_rad = 0.070;        ///< swing sole pitch, toes up
+  double toe_up_rad = 0.070;  ///< swing sole pitch, toes up
+  /// s per m/s: a swing time phase ends this much sooner per m/s that the CoM moves forward
+  /// faster than the command beyond 0.35 m/s (the CoM's own speed swings by ~0.2 m/s within a
+  /// step): a push from behind gets its catching step sooner (step-timing adaptation, Khadiv
+  /// et al. 2016). Not while stopping or on planned stones. 0: off.
+  double catch_step_s_per_m_s = 0.7;
   double pelvis_pitch_rad = 0.125;  ///< forward lean of the pelvis in the world
   double start_pitch_rad = 0.073;   ///< extra lean for the first start_time_s (from standing)
   double start_time_s = 1.934;
