@@ -62,10 +62,7 @@ std::string results_csv(const scenarios::PushSweepSpec& spec,
     } else {
       csv << r.max_survived_N << ',' << r.first_failure_N << ',' << r.bisection_N << ','
           << r.max_survived_N * c.duration_s << ',' << r.max_survived_N * c.duration_s / mass
-          << ",,,\""
-          << (r.fell_before_push ? std::string(to_string(scenarios::PushOutcome::kFellBeforePush))
-                                 : r.failure)
-          << "\"," << r.runs << '\n';
+          << ",,,\"" << r.failure << "\"," << r.runs << '\n';
     }
   }
   return csv.str();
@@ -180,8 +177,9 @@ void print_summary(const SweepOptions& o, const nlohmann::json& cells,
               << "% of " << cell_count << " pushes of " << o.spec.fixed_force_N << " N\n";
   }
   if (summary.groups_with_failed_walks > 0) {
-    std::cout << "  WARNING: the walk fell before the push in " << summary.groups_with_failed_walks
-              << " direction/duration groups\n";
+    std::cout << "  WARNING: no push (the walk fell before it, or never became steady) in "
+              << summary.groups_with_failed_walks
+              << " direction/duration groups; results.csv says which cells and why\n";
   }
   std::cout << "  results:  " << dir << "/results.csv\n  summary:  " << dir
             << "/summary.json\n  plot:     " << dir << "/polar.png\n";

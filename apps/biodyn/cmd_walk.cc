@@ -150,7 +150,11 @@ nlohmann::json walk_json(const scenarios::WalkRunResult& r) {
                  {"end_s", o.end_s},
                  {"speed_before_m_s", o.speed_before_m_s},
                  {"stride_speeds_after_m_s", o.stride_speeds_after_m_s},
-                 {"recovery_strides", o.recovery_strides}};
+                 {"recovery_strides", o.recovery_strides},
+                 {"strides_before", o.strides_before}};
+    if (o.strides_before < 0) {  // never pushed: no onset, no speed before
+      for (const char* k : {"onset_s", "end_s", "speed_before_m_s"}) j["push"][k] = nullptr;
+    }
     j["survived"] = o.survived;
   }
   if (r.stopped_at_s >= 0 || r.standing_at_end) {
@@ -248,6 +252,13 @@ void print_walk_summary(const scenarios::WalkRunResult& r, std::ostream& out) {
 }
 
 namespace {
+
+// A number with two decimals, for the push's report line.
+std::string fixed2(double v) {
+  std::ostringstream s;
+  s << std::fixed << std::setprecision(2) << v;
+  return s.str();
+}
 
 // The summary on stdout, then the trace CSV and the JSON (with `inputs`) where asked for.
 void write_walk_outputs(const scenarios::WalkRunResult& r, const nlohmann::json& inputs,
@@ -505,9 +516,14 @@ Command add_push_command(CLI::App* app) {
             const scenarios::WalkPushOutcome& po = *r.push;
             std::cout << std::fixed << std::setprecision(2) << "  "
                       << (po.survived ? "SURVIVED" : "FAILED: " + po.failure) << "; impulse "
-                      << po.impulse_N_s << " N s, delta-v " << po.delta_v_m_s << " m/s, onset "
-                      << po.onset_s << " s; speed before " << po.speed_before_m_s
-                      << " m/s, recovered in "
+                      << po.impulse_N_s << " N s, delta-v " << po.delta_v_m_s << " m/s, "
+                      << (po.strides_before < 0
+                              ? std::string("not pushed")
+                              : "onset " + fixed2(po.onset_s) + " s after " +
+                                    std::to_string(po.strides_before) +
+                                    " strides (the last 4 steady); speed before " +
+                                    fixed2(po.speed_before_m_s) + " m/s")
+                      << ", recovered in "
                       << (po.recovery_strides > 0 ? std::to_string(po.recovery_strides) + " strides"
                                                   : std::string("-"))
                       << "\n";

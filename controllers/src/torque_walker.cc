@@ -172,10 +172,6 @@ TorqueWalkerParams velocity_walker_defaults() {
   // (controllers/README.md: 0.36 survives more of them on the named and held-out bodies; the
   // torque walker loses pushes with it, and 0.30 or lower falls while walking at t_r 100 ms).
   p.frontal_cv = 0.36;
-  // No step-timing adaptation: with the torque walker's 0.7 s per m/s every forward push at
-  // t_r 20 ms fell (0 of 10); 0.35 gained at t_r 100 ms but lost on held-out bodies at 20 ms
-  // (controllers/README.md).
-  p.catch_step_s_per_m_s = 0;
   p.toe_up_rad = 0.009;
   p.pelvis_pitch_rad = -0.04;
   p.start_pitch_rad = 0.03;

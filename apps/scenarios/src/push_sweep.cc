@@ -53,6 +53,13 @@ std::vector<PushSweepCell> push_sweep_cells(const PushSweepSpec& spec) {
   return cells;
 }
 
+namespace {
+// The push was applied (the walk neither fell before it nor never became steady).
+bool pushed(PushOutcome o) {
+  return o != PushOutcome::kFellBeforePush && o != PushOutcome::kNoSteadyStride;
+}
+}  // namespace
+
 PushCellResult run_push_cell(sim::Simulation* sim, const PushSweepSpec& spec,
                              const PushSweepCell& cell) {
   PushCellResult out;
@@ -63,14 +70,17 @@ PushCellResult run_push_cell(sim::Simulation* sim, const PushSweepSpec& spec,
     out.runs = 1;
     out.outcome = o.outcome;
     out.failure = o.failure;
-    out.fell_before_push = o.outcome == PushOutcome::kFellBeforePush;
+    out.not_pushed = !pushed(o.outcome);
     return out;
   }
   const WalkingPushScanSettings& scan = spec.scan;
   const auto survives = [&](double force) {
     const WalkPushOutcome o = *run_once(sim, spec, cell, force).push;
     ++out.runs;
-    if (o.outcome == PushOutcome::kFellBeforePush) out.fell_before_push = true;
+    if (!pushed(o.outcome)) {
+      out.not_pushed = true;
+      out.failure = o.failure;
+    }
     return o;
   };
   // Scan upward: resolution, 2 resolution, ... until the first failure.
@@ -78,7 +88,7 @@ PushCellResult run_push_cell(sim::Simulation* sim, const PushSweepSpec& spec,
   for (int i = 1; i <= n; ++i) {
     const double force = i * scan.resolution_N;
     const WalkPushOutcome o = survives(force);
-    if (out.fell_before_push) return out;
+    if (out.not_pushed) return out;
     if (!o.survived) {
       out.first_failure_N = force;
       out.outcome = o.outcome;
@@ -120,7 +130,7 @@ PushSweepSummary summarize_push_sweep(const PushSweepSpec& spec,
       double worst = 1e18, sum = 0, bis_worst = 1e18, bis_sum = 0;
       for (const PushCellResult& r : results) {
         if (r.cell.duration_s != duration || r.cell.direction_deg != g.direction_deg) continue;
-        if (r.fell_before_push) g.walk_failed_before_push = true;
+        if (r.not_pushed) g.walk_failed_before_push = true;
         const bool survived = fixed && r.outcome == PushOutcome::kSurvived;
         const double f = fixed ? (survived ? spec.fixed_force_N : 0.0) : r.max_survived_N;
         worst = std::min(worst, f);

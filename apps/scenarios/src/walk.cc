@@ -348,7 +348,9 @@ class PushJudge : public StepObserver {
       o_->onset_s = s.push_onset_s();
       o_->end_s = s.push_end_s();
       o_->speed_before_m_s = s.push_speed_before_m_s();
+      o_->strides_before = s.push_after_strides();
     }
+    if (!scheduled_ && s.push_abandoned()) done_ = true;  // no push will come
     if (scheduled_ && d.time >= o_->end_s + watch_s_) {
       std::size_t after = 0;
       for (double t : left_strike_times_)
@@ -415,7 +417,7 @@ const char* to_string(PushOutcome outcome) {
     case PushOutcome::kFellBeforePush:
       return "fell before the push";
     case PushOutcome::kNoSteadyStride:
-      return "no steady stride to push in";
+      return "never steady: no 4 strides in a row within 5% of their mean speed, not pushed";
     case PushOutcome::kFell:
       return "fell";
     case PushOutcome::kSpeedNotRecovered:

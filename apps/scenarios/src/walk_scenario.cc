@@ -19,6 +19,9 @@ using Eigen::Vector3d;
 // A walk is steady for a push when every stride of the baseline is within this fraction of the
 // baseline's mean speed (half the recovery criterion's 10 %: walk.cc).
 constexpr double kSteadySpread = 0.05;
+// Strides after settle_strides that a push waits for a steady walk before it is abandoned
+// (PushOutcome::kNeverSteady).
+constexpr int kMaxSteadyWaitStrides = 30;
 
 controllers::TorqueWalkerParams walker_params_from(const ScenarioConfig& c) {
   controllers::TorqueWalkerParams p = controllers::walker_defaults(c.walker_actuation);
@@ -120,11 +123,15 @@ void WalkScenario::on_strike() {
   run_.left_strike_s[n - 1] = st.time_s;
   run_.left_strike_com[n - 1] = sim::center_of_mass(sim_->model(), d).position_W.head<2>();
   ++run_.left_strikes;
-  if (!config_.walk_push || !std::isnan(run_.push_onset_s) ||
-      run_.left_strikes < config_.walk_push->settle_strides + 1)
+  if (!config_.walk_push || !std::isnan(run_.push_onset_s) || run_.push_abandoned ||
+      run_.left_strikes < std::max(config_.walk_push->settle_strides, kBaselineStrides) + 1)
     return;
   const double speed_before = steady_stride_speed_m_s();
-  if (std::isnan(speed_before)) return;
+  if (std::isnan(speed_before)) {
+    run_.push_abandoned =
+        run_.left_strikes > config_.walk_push->settle_strides + kMaxSteadyWaitStrides;
+    return;
+  }
   const WalkPush& wp = *config_.walk_push;
   const double dt = sim_->model().opt.timestep;
   const double stride_s = run_.left_strike_s[n - 1] - run_.left_strike_s[n - 2];
@@ -141,17 +148,21 @@ void WalkScenario::on_strike() {
   run_.push_onset_s = push.start_s;
   run_.push_end_s = push.start_s + push.duration_s;
   run_.push_speed_before_m_s = speed_before;
+  run_.push_after_strides = run_.left_strikes - 1;
 }
 
 double WalkScenario::steady_stride_speed_m_s() const {
-  // The mean speed over the last (at most kBaselineStrides) strides, if each stride's speed is
-  // within kSteadySpread of it: a walker still speeding up from the start (the velocity-based
-  // driver takes ~6 s to reach 0.9 m/s) has no speed to recover to yet.
+  // The mean speed over the last kBaselineStrides strides, if each stride's speed is within
+  // kSteadySpread of it: a walker still speeding up from the start (the velocity-based driver
+  // takes ~8 s to its speed) has no speed to recover to yet. The mean is of the strides'
+  // own lengths (as the judge measures the strides after the push): a chord would be short
+  // on a turn.
   constexpr int n = kBaselineStrides + 1;
-  const int k = std::min(kBaselineStrides, run_.left_strikes - 1);
-  const double mean = (run_.left_strike_com[n - 1] - run_.left_strike_com[n - 1 - k]).norm() /
-                      (run_.left_strike_s[n - 1] - run_.left_strike_s[n - 1 - k]);
-  for (int i = n - k; i < n; ++i) {
+  double length_m = 0;
+  for (int i = 1; i < n; ++i)
+    length_m += (run_.left_strike_com[i] - run_.left_strike_com[i - 1]).norm();
+  const double mean = length_m / (run_.left_strike_s[n - 1] - run_.left_strike_s[0]);
+  for (int i = 1; i < n; ++i) {
     const double v = (run_.left_strike_com[i] - run_.left_strike_com[i - 1]).norm() /
                      (run_.left_strike_s[i] - run_.left_strike_s[i - 1]);
     if (std::abs(v - mean) > kSteadySpread * mean) return std::numeric_limits<double>::quiet_NaN();

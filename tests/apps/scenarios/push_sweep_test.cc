@@ -138,7 +138,7 @@ TEST_CASE_METHOD(
     r.cell = cells[i];
     r.max_survived_N = survived[i];
     r.bisection_N = survived[i] + 100;
-    r.fell_before_push = i == 3;
+    r.not_pushed = i == 3;
     results.push_back(r);
   }
   std::swap(results[0], results[3]);  // any order: a driver collects them as they finish
@@ -192,7 +192,7 @@ TEST_CASE_METHOD(
   CHECK_FALSE(felled.failure.empty());
   const PushCellResult second = scenarios::run_push_cell(&b, spec, cell);
   INFO(first.failure);
-  CHECK_FALSE(first.fell_before_push);
+  CHECK_FALSE(first.not_pushed);
   CHECK(first.runs >= 1);
   CHECK(second.max_survived_N == first.max_survived_N);
   CHECK(second.first_failure_N == first.first_failure_N);
@@ -246,14 +246,22 @@ TEST_CASE_METHOD(testing::SimulationTest,
                                            controllers::WalkerActuation::kVelocity);
 }
 
-TEST_CASE_METHOD(testing::SimulationTest,
-                 "A push from behind at t_r 100 ms: the catching step comes sooner",
-                 "[scenarios][push]") {
+TEST_CASE_METHOD(
+    testing::SimulationTest,
+    "A push from behind at t_r 100 ms: an earlier catching step (catch_step_s_per_m_s)",
+    "[scenarios][push]") {
   // 350 N x 0.2 s forward at 0.1 of the stride, 1.80 m / 80 kg, muscles' reaction time 100 ms.
   // On the clock the early swing held the knee at 73 deg for 0.47 s while the body fell forward
   // at 1.9 m/s; the foot landed on a knee bent 47 deg that the rate-limited torque could not
-  // hold. With catch_step_s_per_m_s the swing ends sooner by the forward speed over the command.
-  check_defaults_survive_where_before_fell({}, 350, PushSweepCell{0, 0.2, 0.1},
-                                           R"({"catch_step_s_per_m_s": 0})",
-                                           controllers::WalkerActuation::kTorque, 0.1);
+  // hold. With catch_step_s_per_m_s 0.7 (off by default: controllers/README.md) the swing ends
+  // sooner by the forward speed over the command, and the body is caught.
+  PushSweepCell cell{0, 0.2, 0.1};
+  std::string on_failure, off_failure;
+  const auto torque = controllers::WalkerActuation::kTorque;
+  const PushOutcome on =
+      honest_push({}, 350, cell, R"({"catch_step_s_per_m_s": 0.7})", &on_failure, torque, 0.1);
+  const PushOutcome off = honest_push({}, 350, cell, "", &off_failure, torque, 0.1);
+  INFO("0.7: " << on_failure << "; off: " << off_failure);
+  CHECK(on == PushOutcome::kSurvived);
+  CHECK(off == PushOutcome::kFell);
 }

@@ -188,6 +188,17 @@ TEST_CASE_METHOD(biodyn::testing::SimulationTest,
   CHECK(calm.push->onset_s > left[6]);  // later than the 5 settle strides alone
   for (double v : calm.push->stride_speeds_after_m_s)
     CHECK(std::abs(v - calm.push->speed_before_m_s) < 0.05 * calm.push->speed_before_m_s);
+  CHECK(calm.push->strides_before >= 6);
+
+  // On a turn (20 deg/s, torque walker) the strides are steady too: their speed is measured
+  // along each stride, not over the chord of four (which was 10-18 % short and never steady).
+  p.config.walker_actuation = controllers::WalkerActuation::kTorque;
+  p.config.heading_rate_deg_s = 20;
+  const scenarios::WalkRunResult turning = scenarios::run_walk(&sim, p);
+  REQUIRE(turning.push);
+  INFO(turning.push->failure);
+  CHECK(turning.push->strides_before >= 5);
+  CHECK(turning.push->survived);
 }
 
 TEST_CASE_METHOD(biodyn::testing::SimulationTest, "the walker steps on the paper's stepping stones",

@@ -58,8 +58,9 @@ struct PushCellResult {
   /// overstates); -1 if not computed.
   double bisection_N = -1;
   int runs = 0;
-  /// A run of this cell fell before its push: the walk itself failed, the cell has no figure.
-  bool fell_before_push = false;
+  /// A run of this cell was never pushed: the walk fell before the push or never became steady
+  /// (PushOutcome::kFellBeforePush, kNoSteadyStride); the cell has no figure.
+  bool not_pushed = false;
 };
 
 /// Runs one cell on `sim` (a simulation of the spec's character; reset inside).

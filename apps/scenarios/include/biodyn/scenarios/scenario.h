@@ -65,9 +65,9 @@ struct TimedPush {
 
 /// One horizontal push during steady walking, through the centre of mass of the pelvis or the
 /// trunk (xfrc_applied), timed by the gait: after `settle_strides` strides (a stride starts at
-/// a left-foot strike) and once the walk is steady (the last 4 strides' speeds each within 5 % of
-/// their mean: walk_scenario.cc), at `onset_phase` of the next stride (its length taken from the
-/// stride before).
+/// a left-foot strike, at least 4) and once the walk is steady (the last 4 strides' speeds each
+/// within 5 % of their mean; not pushed if not within 30 strides more: walk_scenario.cc), at
+/// `onset_phase` of the next stride (its length taken from the stride before).
 struct WalkPush {
   double force_N = 0;           ///< N, >= 0
   double duration_s = 0.2;      ///< s, > 0

@@ -35,7 +35,7 @@ struct WalkRunParams {
 enum class PushOutcome {
   kSurvived,
   kFellBeforePush,     ///< the walk itself failed: the run has no figure
-  kNoSteadyStride,     ///< no stride to push in (the walker stopped striking)
+  kNoSteadyStride,     ///< never steady in the strides a push waits (or stopped striking): no push
   kFell,               ///< fell after the push
   kSpeedNotRecovered,  ///< up, but the stride speed not back within 10% in 4 strides
 };
@@ -52,7 +52,8 @@ struct WalkPushOutcome {
   std::string body;
   double impulse_N_s = 0;       ///< force x duration
   double delta_v_m_s = 0;       ///< impulse / body mass
-  double speed_before_m_s = 0;  ///< mean stride speed of the strides before the push
+  double speed_before_m_s = 0;  ///< mean stride speed of the 4 steady strides before the push
+  int strides_before = -1;      ///< strides walked before the push's stride (-1: no push)
   std::vector<double> stride_speeds_after_m_s;  ///< strides starting after the push ended
   int recovery_strides = -1;  ///< first stride after the push within 10%; -1 none in 4
   bool fell = false;

@@ -78,6 +78,10 @@ class WalkScenario : public Scenario {
   /// m/s, the mean stride speed over the (at most kBaselineStrides) steady strides before the
   /// push, once scheduled; else NaN.
   double push_speed_before_m_s() const { return run_.push_speed_before_m_s; }
+  /// Strides walked before the push's stride once scheduled (>= settle_strides), else -1.
+  int push_after_strides() const { return run_.push_after_strides; }
+  /// The walk never became steady in the strides a push waits: it will not come.
+  bool push_abandoned() const { return run_.push_abandoned; }
   /// The pushed body (config.walk_push), or -1.
   int push_body() const { return push_body_; }
 
@@ -102,6 +106,8 @@ class WalkScenario : public Scenario {
     Eigen::Vector2d left_strike_com[kBaselineStrides + 1] = {};
     double push_onset_s = std::numeric_limits<double>::quiet_NaN();
     double push_speed_before_m_s = std::numeric_limits<double>::quiet_NaN();
+    int push_after_strides = -1;  // strides walked before the push's stride
+    bool push_abandoned = false;  // the walk never became steady: no push
     double push_end_s = std::numeric_limits<double>::quiet_NaN();
   };
   void advance() override;
