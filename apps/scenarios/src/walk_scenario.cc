@@ -20,7 +20,7 @@ using Eigen::Vector3d;
 // baseline's mean speed (half the recovery criterion's 10 %: walk.cc).
 constexpr double kSteadySpread = 0.05;
 // Strides after settle_strides that a push waits for a steady walk before it is abandoned
-// (PushOutcome::kNeverSteady).
+// (PushOutcome::kNoSteadyStride: "never steady").
 constexpr int kMaxSteadyWaitStrides = 30;
 
 controllers::TorqueWalkerParams walker_params_from(const ScenarioConfig& c) {
