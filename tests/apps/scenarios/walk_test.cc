@@ -20,6 +20,19 @@ using namespace biodyn;
 
 sim::Simulation make_default_sim() { return sim::Simulation(testing::generated_character()); }
 
+// A walk with a push of 0 N (the protocol's timing and judgement without a disturbance) at
+// `onset_phase` after the protocol's 5 settle strides, honest weld.
+scenarios::WalkRunParams calm_push_walk(double onset_phase) {
+  scenarios::WalkRunParams p;
+  p.config.weld = controllers::WeldMode::kHonest;
+  scenarios::WalkPush push;
+  push.force_N = 0;
+  push.onset_phase = onset_phase;
+  push.settle_strides = 5;
+  p.config.walk_push = push;
+  return p;
+}
+
 }  // namespace
 
 TEST_CASE_METHOD(biodyn::testing::SimulationTest, "a walk reports what it measured, consistently",
@@ -126,13 +139,7 @@ TEST_CASE_METHOD(biodyn::testing::SimulationTest,
                  "a push during walking is timed by the gait and judged by the protocol",
                  "[apps][walk][push]") {
   sim::Simulation sim = make_default_sim();
-  scenarios::WalkRunParams p;
-  p.config.weld = controllers::WeldMode::kHonest;
-  scenarios::WalkPush push;
-  push.force_N = 0;  // the timing and the judgement without a disturbance
-  push.onset_phase = 0.5;
-  push.settle_strides = 5;  // the protocol's steady walking before a push
-  p.config.walk_push = push;
+  scenarios::WalkRunParams p = calm_push_walk(0.5);
   const scenarios::WalkRunResult calm = scenarios::run_walk(&sim, p);
   REQUIRE(calm.push);
   INFO(calm.push->failure);
@@ -168,13 +175,8 @@ TEST_CASE_METHOD(biodyn::testing::SimulationTest,
   // and still gaining. A push there has no speed to be judged back to (a calm push was judged
   // "speed not back" against the 4 strides before, 0.77 m/s, walking at 0.92 m/s after it).
   sim::Simulation sim = make_default_sim();
-  scenarios::WalkRunParams p;
-  p.config.weld = controllers::WeldMode::kHonest;
+  scenarios::WalkRunParams p = calm_push_walk(0);
   p.config.walker_actuation = controllers::WalkerActuation::kVelocity;
-  scenarios::WalkPush push;
-  push.force_N = 0;
-  push.settle_strides = 5;
-  p.config.walk_push = push;
   const scenarios::WalkRunResult calm = scenarios::run_walk(&sim, p);
   REQUIRE(calm.push);
   INFO(calm.push->failure << "; speed before " << calm.push->speed_before_m_s << " m/s, onset "
