@@ -20,10 +20,15 @@ constexpr double kReferenceMass_kg = 80.0;
 constexpr double kMaxSwingKnee_rad = 2.0;
 // A placed step leaves early swing once its ankle is this close behind the target, m.
 constexpr double kPlacedLandingReach_m = 0.02;
-// A swing time phase shortens only for forward CoM speed this far above the command
-// (catch_step_s_per_m_s): the CoM's speed within a step swings by ~0.2 m/s (1.55 m / 50 kg
-// reaches 1.2 m/s at a 1.0 m/s command), and a walk's own steps stay on the clock.
-constexpr double kCatchDeadband_m_s = 0.35;
+// A swing time phase shortens only for forward CoM speed this far above the walk's own step
+// speed (catch_step_s_per_m_s): the CoM's speed within a step swings by ~0.2 m/s about the
+// step's mean, and a walk's own steps stay on the clock. Chosen on random bodies at 0.25
+// (0.2 and 0.35 saved fewer pushes: controllers/README.md).
+constexpr double kCatchDeadband_m_s = 0.25;
+// Nor in turns faster than this, rad/s (~6 deg/s): there the walk's own CoM speed along the
+// heading peaks 0.3 m/s above its step mean (1.55 m / 50 kg at 1.0 m/s and 20-30 deg/s), and
+// shortened swings in 30 deg/s turns cost a walk (controllers/README.md).
+constexpr double kCatchMaxTurn_rad_s = 0.1;
 // The plan's speed (plan_speed_gain) is taken within this of the command before the gain,
 // m/s (a stone out of reach would otherwise lean the body far forward).
 constexpr double kPlanSpeedLimit_m_s = 0.3;
@@ -172,6 +177,9 @@ TorqueWalkerParams velocity_walker_defaults() {
   // (controllers/README.md: 0.36 survives more of them on the named and held-out bodies; the
   // torque walker loses pushes with it, and 0.30 or lower falls while walking at t_r 100 ms).
   p.frontal_cv = 0.36;
+  // No catching step: with 0.7 every push from behind at t_r 20 ms fell (0 of 10; the named
+  // sweep 91.2 -> 61.2 %): the swing's targets come too late for a shortened swing.
+  p.catch_step_s_per_m_s = 0;
   p.toe_up_rad = 0.009;
   p.pelvis_pitch_rad = -0.04;
   p.start_pitch_rad = 0.03;
@@ -624,12 +632,20 @@ void TorqueWalker::advance_phases(const mjModel& m, const mjData& d, const sim::
     double duration = phase_duration_s(state_.phase);
     // Not while stopping (the command is 0 then) or stepping on planned stones (their own
     // timing and speed; a placed step comes down by its target, below).
+    // Nor before the walk has a speed of its own (the start from standing overshoots a slow
+    // command): the reference is the walk's last unshortened step, so only a push acts.
     if (!ph.swing_foot_down && params_.catch_step_s_per_m_s > 0 && !state_.stopping &&
-        std::isnan(state_.swing_target_m) && std::isnan(state_.plan_speed_m_s)) {
+        std::isnan(state_.swing_target_m) && std::isnan(state_.plan_speed_m_s) &&
+        !std::isnan(state_.walk_step_speed_m_s) &&
+        std::abs(state_.heading_rate_rad_s) <= kCatchMaxTurn_rad_s) {
       const Vector2d along = state_.heading.along();
       const double v = along.x() * com.velocity_W.x() + along.y() * com.velocity_W.y();
-      duration -=
-          params_.catch_step_s_per_m_s * std::max(v - state_.speed_m_s - kCatchDeadband_m_s, 0.0);
+      const double reference = std::max(state_.walk_step_speed_m_s, state_.speed_m_s);
+      const double excess = v - reference - kCatchDeadband_m_s;
+      if (excess > 0) {
+        duration -= params_.catch_step_s_per_m_s * excess;
+        state_.catching = true;
+      }
     }
     bool done = d.time - state_.phase_start_s >= duration;
     // (Not the closing step of a stop: it starts beside its target and needs the time to
@@ -684,7 +700,9 @@ void TorqueWalker::on_strike(const mjData& d, const sim::CenterOfMass& com, int 
         -sh * (com_now.x() - st.com_at_strike.x()) + ch * (com_now.y() - st.com_at_strike.y());
     st.roll_integral =
         std::clamp(st.roll_integral + p.lateral_integral_rad_per_m * sideways, -limit, limit);
+    if (!st.catching && !st.stopping) st.walk_step_speed_m_s = v_step;
   }
+  st.catching = false;
   if (std::isnan(st.swing_target_m) && st.strikes > 0)
     st.free_step_s = d.time - st.last_strike.time_s;
   st.com_at_strike = com_now;
