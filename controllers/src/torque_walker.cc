@@ -29,6 +29,10 @@ constexpr double kCatchDeadband_m_s = 0.25;
 // heading peaks 0.3 m/s above its step mean (1.55 m / 50 kg at 1.0 m/s and 20-30 deg/s), and
 // shortened swings in 30 deg/s turns cost a walk (controllers/README.md).
 constexpr double kCatchMaxTurn_rad_s = 0.1;
+// A catching step still swings for at least this share of its time phase: the velocity
+// actuation's 0.28 s early swing, cut to nothing by a hard push, put the foot straight back
+// down behind the body (every push from behind at t_r 20 ms fell).
+constexpr double kCatchMinShare = 0.5;
 // The plan's speed (plan_speed_gain) is taken within this of the command before the gain,
 // m/s (a stone out of reach would otherwise lean the body far forward).
 constexpr double kPlanSpeedLimit_m_s = 0.3;
@@ -177,9 +181,6 @@ TorqueWalkerParams velocity_walker_defaults() {
   // (controllers/README.md: 0.36 survives more of them on the named and held-out bodies; the
   // torque walker loses pushes with it, and 0.30 or lower falls while walking at t_r 100 ms).
   p.frontal_cv = 0.36;
-  // No catching step: with 0.7 every push from behind at t_r 20 ms fell (0 of 10; the named
-  // sweep 91.2 -> 61.2 %): the swing's targets come too late for a shortened swing.
-  p.catch_step_s_per_m_s = 0;
   p.toe_up_rad = 0.009;
   p.pelvis_pitch_rad = -0.04;
   p.start_pitch_rad = 0.03;
@@ -643,7 +644,8 @@ void TorqueWalker::advance_phases(const mjModel& m, const mjData& d, const sim::
       const double reference = std::max(state_.walk_step_speed_m_s, state_.speed_m_s);
       const double excess = v - reference - kCatchDeadband_m_s;
       if (excess > 0) {
-        duration -= params_.catch_step_s_per_m_s * excess;
+        duration =
+            std::max(duration - params_.catch_step_s_per_m_s * excess, kCatchMinShare * duration);
         state_.catching = true;
       }
     }

@@ -259,3 +259,15 @@ TEST_CASE_METHOD(
                                            R"({"catch_step_s_per_m_s": 0})",
                                            controllers::WalkerActuation::kTorque, 0.1);
 }
+
+TEST_CASE_METHOD(testing::SimulationTest,
+                 "The velocity-based driver's catching step: a push from behind at t_r 100 ms",
+                 "[scenarios][push]") {
+  // 350 N x 0.2 s forward at the stride's start, 1.80 m / 80 kg, t_r 100 ms: without the
+  // catching step the body fell 1.1 s after the onset. Its early swing is 0.28 s; a catching
+  // step still swings half of it (cut to nothing, the foot came straight back down behind the
+  // body and every push from behind at t_r 20 ms fell: controllers/README.md).
+  check_defaults_survive_where_before_fell({}, 350, PushSweepCell{0, 0.2, 0.0},
+                                           R"({"catch_step_s_per_m_s": 0})",
+                                           controllers::WalkerActuation::kVelocity, 0.1);
+}
