@@ -98,9 +98,9 @@ struct TorqueWalkerParams {
   /// s per m/s: a swing time phase ends this much sooner per m/s that the CoM moves forward
   /// faster than the walk's own speed (the last unshortened free step's mean, or the command
   /// if higher) beyond 0.25 m/s (the CoM's own speed swings by ~0.2 m/s within a step): a push
-  /// from behind gets its catching step sooner (step-timing adaptation, Khadiv et al. 2016).
-  /// Not in the start, while stopping, in turns faster than ~6 deg/s or on planned stones.
-  /// 0: off (controllers/README.md).
+  /// from behind gets its catching step sooner (step-timing adaptation, Khadiv et al. 2016),
+  /// the phase lasting at least half its length. Not in the start, while stopping, in turns faster
+  /// than ~6 deg/s or on planned stones. 0: off (controllers/README.md).
   double catch_step_s_per_m_s = 0.7;
   double pelvis_pitch_rad = 0.125;  ///< forward lean of the pelvis in the world
   double start_pitch_rad = 0.073;   ///< extra lean for the first start_time_s (from standing)
