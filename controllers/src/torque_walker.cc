@@ -29,6 +29,9 @@ constexpr double kCatchDeadband_m_s = 0.25;
 // heading peaks 0.3 m/s above its step mean (1.55 m / 50 kg at 1.0 m/s and 20-30 deg/s), and
 // shortened swings in 30 deg/s turns cost a walk (controllers/README.md).
 constexpr double kCatchMaxTurn_rad_s = 0.1;
+// Nor before this many free steps after the start: a short, light body's speed still swings
+// from the start's lean at ~4 s (1.55 m / 45 kg at 0.6 m/s, t_r 100 ms).
+constexpr int kCatchAfterSteps = 3;
 // A catching step still swings for at least this share of its time phase: the velocity
 // actuation's 0.28 s early swing, cut to nothing by a hard push, put the foot straight back
 // down behind the body (every push from behind at t_r 20 ms fell).
@@ -634,20 +637,19 @@ void TorqueWalker::advance_phases(const mjModel& m, const mjData& d, const sim::
     // Not while stopping (the command is 0 then) or stepping on planned stones (their own
     // timing and speed; a placed step comes down by its target, below).
     // Nor before the walk has a speed of its own (the start from standing overshoots a slow
-    // command): the reference is the walk's last unshortened step, so only a push acts.
+    // command): the reference is the walk's last free step, so a push acts, and a walk that
+    // speeds up (down a hill) moves its reference along.
     if (!ph.swing_foot_down && params_.catch_step_s_per_m_s > 0 && !state_.stopping &&
         std::isnan(state_.swing_target_m) && std::isnan(state_.plan_speed_m_s) &&
-        !std::isnan(state_.walk_step_speed_m_s) &&
+        state_.walk_steps >= kCatchAfterSteps &&
         std::abs(state_.heading_rate_rad_s) <= kCatchMaxTurn_rad_s) {
       const Vector2d along = state_.heading.along();
       const double v = along.x() * com.velocity_W.x() + along.y() * com.velocity_W.y();
       const double reference = std::max(state_.walk_step_speed_m_s, state_.speed_m_s);
       const double excess = v - reference - kCatchDeadband_m_s;
-      if (excess > 0) {
+      if (excess > 0)
         duration =
             std::max(duration - params_.catch_step_s_per_m_s * excess, kCatchMinShare * duration);
-        state_.catching = true;
-      }
     }
     bool done = d.time - state_.phase_start_s >= duration;
     // (Not the closing step of a stop: it starts beside its target and needs the time to
@@ -702,9 +704,11 @@ void TorqueWalker::on_strike(const mjData& d, const sim::CenterOfMass& com, int 
         -sh * (com_now.x() - st.com_at_strike.x()) + ch * (com_now.y() - st.com_at_strike.y());
     st.roll_integral =
         std::clamp(st.roll_integral + p.lateral_integral_rad_per_m * sideways, -limit, limit);
-    if (!st.catching && !st.stopping) st.walk_step_speed_m_s = v_step;
+    if (!st.stopping) {
+      st.walk_step_speed_m_s = v_step;
+      ++st.walk_steps;
+    }
   }
-  st.catching = false;
   if (std::isnan(st.swing_target_m) && st.strikes > 0)
     st.free_step_s = d.time - st.last_strike.time_s;
   st.com_at_strike = com_now;

@@ -96,11 +96,12 @@ struct TorqueWalkerParams {
   double max_swing_roll_rad = 0.25;
   double toe_up_rad = 0.070;  ///< swing sole pitch, toes up
   /// s per m/s: a swing time phase ends this much sooner per m/s that the CoM moves forward
-  /// faster than the walk's own speed (the last unshortened free step's mean, or the command
-  /// if higher) beyond 0.25 m/s (the CoM's own speed swings by ~0.2 m/s within a step): a push
+  /// faster than the walk's own speed (the last free step's mean, or the command if higher)
+  /// beyond 0.25 m/s (the CoM's own speed swings by ~0.2 m/s within a step): a push
   /// from behind gets its catching step sooner (step-timing adaptation, Khadiv et al. 2016),
-  /// the phase lasting at least half its length. Not in the start, while stopping, in turns faster
-  /// than ~6 deg/s or on planned stones. 0: off (controllers/README.md).
+  /// the phase lasting at least half its length. Not before 3 free steps after start_time_s,
+  /// while stopping, in turns faster than ~6 deg/s or on planned stones. 0: off
+  /// (controllers/README.md).
   double catch_step_s_per_m_s = 0.7;
   double pelvis_pitch_rad = 0.125;  ///< forward lean of the pelvis in the world
   double start_pitch_rad = 0.073;   ///< extra lean for the first start_time_s (from standing)
@@ -281,9 +282,9 @@ struct TorqueWalkerState {
   bool swing_out_of_reach = false;  ///< the current placed step's target is beyond the leg
   double free_step_s = 0;           ///< s, the last free step's time (plan_speed_gain)
   /// m/s, the walk's own speed for the catching step: the mean CoM speed of the last free step
-  /// after the start whose swing was not shortened (NaN until there is one).
-  double walk_step_speed_m_s = std::numeric_limits<double>::quiet_NaN();
-  bool catching = false;  ///< this swing's time phase was shortened (catch_step_s_per_m_s)
+  /// after the start, and how many such steps there have been.
+  double walk_step_speed_m_s = 0;
+  int walk_steps = 0;
   /// m/s, the speed the plan asks now (NaN: no plan).
   double plan_speed_m_s = std::numeric_limits<double>::quiet_NaN();
   bool stopping = false, stopped = false;
