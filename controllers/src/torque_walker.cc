@@ -643,8 +643,7 @@ void TorqueWalker::advance_phases(const mjModel& m, const mjData& d, const sim::
         std::isnan(state_.swing_target_m) && std::isnan(state_.plan_speed_m_s) &&
         state_.walk_steps >= kCatchAfterSteps &&
         std::abs(state_.heading_rate_rad_s) <= kCatchMaxTurn_rad_s) {
-      const Vector2d along = state_.heading.along();
-      const double v = along.x() * com.velocity_W.x() + along.y() * com.velocity_W.y();
+      const double v = state_.heading.to_heading(Vector2d(com.velocity_W.head<2>())).x();
       const double reference = std::max(state_.walk_step_speed_m_s, state_.speed_m_s);
       const double excess = v - reference - kCatchDeadband_m_s;
       if (excess > 0)
