@@ -391,7 +391,7 @@ TorqueWalker::TorqueWalker(const models::Rig& rig, TorqueWalkerParams params)
     : params_(std::move(params)), rig_(&rig) {
   params_.validate();
   rig.require_legs("torque walker");
-  lumbar_ = rig.require_group("lumbar", "torque walker");
+  lumbar_ = rig.require_lower_back("torque walker");
   state_.plan.reserve(8);  // the stop plan is made inside drive(): no allocation there
   state_.support.reserve(128);
   state_.tolerance.reserve(128);
@@ -414,7 +414,7 @@ void TorqueWalker::set_gains() {
   for (std::size_t g = 0; g < groups.size(); ++g) {
     const std::string& n = groups[g].name;
     const auto starts = [&](const char* p) { return n.rfind(p, 0) == 0; };
-    if (starts("lumbar") || starts("thorax"))
+    if (starts("lumbar") || starts("thorax") || starts("trunk"))
       kp_[g] = params_.trunk_kp;
     else if (starts("shoulder") || starts("clavicle"))
       kp_[g] = params_.arm_kp;

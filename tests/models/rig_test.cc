@@ -84,12 +84,14 @@ TEST_CASE_METHOD(biodyn::testing::SimulationTest,
     CHECK_NOTHROW(rig.require_legs("test"));
     CHECK_NOTHROW(rig.require_foot_welds("test"));
     CHECK(rig.require_group("knee_l", "test") == rig.leg(models::kLeft).knee);
-    if (detail == models::Detail::kGait) {  // no spine: a walker that needs one says which body
-      CHECK_THROWS_WITH(rig.require_group("lumbar", "torque walker"),
-                        Catch::Contains("torque walker") && Catch::Contains("'lumbar'") &&
-                            Catch::Contains("--detail full"));
+    if (detail == models::Detail::kGait) {  // no spine: a part only the full body has says so
+      CHECK_THROWS_WITH(rig.require_group("lumbar", "pose"), Catch::Contains("pose") &&
+                                                                 Catch::Contains("'lumbar'") &&
+                                                                 Catch::Contains("--detail full"));
+      // The lower back is the one-segment upper body's joint (the walkers hold it).
+      CHECK(rig.require_lower_back("test") == rig.require_group("trunk", "test"));
     } else {
-      CHECK(rig.require_group("lumbar", "test") >= 0);
+      CHECK(rig.require_lower_back("test") == rig.require_group("lumbar", "test"));
     }
   }
 }
@@ -131,6 +133,8 @@ TEST_CASE_METHOD(
                     Catch::Contains("honest welds") && Catch::Contains("foot_weld_l"));
   CHECK_THROWS_WITH(rig.require_group("knee_r", "pose"),
                     Catch::Contains("pose") && Catch::Contains("knee_r"));
+  CHECK_THROWS_WITH(rig.require_lower_back("torque walker"),
+                    Catch::Contains("torque walker") && Catch::Contains("'lumbar' or 'trunk'"));
   CHECK_THROWS_WITH(rig.require_body("thorax", "push"),
                     Catch::Contains("push") && Catch::Contains("thorax"));
   CHECK(rig.require_body("thigh_l", "push") == rig.leg(models::kLeft).thigh);

@@ -50,7 +50,8 @@ struct AngleRanges {
     for (std::size_t g = 0; g < groups.size(); ++g) {
       const std::string& n = groups[g].name;
       const bool wanted = n.rfind("hip", 0) == 0 || n.rfind("knee", 0) == 0 ||
-                          n.rfind("ankle", 0) == 0 || n.rfind("toe", 0) == 0 || n == "lumbar";
+                          n.rfind("ankle", 0) == 0 || n.rfind("toe", 0) == 0 || n == "lumbar" ||
+                          n == "trunk";
       if (!wanted) continue;
       for (int k = 0; k < groups[g].dof_count; ++k) {
         static const char* const kBall[3] = {"_flexion", "_abduction", "_rotation"};

@@ -148,6 +148,9 @@ class Rig {
   int require_group(const std::string& name, const std::string& user) const;
   /// The body called `name`; returns its id.
   int require_body(const std::string& name, const std::string& user) const;
+  /// The joint group between the pelvis and the upper body: "lumbar" (full detail) or "trunk"
+  /// (the paper's lower-body model, its upper body one segment); returns its index.
+  int require_lower_back(const std::string& user) const;
 
  private:
   std::map<std::string, int> bodies_;        // every named body
