@@ -158,7 +158,9 @@ void ControllerParams::validate(double timestep_s) const {
 const JointParams& ControllerParams::at(const std::string& name) const {
   for (std::size_t i = 0; i < names.size(); ++i)
     if (names[i] == name) return joints[i];
-  throw InvalidArgument("controller params: no joint named '" + name + "'");
+  std::string known;
+  for (const std::string& n : names) known += (known.empty() ? "" : ", ") + n;
+  throw InvalidArgument("controller params: no joint named '" + name + "' (joints: " + known + ")");
 }
 
 JointParams& ControllerParams::at(const std::string& name) {

@@ -31,6 +31,10 @@ TEST_CASE_METHOD(biodyn::testing::SimulationTest,
       m.actuator_ctrlrange[2 * mj_name2id(&m, mjOBJ_ACTUATOR, "knee_flexion_l") + 1];
   CHECK(p.at("knee_l").tau_max_Nm[0] == Approx(knee_motor));
   CHECK(p.at("knee_l").reaction_time_s == Approx(0.02));  // paper §5.1
+  // An unknown joint's error lists the joints there are (a viewer script's `set tau_scale
+  // lumbar` on the paper's lower-body model, whose lower back is `trunk`).
+  CHECK_THROWS_WITH(p.at("spine"), Catch::Contains("no joint named 'spine'") &&
+                                       Catch::Contains("knee_l") && Catch::Contains("lumbar"));
 
   controllers::apply_params_json(
       R"({"joints": {"all": {"reaction_time_s": 0.1}, "knee": {"tau_max_Nm": 400},

@@ -42,7 +42,7 @@ Eigen::VectorXd offset_sigmas(const mjModel& m, const models::Rig& rig, const Sa
     if (g.name.rfind("hip", 0) == 0) s = p.sigma_hip_rad;
     if (g.name.rfind("knee", 0) == 0) s = p.sigma_knee_rad;
     if (g.name.rfind("ankle", 0) == 0) s = p.sigma_ankle_rad;
-    if (g.name == "lumbar" || g.name == "thorax") s = p.sigma_trunk_rad;
+    if (g.name == "lumbar" || g.name == "thorax" || g.name == "trunk") s = p.sigma_trunk_rad;
     sigma.segment(g.dof_begin, g.dof_count).setConstant(s);
   }
   return sigma;

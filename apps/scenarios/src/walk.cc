@@ -37,7 +37,7 @@ Vector2d com_xy(const mjModel& m, const mjData& d) {
   return sim::center_of_mass(m, d).position_W.head<2>();
 }
 
-// Per-angle [min, max] of the legs and the lumbar joint.
+// Per-angle [min, max] of the legs and the lower back (the lumbar, or the gait model's trunk).
 struct AngleRanges {
   struct Entry {
     std::string name;

@@ -788,7 +788,9 @@ class Session {
                      muscles, m.opt.timestep);
     sh_.muscle_plots.init(scenario);
     const auto& groups = scenario.rig().groups();
-    for (const char* g : {"hip_l", "knee_l", "ankle_l", "hip_r", "knee_r", "ankle_r", "lumbar"}) {
+    // The lower back is the lumbar, or the trunk on the paper's lower-body model.
+    for (const char* g :
+         {"hip_l", "knee_l", "ankle_l", "hip_r", "knee_r", "ankle_r", "lumbar", "trunk"}) {
       for (std::size_t i = 0; i < groups.size(); ++i) {
         if (groups[i].name != g) continue;
         sh_.plots.groups.push_back(g);

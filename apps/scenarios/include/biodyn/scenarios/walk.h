@@ -97,8 +97,8 @@ struct WalkRunResult {
   std::vector<double> step_lengths_m, step_widths_m, step_times_s;
   double cadence_steps_per_min = 0;  ///< after the start-up
   double mean_step_length_m = 0;     ///< after the start-up
-  /// deg, [min, max] of each leg and lumbar angle after the start-up; ball joints as
-  /// <group>_flexion/_abduction/_rotation (joint_groups.h), hinges by their DOF name.
+  /// deg, [min, max] of each leg and lower-back (lumbar, or trunk) angle after the start-up; ball
+  /// joints as <group>_flexion/_abduction/_rotation (joint_groups.h), hinges by their DOF name.
   std::map<std::string, std::array<double, 2>> joint_ranges_deg;
   double swing_knee_peak_deg = 0;   ///< deg, mean over swings of the peak knee flexion
   double heel_strike_fraction = 0;  ///< strikes whose first floor contact is behind the sole centre
