@@ -83,6 +83,7 @@ constexpr NamedField kFields[] = {BIODYN_FIELD(sagittal_cd),
                                   BIODYN_FIELD(speed_step_fade_m_s),
                                   BIODYN_FIELD(speed_lean_limit_rad),
                                   BIODYN_FIELD(lateral_integral_rad_per_m),
+                                  BIODYN_FIELD(lateral_integral_step_limit_m),
                                   BIODYN_FIELD(step_clearance_m),
                                   BIODYN_FIELD(placement_gain),
                                   BIODYN_FIELD(placed_wait_s),
@@ -358,6 +359,9 @@ void TorqueWalkerParams::validate() const {
         "must be in (0, 2]", speed_step_fade_m_s);
   check(lateral_integral_rad_per_m >= 0 && lateral_integral_rad_per_m <= 2,
         w + "lateral_integral_rad_per_m", "must be in [0, 2]", lateral_integral_rad_per_m);
+  check(lateral_integral_step_limit_m >= 0 && lateral_integral_step_limit_m <= 5,
+        w + "lateral_integral_step_limit_m", "must be in [0, 5] m (0: no limit)",
+        lateral_integral_step_limit_m);
   check(step_clearance_m >= 0 && step_clearance_m <= 0.5, w + "step_clearance_m",
         "must be in [0, 0.5] m", step_clearance_m);
   check(std::abs(stop_brake_rad_per_m_s) <= 2, w + "stop_brake_rad_per_m_s", "must be within +-2",
@@ -701,8 +705,12 @@ void TorqueWalker::on_strike(const mjData& d, const sim::CenterOfMass& com, int 
                               -p.speed_step_limit_rad, p.speed_step_limit_rad);
     const double sideways =
         -sh * (com_now.x() - st.com_at_strike.x()) + ch * (com_now.y() - st.com_at_strike.y());
+    // The drift integral counts a step's sideways travel up to a drift's size (a push's is
+    // the balance feedback's); 0: the whole travel.
+    const double bound = p.lateral_integral_step_limit_m;
+    const double drift = bound > 0 ? std::clamp(sideways, -bound, bound) : sideways;
     st.roll_integral =
-        std::clamp(st.roll_integral + p.lateral_integral_rad_per_m * sideways, -limit, limit);
+        std::clamp(st.roll_integral + p.lateral_integral_rad_per_m * drift, -limit, limit);
     if (!st.stopping) {
       st.walk_step_speed_m_s = v_step;
       ++st.walk_steps;

@@ -28,7 +28,8 @@
 ///  - Stance hip: the pelvis's orientation in the world (upright, pitched pelvis_pitch, facing
 ///    the heading) by a virtual torso torque tau_torso; the stance hip takes
 ///    tau_stance = -tau_torso - tau_swing - tau_lumbar so that the joints' reactions on the
-///    pelvis sum to tau_torso (the lumbar's reaction included: the upper body is half the mass).
+///    pelvis sum to tau_torso (the lower back's reaction included, the lumbar's or on the
+///    paper's lower-body model the trunk's: the upper body is half the mass).
 /// Gains are for an 80 kg body and scale with the body mass. Nothing acts on the root: the
 /// torso torque is made by the hips against the legs, and the feet hold by contact only.
 ///
@@ -122,7 +123,7 @@ struct TorqueWalkerParams {
   /// a spring and the whole-body solve carries the body).
   double stance_weight_support = 0;
   double toe_kp = 30;
-  double trunk_kp = 600;        ///< lumbar, thorax
+  double trunk_kp = 600;        ///< lumbar, thorax; trunk (the paper's lower-body model)
   double arm_kp = 100;          ///< shoulders, clavicles
   double distal_kp = 50;        ///< neck, head, elbows, forearms, wrists
   double damping_time_s = 0.1;  ///< kd = kp damping_time_s
@@ -150,6 +151,10 @@ struct TorqueWalkerParams {
   /// lateral_integral_rad_per_m times the CoM's sideways travel in that step (heading frame), so
   /// a steady sideways drift places the feet against it (held within +-speed_lean_limit_rad).
   double lateral_integral_rad_per_m = 0.05;
+  /// The drift integral counts a step's sideways travel within +-this, m (0: whole). A drift is
+  /// a few cm a step; a sideways push's 0.3-1 m counted whole rolled the feet until the body had
+  /// walked back across, at 0.3-0.5 m/s for 3-5 strides (controllers/README.md).
+  double lateral_integral_step_limit_m = 0.02;
   /// Constrained stepping: in early swing the ankle is held this high above its target.
   double step_clearance_m = 0.06;
   /// Constrained stepping: the IK aims short of the target by this times the ankle's
@@ -298,8 +303,9 @@ struct TorqueWalkerState {
 class TorqueWalker : public ControlDriver {
  public:
   /// For a rig with legs (thigh, shank, foot, optional toes; groups hip, knee, ankle, optional
-  /// toe) and a lumbar joint. Throws models::RigError if a part is missing, sim::InvalidArgument
-  /// if the params are invalid. The rig must outlive the walker.
+  /// toe) and a lower back (a lumbar joint, or the paper's lower-body model's trunk:
+  /// models::Rig::require_lower_back). Throws models::RigError if a part is missing,
+  /// sim::InvalidArgument if the params are invalid. The rig must outlive the walker.
   TorqueWalker(const models::Rig& rig, TorqueWalkerParams params);
 
   /// Starts from the current state: left foot in stance, early swing of the right leg,
@@ -381,8 +387,9 @@ class TorqueWalker : public ControlDriver {
   void advance_phases(const mjModel& m, const mjData& d, const sim::CenterOfMass& com);
   /// At a strike: step records, speed and drift integrals, the next planned step, the stop.
   void on_strike(const mjData& d, const sim::CenterOfMass& com, int swing);
-  /// Every joint but the legs holds the standing pose; returns the lumbar's torque on the upper
-  /// body (world), whose reaction the stance hip takes.
+  /// Every joint but the legs holds the standing pose; returns the lower back's torque on the
+  /// upper body (world), whose reaction the stance hip takes (torque actuation; zero with
+  /// velocity actuation, whose whole-body solve carries the reactions).
   Eigen::Vector3d hold_upper_body(ControlFrame* f, const mjModel& m, const mjData& d) const;
   /// Constrained stepping: the IK triangle for the planned step's ankle target (and its rates).
   LegTriangle placed_step_ik(const mjData& d, const TorqueWalkerPhase& ph);
