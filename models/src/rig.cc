@@ -263,11 +263,17 @@ int Rig::require_group(const std::string& name, const std::string& user) const {
   return g;
 }
 
-int Rig::require_lower_back(const std::string& user) const {
+int Rig::lower_back() const {
   for (const char* name : {"lumbar", "trunk"}) {
     const int g = group(name);
     if (g >= 0) return g;
   }
+  return -1;
+}
+
+int Rig::require_lower_back(const std::string& user) const {
+  const int g = lower_back();
+  if (g >= 0) return g;
   throw RigError(user +
                  ": the model has no joint group 'lumbar' or 'trunk' between the pelvis and the "
                  "upper body (a generated character has one in either detail)");

@@ -37,12 +37,16 @@ std::uint64_t sample_key(std::uint64_t seed, int window, int attempt, int parent
 /// Per DOF: the offsets' standard deviation (0 for the root and joints not sampled).
 Eigen::VectorXd offset_sigmas(const mjModel& m, const models::Rig& rig, const SamconParams& p) {
   Eigen::VectorXd sigma = Eigen::VectorXd::Zero(m.nv);
-  for (const models::JointGroup& g : rig.groups()) {
+  const std::vector<models::JointGroup>& groups = rig.groups();
+  const int back = rig.lower_back();
+  for (std::size_t i = 0; i < groups.size(); ++i) {
+    const models::JointGroup& g = groups[i];
     double s = 0;
     if (g.name.rfind("hip", 0) == 0) s = p.sigma_hip_rad;
     if (g.name.rfind("knee", 0) == 0) s = p.sigma_knee_rad;
     if (g.name.rfind("ankle", 0) == 0) s = p.sigma_ankle_rad;
-    if (g.name == "lumbar" || g.name == "thorax" || g.name == "trunk") s = p.sigma_trunk_rad;
+    // The lower back (the lumbar, or the gait model's trunk) and the thorax.
+    if (static_cast<int>(i) == back || g.name == "thorax") s = p.sigma_trunk_rad;
     sigma.segment(g.dof_begin, g.dof_count).setConstant(s);
   }
   return sigma;

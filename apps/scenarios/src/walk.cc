@@ -46,12 +46,14 @@ struct AngleRanges {
   };
   std::vector<Entry> entries;
 
-  explicit AngleRanges(const std::vector<JointGroup>& groups) {
+  explicit AngleRanges(const models::Rig& rig) {
+    const std::vector<JointGroup>& groups = rig.groups();
+    const int back = rig.lower_back();
     for (std::size_t g = 0; g < groups.size(); ++g) {
       const std::string& n = groups[g].name;
       const bool wanted = n.rfind("hip", 0) == 0 || n.rfind("knee", 0) == 0 ||
-                          n.rfind("ankle", 0) == 0 || n.rfind("toe", 0) == 0 || n == "lumbar" ||
-                          n == "trunk";
+                          n.rfind("ankle", 0) == 0 || n.rfind("toe", 0) == 0 ||
+                          static_cast<int>(g) == back;
       if (!wanted) continue;
       for (int k = 0; k < groups[g].dof_count; ++k) {
         static const char* const kBall[3] = {"_flexion", "_abduction", "_rotation"};
@@ -95,7 +97,7 @@ class WalkMetrics : public StepObserver {
  public:
   WalkMetrics(const WalkScenario& s, WalkRunResult* r)
       : r_(r),
-        ranges_(s.rig().groups()),
+        ranges_(s.rig()),
         load_meter_(s.simulation().model(),
                     models::judged_tau_max(s.simulation().model(), s.rig().groups())) {
     const mjModel& m = s.simulation().model();

@@ -787,15 +787,16 @@ class Session {
     sh_.history.init(static_cast<int>(std::ceil(12.0 / (History::kEvery * m.opt.timestep))), m.nq,
                      muscles, m.opt.timestep);
     sh_.muscle_plots.init(scenario);
-    const auto& groups = scenario.rig().groups();
-    // The lower back is the lumbar, or the trunk on the paper's lower-body model.
-    for (const char* g :
-         {"hip_l", "knee_l", "ankle_l", "hip_r", "knee_r", "ankle_r", "lumbar", "trunk"}) {
-      for (std::size_t i = 0; i < groups.size(); ++i) {
-        if (groups[i].name != g) continue;
-        sh_.plots.groups.push_back(g);
-        sh_.plots.group_index.push_back(static_cast<int>(i));
-      }
+    const models::Rig& rig = scenario.rig();
+    for (const char* g : {"hip_l", "knee_l", "ankle_l", "hip_r", "knee_r", "ankle_r"}) {
+      const int i = rig.group(g);
+      if (i < 0) continue;
+      sh_.plots.groups.push_back(g);
+      sh_.plots.group_index.push_back(i);
+    }
+    if (const int back = rig.lower_back(); back >= 0) {  // the lumbar, or the gait model's trunk
+      sh_.plots.groups.push_back(rig.groups()[static_cast<std::size_t>(back)].name);
+      sh_.plots.group_index.push_back(back);
     }
     sh_.plots.torque_ratio.resize(sh_.plots.groups.size());
     sim::CameraView& v = renderer_.view();

@@ -149,7 +149,9 @@ class Rig {
   /// The body called `name`; returns its id.
   int require_body(const std::string& name, const std::string& user) const;
   /// The joint group between the pelvis and the upper body: "lumbar" (full detail) or "trunk"
-  /// (the paper's lower-body model, its upper body one segment); returns its index.
+  /// (the paper's lower-body model, its upper body one segment); its index, or -1.
+  int lower_back() const;
+  /// lower_back(), or a RigError naming `user` and both names.
   int require_lower_back(const std::string& user) const;
 
  private:
