@@ -89,6 +89,7 @@ constexpr NamedField kFields[] = {BIODYN_FIELD(sagittal_cd),
                                   BIODYN_FIELD(placed_wait_s),
                                   BIODYN_FIELD(placed_tuck_m),
                                   BIODYN_FIELD(catch_step_s_per_m_s),
+                                  BIODYN_FIELD(catch_side_deadband_m_s),
                                   BIODYN_FIELD(plan_speed_gain),
                                   BIODYN_FIELD(stop_brake_rad_per_m_s),
                                   BIODYN_FIELD(stop_speed_m_s),
@@ -376,6 +377,8 @@ void TorqueWalkerParams::validate() const {
         placed_wait_s);
   check(catch_step_s_per_m_s >= 0 && catch_step_s_per_m_s <= 1, w + "catch_step_s_per_m_s",
         "must be in [0, 1] s per m/s", catch_step_s_per_m_s);
+  check(catch_side_deadband_m_s >= 0 && catch_side_deadband_m_s <= 2, w + "catch_side_deadband_m_s",
+        "must be in [0, 2] m/s", catch_side_deadband_m_s);
   check(std::abs(placed_tuck_m) <= 1, w + "placed_tuck_m", "must be within +-1 m", placed_tuck_m);
   check(plan_speed_gain >= 0 && plan_speed_gain <= 10, w + "plan_speed_gain", "must be in [0, 10]",
         plan_speed_gain);
@@ -647,9 +650,13 @@ void TorqueWalker::advance_phases(const mjModel& m, const mjData& d, const sim::
         std::isnan(state_.swing_target_m) && std::isnan(state_.plan_speed_m_s) &&
         state_.walk_steps >= kCatchAfterSteps &&
         std::abs(state_.heading_rate_rad_s) <= kCatchMaxTurn_rad_s) {
-      const double v = state_.heading.to_heading(Vector2d(com.velocity_W.head<2>())).x();
+      const Vector2d v = state_.heading.to_heading(Vector2d(com.velocity_W.head<2>()));
       const double reference = std::max(state_.walk_step_speed_m_s, state_.speed_m_s);
-      const double excess = v - reference - kCatchDeadband_m_s;
+      double excess = v.x() - reference - kCatchDeadband_m_s;
+      // Sideways, either way (catch_side_deadband_m_s): towards the swing side the side step,
+      // towards the stance side the crossover comes sooner.
+      if (params_.catch_side_deadband_m_s > 0)
+        excess = std::max(excess, std::abs(v.y()) - params_.catch_side_deadband_m_s);
       if (excess > 0)
         duration =
             std::max(duration - params_.catch_step_s_per_m_s * excess, kCatchMinShare * duration);

@@ -209,14 +209,19 @@ TEST_CASE_METHOD(testing::SimulationTest,
                  "[scenarios][push]") {
   // 350 N x 0.2 s to the left at the right foot's strike (the left leg swings next), honest weld:
   // unbounded, the balance feedback's side step was 0.84 m wide and its slanted leg gave way at
-  // the next strike (controllers/README.md, max_swing_roll_rad).
+  // the next strike (controllers/README.md, max_swing_roll_rad). With the sideways catching step
+  // (catch_side_deadband_m_s) the unbounded side step comes sooner and survives too: the bound
+  // is compared without it.
   const PushSweepCell cell{90, 0.2, 0.5};
   std::string failure;
-  const PushOutcome bounded = honest_push({}, 350, cell, "", &failure);
+  const PushOutcome defaults = honest_push({}, 350, cell, "", &failure);
   INFO(failure);
+  CHECK(defaults == PushOutcome::kSurvived);
+  const PushOutcome bounded =
+      honest_push({}, 350, cell, R"({"catch_side_deadband_m_s": 0})", &failure);
   CHECK(bounded == PushOutcome::kSurvived);
-  const PushOutcome unbounded =
-      honest_push({}, 350, cell, R"({"max_swing_roll_rad": 1.5})", &failure);
+  const PushOutcome unbounded = honest_push(
+      {}, 350, cell, R"({"catch_side_deadband_m_s": 0, "max_swing_roll_rad": 1.5})", &failure);
   CHECK(unbounded == PushOutcome::kFell);
 }
 
@@ -242,10 +247,11 @@ TEST_CASE_METHOD(testing::SimulationTest,
   // frontal_cv (0.36) recovers; the torque walker's 0.48 over the same gait fell (8 x 10 sweep:
   // 83.8 -> 91.2 %, controllers/README.md). Since the drift integral counts a step's sideways
   // travel only up to lateral_integral_step_limit_m, 0.48 survives this push too; it fell
-  // with the push's whole travel counted, as when the gain was chosen.
+  // with the push's whole travel counted, as when the gain was chosen, and with the sideways
+  // catching step it is "speed not back in 4 strides", not a fall.
   check_defaults_survive_where_before_fell(
       {}, 350, PushSweepCell{90, 0.2, 0.4},
-      R"({"frontal_cv": 0.48, "lateral_integral_step_limit_m": 0})",
+      R"({"frontal_cv": 0.48, "lateral_integral_step_limit_m": 0, "catch_side_deadband_m_s": 0})",
       controllers::WalkerActuation::kVelocity);
 }
 
@@ -261,6 +267,31 @@ TEST_CASE_METHOD(
   check_defaults_survive_where_before_fell({}, 350, PushSweepCell{0, 0.2, 0.1},
                                            R"({"catch_step_s_per_m_s": 0})",
                                            controllers::WalkerActuation::kTorque, 0.1);
+}
+
+TEST_CASE_METHOD(testing::SimulationTest,
+                 "A push from the side at t_r 100 ms: the crossover comes sooner "
+                 "(catch_side_deadband_m_s)",
+                 "[scenarios][push]") {
+  // 350 N x 0.2 s to the right at 0.4 of the stride (the right foot's late swing), 1.80 m /
+  // 80 kg, t_r 100 ms: the right foot lands before the push is felt, and the left crosses
+  // over. On the clock that crossover came 0.48 s later with the capture point 27 cm beyond
+  // it, and each side step after fell further behind (fell 1.75 s after the onset). The
+  // sideways speed over the deadband ends the swings sooner (controllers/README.md).
+  check_defaults_survive_where_before_fell({}, 350, PushSweepCell{270, 0.2, 0.4},
+                                           R"({"catch_side_deadband_m_s": 0})",
+                                           controllers::WalkerActuation::kTorque, 0.1);
+}
+
+TEST_CASE_METHOD(testing::SimulationTest,
+                 "The velocity-based driver's sideways catching step: a push from the left at "
+                 "t_r 100 ms",
+                 "[scenarios][push]") {
+  // 350 N x 0.2 s to the left at 0.1 of the stride, 1.80 m / 80 kg, t_r 100 ms: without the
+  // sideways catch the body fell 2.2 s after the onset.
+  check_defaults_survive_where_before_fell({}, 350, PushSweepCell{90, 0.2, 0.1},
+                                           R"({"catch_side_deadband_m_s": 0})",
+                                           controllers::WalkerActuation::kVelocity, 0.1);
 }
 
 TEST_CASE_METHOD(testing::SimulationTest,
