@@ -105,11 +105,13 @@ struct TorqueWalkerParams {
   /// (controllers/README.md).
   double catch_step_s_per_m_s = 0.7;
   /// m/s: the CoM's sideways speed (either way) beyond this shortens the swing's time phase
-  /// as well, by catch_step_s_per_m_s per m/s beyond it (the same conditions). After a side
+  /// as well, by catch_step_s_per_m_s per m/s beyond it (the same conditions; off with it at
+  /// 0), the larger of the forward and sideways excesses counting. After a side
   /// push the side step, or the crossover when the push is towards the stance leg, comes
   /// sooner: at t_r 100 ms the crossover after a push at the end of a swing came 0.48 s later,
   /// the capture point already 27 cm beyond it. A steady walk's own sideways speed stays
-  /// within ~0.15 m/s (an unsettled start's can pass 0.4). 0: off (controllers/README.md).
+  /// within ~0.2 m/s (an unsettled start's can pass 0.4). It costs some diagonal pushes from
+  /// behind. 0: off (controllers/README.md).
   double catch_side_deadband_m_s = 0.4;
   double pelvis_pitch_rad = 0.125;  ///< forward lean of the pelvis in the world
   double start_pitch_rad = 0.073;   ///< extra lean for the first start_time_s (from standing)
