@@ -100,6 +100,8 @@ nlohmann::json walk_json(const scenarios::WalkRunResult& r) {
   nlohmann::json j = {
       {"fallen", r.fallen},
       {"time_fallen", r.fallen ? nlohmann::json(r.time_fallen_s) : nlohmann::json(nullptr)},
+      {"diverged_at",
+       r.diverged_at_s >= 0 ? nlohmann::json(r.diverged_at_s) : nlohmann::json(nullptr)},
       {"distance", r.distance_m},
       {"mean_speed", r.mean_speed_m_s},
       {"steady_speed", r.steady_speed_m_s},
@@ -195,6 +197,8 @@ void print_walk_summary(const scenarios::WalkRunResult& r, std::ostream& out) {
   out << std::fixed << std::setprecision(2);
   if (r.fallen) {
     out << "  FELL at " << r.time_fallen_s << " s";
+    if (r.diverged_at_s >= 0)
+      out << " (the simulation diverged: MuJoCo's bad qacc; measured to the last step)";
   } else {
     out << "  walked " << r.simulated_s << " s without falling";
   }

@@ -24,6 +24,10 @@ std::string WarningCounts::describe() const {
   return first ? "none" : out.str();
 }
 
+long WarningCounts::diverged() const {
+  return count[mjWARN_BADQPOS] + count[mjWARN_BADQVEL] + count[mjWARN_BADQACC];
+}
+
 WarningCounts& WarningCounts::operator+=(const WarningCounts& other) {
   for (int i = 0; i < mjNWARNING; ++i) count[i] += other.count[i];
   return *this;

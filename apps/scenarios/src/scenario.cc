@@ -186,8 +186,16 @@ Scenario::Scenario(sim::Simulation* sim, ScenarioConfig config)
 }
 
 void Scenario::step() {
+  const double time_before_s = sim_->data().time;
+  const long diverged_before = sim_->warnings().diverged();
   advance();
   ++steps_;
+  if (sim_->warnings().diverged() > diverged_before) {
+    // MuJoCo has reset the data to the start: the run ends at the divergence, as a fall.
+    diverged_at_s_ = time_before_s;
+    if (fell_at_s_ < 0) fell_at_s_ = time_before_s;
+    return;
+  }
   note_fall();
   after_step();
   for (StepObserver* o : observers_) o->on_step(*this);
@@ -199,7 +207,7 @@ void Scenario::run_until(double t_s) {
 }
 
 bool Scenario::run_over() const {
-  if (finished()) return true;
+  if (finished() || diverged_at_s_ >= 0) return true;
   for (const StepObserver* o : observers_)
     if (o->done()) return true;
   return false;
@@ -214,6 +222,7 @@ void Scenario::save_common(CommonState* out) const {
   out->config = config_;
   out->steps = steps_;
   out->fell_at_s = fell_at_s_;
+  out->diverged_at_s = diverged_at_s_;
 }
 
 void Scenario::restore_common(const CommonState& in) {
@@ -221,6 +230,7 @@ void Scenario::restore_common(const CommonState& in) {
   config_ = in.config;
   steps_ = in.steps;
   fell_at_s_ = in.fell_at_s;
+  diverged_at_s_ = in.diverged_at_s;
 }
 
 controllers::ControllerParams Scenario::controller_params_from_config() const {

@@ -148,14 +148,16 @@ class WalkMetrics : public StepObserver {
     const mjModel& m = s.simulation().model();
     const mjData& d = s.simulation().data();
     const sim::CenterOfMass com = sim::center_of_mass(m, d);
-    r_->final_com_speed_m_s = com.velocity_W.head<2>().norm();
+    // After a divergence the data is MuJoCo's reset: the walk is measured to its last strike.
+    const bool diverged = s.diverged_at_s() >= 0;
+    r_->final_com_speed_m_s = diverged ? 0.0 : com.velocity_W.head<2>().norm();
     r_->joint_load = joint_load_report(m, load_);
     r_->standing_at_end = r_->stopped_at_s >= 0 && !r_->fallen &&
                           r_->final_com_speed_m_s < kStandingSpeed_m_s && feet_down_[0] &&
                           feet_down_[1];
     r_->steps = s.walker().strike_count();
     const double heading = s.walker().heading_rad();
-    const Vector2d com_end = com.position_W.head<2>();
+    const Vector2d com_end = diverged ? com_last_strike_ : Vector2d(com.position_W.head<2>());
     r_->distance_m +=
         (com_end - com_last_strike_).dot(Vector2d(std::cos(heading), std::sin(heading)));
     r_->mean_speed_m_s = r_->simulated_s > 0 ? r_->distance_m / r_->simulated_s : 0;
@@ -394,6 +396,7 @@ class PushJudge : public StepObserver {
       std::ostringstream s;
       s << "fell at " << r.time_fallen_s << " s (" << r.time_fallen_s - o.onset_s
         << " s after the onset)";
+      if (r.diverged_at_s >= 0) s << ", the simulation diverged (MuJoCo's bad qacc)";
       o.failure = s.str();
     } else if (o.recovery_strides < 0) {
       o.outcome = PushOutcome::kSpeedNotRecovered;
@@ -488,6 +491,7 @@ WalkRunResult run_walk(sim::Simulation* sim, const WalkRunParams& params,
   }
   r.fallen = scenario.fell_at_s() >= 0;
   r.time_fallen_s = scenario.fell_at_s();
+  r.diverged_at_s = scenario.diverged_at_s();
   r.stopped_at_s = scenario.stopped_at_s();
   r.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
   r.simulated_s = r.sim_steps * dt;

@@ -157,3 +157,32 @@ TEST_CASE_METHOD(testing::SimulationTest,
   CHECK(s->step_index() == 25);
   CHECK_FALSE(s->finished());
 }
+
+TEST_CASE_METHOD(testing::SimulationTest,
+                 "A simulation that diverges ends the run as a fall at the time it diverged",
+                 "[scenarios][registry]") {
+  // MuJoCo resets the data to the model's start when the state blows up (bad qacc): measured as
+  // it was, the run went on from standing and "fell" seconds into a second walk (a velocity
+  // driver's walk at 1.5 m/s printed "FELL at 1.11 s" after 24 steps and 12.4 s).
+  sim::Simulation sim(biodyn::testing::generated_character());
+  ScenarioConfig config;
+  config.scenario = "walk";
+  const std::unique_ptr<scenarios::Scenario> s = scenarios::make_scenario(&sim, config);
+  s->run_until(0.5);
+  REQUIRE(s->diverged_at_s() < 0);
+  const std::unique_ptr<scenarios::ScenarioState> saved = s->new_state();
+  s->save(saved.get());
+  const double t_diverged = sim.data().time;
+  sim.data().qvel[0] = 1e20;  // a blown-up state: MuJoCo's bad qvel/qacc check resets the data
+  s->step();
+  CHECK(sim.warnings().diverged() > 0);
+  CHECK(s->diverged_at_s() == t_diverged);
+  CHECK(s->fell_at_s() == t_diverged);
+  CHECK(s->run_over());
+  CHECK_FALSE(guard.take_messages().empty());
+  // A restore to before the divergence takes it back (the viewer's rewind).
+  s->restore(*saved);
+  CHECK(s->diverged_at_s() < 0);
+  CHECK(s->fell_at_s() < 0);
+  CHECK_FALSE(s->run_over());
+}

@@ -21,6 +21,8 @@ struct WarningCounts {
   std::array<long, mjNWARNING> count{};  ///< indexed by mjtWarning
 
   long total() const;
+  /// Bad qpos, qvel or qacc: the state diverged, and MuJoCo reset the data itself.
+  long diverged() const;
   /// "contact list full x3, bad qacc x1", or "none".
   std::string describe() const;
   WarningCounts& operator+=(const WarningCounts& other);

@@ -244,6 +244,10 @@ class Scenario {
   virtual bool fallen() const = 0;
   /// When it first fell (s), or -1.
   double fell_at_s() const { return fell_at_s_; }
+  /// When the simulation diverged (s; MuJoCo's bad qpos, qvel or qacc, after which it resets
+  /// the data to the model's start), or -1. The run ends there, counted as a fall at that time:
+  /// the reset state is never measured as if the body had stood up again.
+  double diverged_at_s() const { return diverged_at_s_; }
 
   // --- Read-outs for specific scenarios (nullptr otherwise) ---
   /// The control pipeline, or nullptr (a kinematic playback).
@@ -294,6 +298,7 @@ class Scenario {
   models::Rig rig_;
   long steps_ = 0;
   double fell_at_s_ = -1;
+  double diverged_at_s_ = -1;
 
  private:
   std::vector<StepObserver*> observers_;
@@ -306,6 +311,7 @@ struct CommonState {
   ScenarioConfig config;
   long steps = 0;
   double fell_at_s = -1;
+  double diverged_at_s = -1;
   std::size_t bytes() const { return sizeof(*this) + sim.data.bytes(); }
 };
 
