@@ -81,6 +81,8 @@ constexpr NamedField kFields[] = {BIODYN_FIELD(sagittal_cd),
                                   BIODYN_FIELD(speed_step_gain_rad_per_m_s),
                                   BIODYN_FIELD(speed_step_limit_rad),
                                   BIODYN_FIELD(speed_step_fade_m_s),
+                                  BIODYN_FIELD(speed_recovery_gain_rad_per_m_s),
+                                  BIODYN_FIELD(speed_recovery_deadband_m_s),
                                   BIODYN_FIELD(speed_lean_limit_rad),
                                   BIODYN_FIELD(lateral_integral_rad_per_m),
                                   BIODYN_FIELD(lateral_integral_step_limit_m),
@@ -358,6 +360,11 @@ void TorqueWalkerParams::validate() const {
         "must be in [0, 0.5]", speed_step_limit_rad);
   check(speed_step_fade_m_s > 0 && speed_step_fade_m_s <= 2, w + "speed_step_fade_m_s",
         "must be in (0, 2]", speed_step_fade_m_s);
+  check(speed_recovery_gain_rad_per_m_s >= 0 && speed_recovery_gain_rad_per_m_s <= 2,
+        w + "speed_recovery_gain_rad_per_m_s", "must be in [0, 2]",
+        speed_recovery_gain_rad_per_m_s);
+  check(speed_recovery_deadband_m_s >= 0 && speed_recovery_deadband_m_s <= 2,
+        w + "speed_recovery_deadband_m_s", "must be in [0, 2]", speed_recovery_deadband_m_s);
   check(lateral_integral_rad_per_m >= 0 && lateral_integral_rad_per_m <= 2,
         w + "lateral_integral_rad_per_m", "must be in [0, 2]", lateral_integral_rad_per_m);
   check(lateral_integral_step_limit_m >= 0 && lateral_integral_step_limit_m <= 5,
@@ -701,15 +708,20 @@ void TorqueWalker::on_strike(const mjData& d, const sim::CenterOfMass& com, int 
         (ch * (com_now.x() - st.com_at_strike.x()) + sh * (com_now.y() - st.com_at_strike.y())) /
         std::max(t_step, 1e-3);
     const double limit = p.speed_lean_limit_rad;
+    const double deficit = st.speed_m_s - v_step;
     st.lean_integral =
-        std::clamp(st.lean_integral + p.speed_integral_rad_per_m * (st.speed_m_s - v_step) * t_step,
-                   -limit, limit);
+        std::clamp(st.lean_integral + p.speed_integral_rad_per_m * deficit * t_step, -limit, limit);
     const double fade =
         st.stopping
             ? 0.0
             : std::clamp((p.reference_speed_m_s - st.speed_m_s) / p.speed_step_fade_m_s, 0.0, 1.0);
-    st.lean_step = std::clamp(fade * p.speed_step_gain_rad_per_m_s * (st.speed_m_s - v_step),
+    st.lean_step = std::clamp(fade * p.speed_step_gain_rad_per_m_s * deficit,
                               -p.speed_step_limit_rad, p.speed_step_limit_rad);
+    // After a near stop (a push from the front) the lean comes at once, not after the integral's
+    // windup (speed_recovery_gain_rad_per_m_s).
+    if (!st.stopping)
+      st.lean_step += p.speed_recovery_gain_rad_per_m_s *
+                      std::max(deficit - p.speed_recovery_deadband_m_s, 0.0);
     const double sideways =
         -sh * (com_now.x() - st.com_at_strike.x()) + ch * (com_now.y() - st.com_at_strike.y());
     // The drift integral counts a step's sideways travel up to a drift's size (a push's is

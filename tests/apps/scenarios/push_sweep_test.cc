@@ -284,6 +284,25 @@ TEST_CASE_METHOD(testing::SimulationTest,
 }
 
 TEST_CASE_METHOD(testing::SimulationTest,
+                 "A push from the front that nearly stops the body: the speed is back in 4 "
+                 "strides (speed_recovery_gain_rad_per_m_s)",
+                 "[scenarios][push]") {
+  // 350 N x 0.2 s backwards at 0.3 of the stride, 1.80 m / 80 kg, 1.0 m/s, t_r 100 ms: the body
+  // then walked on the spot and slowly backwards (-0.1 m/s) for 6 steps while the integral
+  // leaned it forward, and its speed was not back within 10 % in 4 strides.
+  const PushSweepCell cell{180, 0.2, 0.3};
+  std::string now_failure, before_failure;
+  const PushOutcome now =
+      honest_push({}, 350, cell, "", &now_failure, controllers::WalkerActuation::kTorque, 0.1);
+  const PushOutcome then = honest_push({}, 350, cell, R"({"speed_recovery_gain_rad_per_m_s": 0})",
+                                       &before_failure, controllers::WalkerActuation::kTorque, 0.1);
+  INFO("defaults: " << (now_failure.empty() ? "survived" : now_failure)
+                    << "; without: " << (before_failure.empty() ? "survived" : before_failure));
+  CHECK(now == PushOutcome::kSurvived);
+  CHECK(then == PushOutcome::kSpeedNotRecovered);
+}
+
+TEST_CASE_METHOD(testing::SimulationTest,
                  "The velocity-based driver's sideways catching step: a push from the left at "
                  "t_r 100 ms",
                  "[scenarios][push]") {
