@@ -718,9 +718,9 @@ void TorqueWalker::on_strike(const mjData& d, const sim::CenterOfMass& com, int 
     st.lean_step = std::clamp(fade * p.speed_step_gain_rad_per_m_s * deficit,
                               -p.speed_step_limit_rad, p.speed_step_limit_rad);
     // After a near stop (a push from the front) the lean comes at once, not after the integral's
-    // windup (speed_recovery_gain_rad_per_m_s).
+    // windup (speed_recovery_gain_rad_per_m_s); where the step term acts, it does this already.
     if (!st.stopping)
-      st.lean_step += p.speed_recovery_gain_rad_per_m_s *
+      st.lean_step += (1.0 - fade) * p.speed_recovery_gain_rad_per_m_s *
                       std::max(deficit - p.speed_recovery_deadband_m_s, 0.0);
     const double sideways =
         -sh * (com_now.x() - st.com_at_strike.x()) + ch * (com_now.y() - st.com_at_strike.y());

@@ -158,10 +158,11 @@ struct TorqueWalkerParams {
   double speed_step_fade_m_s = 0.2;
   /// Speed recovery after a near stop: a step slower than the command by more than
   /// speed_recovery_deadband_m_s adds speed_recovery_gain_rad_per_m_s times the excess to the
-  /// step term's lean (at any command, not while stopping), until the next counted step. A
-  /// push from the front can leave the body walking on the spot or slowly backwards (-0.1 m/s);
-  /// the integral alone took 6 steps to lean it forward again, and the speed was not back in
-  /// 4 strides. Without a windup it is gone as soon as the steps are fast again. 0: off.
+  /// step term's lean until the next counted step, where the step term has faded out (weighted
+  /// 1 - its fade: at and above reference_speed_m_s in full; not while stopping). A push from
+  /// the front can leave the body walking on the spot or slowly backwards (-0.1 m/s); the
+  /// integral alone took 6 steps to lean it forward again, and the speed was not back in 4
+  /// strides. Without a windup it is gone as soon as the steps are fast again. 0: off.
   double speed_recovery_gain_rad_per_m_s = 0.2;
   double speed_recovery_deadband_m_s = 0.3;
   /// The frontal counterpart: after every step the swing thigh's roll gains
