@@ -198,7 +198,8 @@ void print_walk_summary(const scenarios::WalkRunResult& r, std::ostream& out) {
   if (r.fallen) {
     out << "  FELL at " << r.time_fallen_s << " s";
     if (r.diverged_at_s >= 0)
-      out << " (the simulation diverged: MuJoCo's bad qacc; measured to the last step)";
+      out << " (the simulation diverged: MuJoCo's bad qacc; distance to the last strike, and the "
+             "last steps' joint figures are not physical)";
   } else {
     out << "  walked " << r.simulated_s << " s without falling";
   }

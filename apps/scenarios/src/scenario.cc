@@ -132,6 +132,11 @@ void ScenarioConfig::validate() const {
       fail("step offset " + std::to_string(i + 1), "must be within +-0.3 m", steps_lateral_m[i]);
   }
   controllers::TorqueWalker::validate_plan(steps_m);
+  if (!gait_json.empty()) {
+    // The walker's parameters too, before any run (a sweep's workers would each fail later).
+    controllers::TorqueWalkerParams walker = controllers::walker_defaults(walker_actuation);
+    controllers::apply_torque_walker_json(gait_json, gait_source, &walker);
+  }
   if (!(steps_start_s >= 0) || !std::isfinite(steps_start_s))
     fail("steps start", "must be a time >= 0 s", steps_start_s);
   if (!std::isfinite(stop_at_s)) fail("stop-at", "must be finite", stop_at_s);

@@ -151,6 +151,8 @@ class WalkMetrics : public StepObserver {
     // After a divergence the data is MuJoCo's reset: the walk is measured to its last strike.
     const bool diverged = s.diverged_at_s() >= 0;
     r_->final_com_speed_m_s = diverged ? 0.0 : com.velocity_W.head<2>().norm();
+    // The diverging step is not measured (on_step), but its warning (bad qacc) counts.
+    if (diverged) r_->warnings = s.simulation().warnings();
     r_->joint_load = joint_load_report(m, load_);
     r_->standing_at_end = r_->stopped_at_s >= 0 && !r_->fallen &&
                           r_->final_com_speed_m_s < kStandingSpeed_m_s && feet_down_[0] &&

@@ -462,3 +462,24 @@ TEST_CASE("biodyn push rejects a body it cannot push, by name", "[apps][cli][pus
   CHECK(r.err.find("head") != std::string::npos);
   CHECK_FALSE(fs::exists(dir / "p.json"));
 }
+
+TEST_CASE("A bad walker parameter is refused before any run, by push-sweep as by walk",
+          "[apps][cli][push]") {
+  // The sweep's workers each built the walker and failed there: exit 1 after the banner.
+  const fs::path dir = fresh_dir("sweep_bad_params");
+  std::ofstream(dir / "bad.json") << R"({"speed_recovery_gain_rad_per_m_s": -1})";
+  for (const char* args : {"push-sweep --params bad.json --controller velocity --out out",
+                           "walk --params bad.json --duration 1 --json w.json"}) {
+    INFO(args);
+    const Run r = run_biodyn(args, dir);
+    INFO(r.err);
+    CHECK(r.exit_code == 2);
+    CHECK(std::count(r.err.begin(), r.err.end(), '\n') == 1);
+    CHECK_THAT(r.err, Catch::Contains("bad.json") &&
+                          Catch::Contains("walker.speed_recovery_gain_rad_per_m_s") &&
+                          Catch::Contains("-1"));
+    CHECK(r.out.find("cells") == std::string::npos);  // no sweep banner: nothing started
+    CHECK_FALSE(fs::exists(dir / "out"));
+    CHECK_FALSE(fs::exists(dir / "w.json"));
+  }
+}

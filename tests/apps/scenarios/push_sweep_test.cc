@@ -306,9 +306,9 @@ TEST_CASE_METHOD(testing::SimulationTest,
                  "The velocity-based driver's sideways catching step: a push to the left at "
                  "t_r 100 ms",
                  "[scenarios][push]") {
-  // 350 N x 0.2 s to the left at 0.6 of the stride, 1.80 m / 80 kg, t_r 100 ms: without the
-  // sideways catch the body fell 1.3 s after the onset.
-  check_defaults_survive_where_before_fell({}, 350, PushSweepCell{90, 0.2, 0.6},
+  // 350 N x 0.2 s to the left at 0.1 of the stride, 1.80 m / 80 kg, t_r 100 ms: without the
+  // sideways catch the body fell 2.2 s after the onset.
+  check_defaults_survive_where_before_fell({}, 350, PushSweepCell{90, 0.2, 0.1},
                                            R"({"catch_side_deadband_m_s": 0})",
                                            controllers::WalkerActuation::kVelocity, 0.1);
 }

@@ -159,12 +159,14 @@ struct TorqueWalkerParams {
   /// Speed recovery after a near stop: a step slower than the command by more than
   /// speed_recovery_deadband_m_s adds speed_recovery_gain_rad_per_m_s times the excess to the
   /// step term's lean until the next counted step, where the step term has faded out (weighted
-  /// 1 - its fade: at and above reference_speed_m_s in full; not while stopping). A push from
+  /// 1 - its fade: at and above reference_speed_m_s in full; not while stopping), once
+  /// the walk has been at the command (not in a start or after a command change). A push from
   /// the front can leave the body walking on the spot or slowly backwards (-0.1 m/s); the
   /// integral alone took 6 steps to lean it forward again, and the speed was not back in 4
-  /// strides. Without a windup it is gone as soon as the steps are fast again. 0: off.
+  /// strides. The deadband is wide (0.6 m/s): at 0.3 it also acted on the step-to-step scatter
+  /// of fast walkers at t_r 100 ms and cost held-out pushes (controllers/README.md). 0: off.
   double speed_recovery_gain_rad_per_m_s = 0.2;
-  double speed_recovery_deadband_m_s = 0.3;
+  double speed_recovery_deadband_m_s = 0.6;
   /// The frontal counterpart: after every step the swing thigh's roll gains
   /// lateral_integral_rad_per_m times the CoM's sideways travel in that step (heading frame), so
   /// a steady sideways drift places the feet against it (held within +-speed_lean_limit_rad).
@@ -308,6 +310,9 @@ struct TorqueWalkerState {
   /// after the start, and how many such steps there have been.
   double walk_step_speed_m_s = 0;
   int walk_steps = 0;
+  /// A counted step has come within speed_recovery_deadband_m_s of the command (since the start
+  /// or the last command change): only then is a slow step a near stop (speed recovery).
+  bool at_speed = false;
   /// m/s, the speed the plan asks now (NaN: no plan).
   double plan_speed_m_s = std::numeric_limits<double>::quiet_NaN();
   bool stopping = false, stopped = false;
@@ -331,7 +336,10 @@ class TorqueWalker : public ControlDriver {
   void reset(const mjData& d);
   void set_heading_rate(double rad_s) { state_.heading_rate_rad_s = rad_s; }
   /// Commanded speed along the heading, m/s (> 0).
-  void set_speed(double m_s) { state_.speed_m_s = m_s; }
+  void set_speed(double m_s) {
+    if (m_s != state_.speed_m_s) state_.at_speed = false;
+    state_.speed_m_s = m_s;
+  }
   double speed_command() const { return state_.speed_m_s; }
   /// rad, the lean the speed regulation adds now (feed-forward + integral).
   double speed_lean_rad() const;
