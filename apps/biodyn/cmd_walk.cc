@@ -198,7 +198,8 @@ void print_walk_summary(const scenarios::WalkRunResult& r, std::ostream& out) {
   if (r.fallen) {
     out << "  FELL at " << r.time_fallen_s << " s";
     if (r.diverged_at_s >= 0)
-      out << " (the simulation diverged: MuJoCo's bad qacc; distance to the last strike, and the "
+      out << " (the simulation diverged: MuJoCo found a bad qpos, qvel or qacc and reset it; "
+             "distance to the last strike, and the "
              "last steps' joint figures are not physical)";
   } else {
     out << "  walked " << r.simulated_s << " s without falling";
@@ -382,12 +383,7 @@ Command add_walk_command(CLI::App* app) {
             scenarios::WalkRunParams p = o->walk.to_params();
             p.duration_s = o->duration_s;
             if (o->print_params) {
-              controllers::TorqueWalkerParams gp =
-                  controllers::walker_defaults(p.config.walker_actuation);
-              if (!p.config.gait_json.empty())
-                controllers::apply_torque_walker_json(p.config.gait_json, p.config.gait_source,
-                                                      &gp);
-              std::cout << controllers::torque_walker_json(gp);
+              std::cout << controllers::torque_walker_json(p.config.walker_params());
               return kExitOk;
             }
             if (!o->steps.empty()) {

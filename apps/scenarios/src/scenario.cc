@@ -98,6 +98,12 @@ controllers::ControlPipelineConfig ScenarioConfig::pipeline_config() const {
   return p;
 }
 
+controllers::TorqueWalkerParams ScenarioConfig::walker_params() const {
+  controllers::TorqueWalkerParams p = controllers::walker_defaults(walker_actuation);
+  if (!gait_json.empty()) controllers::apply_torque_walker_json(gait_json, gait_source, &p);
+  return p;
+}
+
 void ScenarioConfig::validate() const {
   check_scenario_name(scenario);
   const bool pose = is_pose_scenario(scenario), mocap = scenario == "mocap";
@@ -132,11 +138,8 @@ void ScenarioConfig::validate() const {
       fail("step offset " + std::to_string(i + 1), "must be within +-0.3 m", steps_lateral_m[i]);
   }
   controllers::TorqueWalker::validate_plan(steps_m);
-  if (!gait_json.empty()) {
-    // The walker's parameters too, before any run (a sweep's workers would each fail later).
-    controllers::TorqueWalkerParams walker = controllers::walker_defaults(walker_actuation);
-    controllers::apply_torque_walker_json(gait_json, gait_source, &walker);
-  }
+  // The walker's parameters too, before any run (a sweep's workers would each fail later).
+  if (!gait_json.empty()) walker_params();
   if (!(steps_start_s >= 0) || !std::isfinite(steps_start_s))
     fail("steps start", "must be a time >= 0 s", steps_start_s);
   if (!std::isfinite(stop_at_s)) fail("stop-at", "must be finite", stop_at_s);

@@ -151,7 +151,7 @@ class WalkMetrics : public StepObserver {
     // After a divergence the data is MuJoCo's reset: the walk is measured to its last strike.
     const bool diverged = s.diverged_at_s() >= 0;
     r_->final_com_speed_m_s = diverged ? 0.0 : com.velocity_W.head<2>().norm();
-    // The diverging step is not measured (on_step), but its warning (bad qacc) counts.
+    // The diverging step is not measured (on_step), but its warning (bad qpos/qvel/qacc) counts.
     if (diverged) r_->warnings = s.simulation().warnings();
     r_->joint_load = joint_load_report(m, load_);
     r_->standing_at_end = r_->stopped_at_s >= 0 && !r_->fallen &&
@@ -398,7 +398,7 @@ class PushJudge : public StepObserver {
       std::ostringstream s;
       s << "fell at " << r.time_fallen_s << " s (" << r.time_fallen_s - o.onset_s
         << " s after the onset)";
-      if (r.diverged_at_s >= 0) s << ", the simulation diverged (MuJoCo's bad qacc)";
+      if (r.diverged_at_s >= 0) s << ", the simulation diverged (MuJoCo's bad qpos, qvel or qacc)";
       o.failure = s.str();
     } else if (o.recovery_strides < 0) {
       o.outcome = PushOutcome::kSpeedNotRecovered;

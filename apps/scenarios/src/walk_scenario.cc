@@ -23,12 +23,6 @@ constexpr double kSteadySpread = 0.05;
 // (PushOutcome::kNoSteadyStride: "never steady").
 constexpr int kMaxSteadyWaitStrides = 30;
 
-controllers::TorqueWalkerParams walker_params_from(const ScenarioConfig& c) {
-  controllers::TorqueWalkerParams p = controllers::walker_defaults(c.walker_actuation);
-  if (!c.gait_json.empty()) controllers::apply_torque_walker_json(c.gait_json, c.gait_source, &p);
-  return p;
-}
-
 // The body a push goes through: "trunk" is the rig's trunk body (thorax, or the gait model's
 // trunk), any other name that body.
 int push_body_id(const models::Rig& rig, const std::string& body) {
@@ -52,7 +46,7 @@ struct WalkScenario::State : ScenarioState {
 WalkScenario::WalkScenario(sim::Simulation* sim, ScenarioConfig config)
     : Scenario(sim, std::move(config)),
       params_(controller_params_from_config()),
-      walker_params_(walker_params_from(config_)),
+      walker_params_(config_.walker_params()),
       pipeline_(sim, rig_, params_, config_.pipeline_config()),
       walker_(rig_, walker_params_) {
   if (config_.scenario == "stones" && config_.steps_m.empty())

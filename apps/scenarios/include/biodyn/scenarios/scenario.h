@@ -184,6 +184,9 @@ struct ScenarioConfig {
 
   /// Throws sim::InvalidArgument naming the field, the rule and the value.
   void validate() const;
+  /// The walker's parameters: the actuation's defaults with gait_json over them (throws
+  /// sim::InvalidArgument naming gait_source and the field).
+  controllers::TorqueWalkerParams walker_params() const;
   /// The body to generate the simulation's model from: `character`, with the muscles' tendons
   /// when muscles are on.
   models::CharacterSpec model_spec() const;

@@ -86,7 +86,8 @@ struct WalkRunResult {
   double simulated_s = 0, wall_s = 0, realtime_factor = 0;
   bool fallen = false;
   double time_fallen_s = -1;  ///< s, -1 if never
-  /// s, when the simulation diverged (MuJoCo's bad qacc; counted as the fall), -1 if never
+  /// s, when the simulation diverged (MuJoCo's bad qpos, qvel or qacc; counted as the fall), -1 if
+  /// never
   double diverged_at_s = -1;
   /// m, progress of the CoM's ground projection along the heading, summed from strike to
   /// strike (drops the sway, follows a turn; walking backwards counts against it).
