@@ -232,7 +232,7 @@ void apply_torque_walker_json(const std::string& json_text, const std::string& s
   nlohmann::json root;
   try {
     root = nlohmann::json::parse(json_text);
-  } catch (const nlohmann::json::parse_error& e) {
+  } catch (const nlohmann::json::exception& e) {  // parse_error, or out_of_range for 1e400
     throw sim::InvalidArgument(source + ": not valid JSON (" + std::string(e.what()) + ")");
   }
   TorqueWalkerParams p = *params;

@@ -248,7 +248,7 @@ void apply_velocity_walker_json(const std::string& json_text, const std::string&
   Json root;
   try {
     root = Json::parse(json_text);
-  } catch (const Json::parse_error& e) {
+  } catch (const Json::exception& e) {  // parse_error, or out_of_range for 1e400
     throw InvalidArgument(source + ": not valid JSON (" + std::string(e.what()) + ")");
   }
   VelocityWalkerParams p = *params;

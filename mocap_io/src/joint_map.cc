@@ -163,7 +163,7 @@ JointMap parse_joint_map(const std::string& json_text, const std::string& source
   };
   try {
     doc = json::parse(json_text, track);
-  } catch (const json::parse_error& e) {
+  } catch (const json::exception& e) {  // parse_error, or out_of_range for 1e400
     throw InvalidArgument(source + ": not valid JSON: " + e.what());
   }
   if (!duplicate.empty()) {

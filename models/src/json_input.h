@@ -16,6 +16,8 @@ inline nlohmann::json parse_json_input(const std::string& text, const std::strin
   } catch (const nlohmann::json::parse_error& e) {
     throw sim::InvalidArgument(source + ": malformed JSON at byte " + std::to_string(e.byte) +
                                ": " + e.what());
+  } catch (const nlohmann::json::exception& e) {  // out_of_range: a number like 1e400
+    throw sim::InvalidArgument(source + ": malformed JSON: " + e.what());
   }
 }
 

@@ -74,6 +74,8 @@ TEST_CASE("Rig files: a round trip is exact, bad files name the field") {
   };
   CHECK_THROWS_WITH(parse_rig_json("{", "rig.json"),
                     Catch::Contains("rig.json") && Catch::Contains("malformed"));
+  CHECK_THROWS_WITH(parse_rig_json(with("\"fx_px\": 610", "\"fx_px\": 1e400"), "rig.json"),
+                    Catch::Contains("rig.json") && Catch::Contains("malformed"));
   CHECK_THROWS_WITH(parse_rig_json(with("\"fx_px\": 610", "\"fx_px\": -1"), "rig.json"),
                     Catch::Contains("cameras[0]") && Catch::Contains("fx_px"));
   CHECK_THROWS_WITH(parse_rig_json(with("\"name\": \"cam02\"", "\"name\": \"cam01\""), "rig.json"),

@@ -71,6 +71,9 @@ TEST_CASE_METHOD(biodyn::testing::SimulationTest,
              Catch::Contains("joints.knee_l.reaction_time_s"));
   CHECK_THAT(error_of(R"({"joints": {"knee": {"speed": 1}}})"), Catch::Contains("unknown key"));
   CHECK_THAT(error_of("{not json"), Catch::Contains("p.json: not valid JSON"));
+  // A number beyond a double's range is bad input too (nlohmann throws out_of_range for it).
+  CHECK_THAT(error_of(R"({"joints": {"knee": {"reaction_time_s": 1e400}}})"),
+             Catch::Contains("p.json: not valid JSON") && Catch::Contains("1e400"));
   CHECK_THAT(error_of(R"({"controller": {"velocity_horizon_s": 0.001}})"),
              Catch::Contains("velocity_horizon_s"));
 }

@@ -62,4 +62,5 @@ TEST_CASE("Gait parameters round-trip through JSON and reject bad input by name"
   fails(R"({"placement": {"swing_clearance_m": 0.5}})",
         "gait.placement.swing_clearance_m: must be in [0, 0.3] m");
   fails("{", "g.json: not valid JSON");
+  fails(R"({"compliance": {"stance_knee": 1e400}})", "g.json: not valid JSON");  // out of range
 }

@@ -66,6 +66,8 @@ TEST_CASE("Joint maps: bad fields are errors naming the file, the field, the rul
           "[retarget]") {
   REQUIRE(mocap_io::parse_joint_map(map_with(kLegs), "maps/test.json").keypoints.size() == 9);
   check_map_error("{", "not valid JSON", "");
+  check_map_error(map_with(kLegs + R"(, "head": {"joints": "H", "weight": 1e400})"),
+                  "not valid JSON", "1e400");
   check_map_error(map_with(kLegs + R"(, "elbow_l": "LE")"), "keypoints.elbow_l",
                   "unknown keypoint 'elbow_l'");
   check_map_error(map_with(kLegs + R"(, "head": {"joints": "H", "weight": -1})"),

@@ -72,6 +72,9 @@ TEST_CASE("Override JSON is parsed strictly", "[models][overrides]") {
   CHECK(*o.at("thigh").length_m == 0.45);
   CHECK_THROWS_WITH(models::parse_overrides("{\"segments\": {", "seg.json"),
                     Catch::StartsWith("seg.json: malformed JSON"));
+  CHECK_THROWS_WITH(
+      models::parse_overrides(R"({"segments": {"thigh": {"mass_kg": 1e400}}})", "seg.json"),
+      Catch::StartsWith("seg.json: malformed JSON") && Catch::Contains("1e400"));
   CHECK_THROWS_WITH(models::parse_overrides(R"({"segments": {"thigh": {"mass": 9}}})", "seg.json"),
                     Catch::Contains("segments.thigh") && Catch::Contains("'mass'"));
   CHECK_THROWS_WITH(

@@ -231,7 +231,7 @@ Rig parse_rig_json(const std::string& text, const std::string& source) {
   nlohmann::json doc;
   try {
     doc = nlohmann::json::parse(text);
-  } catch (const nlohmann::json::parse_error& e) {
+  } catch (const nlohmann::json::exception& e) {  // parse_error, or out_of_range for 1e400
     fail(source, "JSON", std::string("malformed: ") + e.what());
   }
   if (!doc.is_object()) fail(source, "top level", "must be an object");

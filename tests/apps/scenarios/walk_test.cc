@@ -445,6 +445,10 @@ TEST_CASE_METHOD(biodyn::testing::SimulationTest, "walk inputs out of range are 
   p.config.gait_json = "{";
   CHECK_THROWS_WITH(scenarios::run_walk(&sim, p),
                     Catch::Contains("my_gait.json") && Catch::Contains("not valid JSON"));
+  p.config.gait_json = R"({"hip_kp": 1e400})";  // beyond a double: bad input, not a bug
+  CHECK_THROWS_AS(scenarios::run_walk(&sim, p), sim::InvalidArgument);
+  CHECK_THROWS_WITH(scenarios::run_walk(&sim, p),
+                    Catch::Contains("my_gait.json") && Catch::Contains("1e400"));
   p = scenarios::WalkRunParams{};
   p.config.scenario = "stones";
   p.config.steps_m = {0.5, 2.0};
