@@ -232,9 +232,12 @@ void print_walk_summary(const scenarios::WalkRunResult& r, std::ostream& out) {
   } else if (r.stones) {
     const scenarios::SteppingStonesResult& st = *r.stones;
     out << "  stepping stones from " << std::setprecision(2) << st.start_s
-        << " s: " << st.lengths_m.size() << " of " << st.targets_m.size()
-        << " steps walked, error RMS " << std::setprecision(1) << 100 * st.rms_error_m
-        << " cm, max " << 100 * st.max_error_m << " cm\n    planned";
+        << " s: " << st.lengths_m.size() << " of " << st.targets_m.size() << " steps walked";
+    // A fall after the last stone still counts every stone as walked: say so on this line.
+    if (r.fallen)
+      out << (st.complete ? ", then FELL at " : " before the FALL at ") << r.time_fallen_s << " s";
+    out << ", error RMS " << std::setprecision(1) << 100 * st.rms_error_m << " cm, max "
+        << 100 * st.max_error_m << " cm\n    planned";
     out << std::setprecision(3);
     for (double t : st.targets_m) out << ' ' << t;
     out << "\n    walked ";

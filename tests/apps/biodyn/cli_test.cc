@@ -364,6 +364,13 @@ TEST_CASE("biodyn walk --steps says which stone was out of reach and where the f
   } else {
     CHECK(r.out.find("the character fell reaching for it") != std::string::npos);
   }
+  // A fall is on the stones line, whether before the last stone or after it.
+  if (j["fallen"].get<bool>()) {
+    CHECK((r.out.find("steps walked before the FALL at ") != std::string::npos ||
+           r.out.find("steps walked, then FELL at ") != std::string::npos));
+  } else {
+    CHECK(r.out.find("FALL") == std::string::npos);
+  }
   // A stop during the stones: its closing step (feet side by side) is not a stone.
   const Run stop = run_biodyn(
       "walk --duration 12 --steps 0.5,0.4,0.5,0.4,0.5 --stop-at 6 --json stop.json", dir);
@@ -371,7 +378,7 @@ TEST_CASE("biodyn walk --steps says which stone was out of reach and where the f
   const auto js = nlohmann::json::parse(slurp(dir / "stop.json"));
   CHECK(js["stones"]["lengths"].size() == 5);
   CHECK(js["stones"]["complete"] == true);
-  CHECK(stop.out.find("5 of 5 steps walked") != std::string::npos);
+  CHECK(stop.out.find("5 of 5 steps walked, error RMS") != std::string::npos);
   // Stones that never start say so (no start time, no RMS).
   const Run late = run_biodyn("walk --duration 6 --steps 0.5,0.4 --steps-start 5.9", dir);
   CHECK(late.out.find("stepping stones: not started") != std::string::npos);
