@@ -78,6 +78,7 @@ constexpr NamedField kFields[] = {BIODYN_FIELD(sagittal_cd),
                                   BIODYN_FIELD(reference_speed_m_s),
                                   BIODYN_FIELD(speed_lean_rad_per_m_s),
                                   BIODYN_FIELD(speed_integral_rad_per_m),
+                                  BIODYN_FIELD(speed_integral_step_limit_m_s),
                                   BIODYN_FIELD(speed_step_gain_rad_per_m_s),
                                   BIODYN_FIELD(speed_step_limit_rad),
                                   BIODYN_FIELD(speed_step_fade_m_s),
@@ -356,6 +357,9 @@ void TorqueWalkerParams::validate() const {
         w + "speed_integral_rad_per_m", "must be in [0, 2]", speed_integral_rad_per_m);
   check(speed_step_gain_rad_per_m_s >= 0 && speed_step_gain_rad_per_m_s <= 2,
         w + "speed_step_gain_rad_per_m_s", "must be in [0, 2]", speed_step_gain_rad_per_m_s);
+  check(speed_integral_step_limit_m_s >= 0 && speed_integral_step_limit_m_s <= 3,
+        w + "speed_integral_step_limit_m_s", "must be in [0, 3] m/s (0: no limit)",
+        speed_integral_step_limit_m_s);
   check(speed_step_limit_rad >= 0 && speed_step_limit_rad <= 0.5, w + "speed_step_limit_rad",
         "must be in [0, 0.5]", speed_step_limit_rad);
   check(speed_step_fade_m_s > 0 && speed_step_fade_m_s <= 2, w + "speed_step_fade_m_s",
@@ -709,12 +713,21 @@ void TorqueWalker::on_strike(const mjData& d, const sim::CenterOfMass& com, int 
         std::max(t_step, 1e-3);
     const double limit = p.speed_lean_limit_rad;
     const double deficit = st.speed_m_s - v_step;
-    st.lean_integral =
-        std::clamp(st.lean_integral + p.speed_integral_rad_per_m * deficit * t_step, -limit, limit);
     const double fade =
         st.stopping
             ? 0.0
             : std::clamp((p.reference_speed_m_s - st.speed_m_s) / p.speed_step_fade_m_s, 0.0, 1.0);
+    // Where the step term acts (weighted by its fade), the integral counts the deficit only
+    // within +-speed_integral_step_limit_m_s: a push's deficit is the step term's to answer,
+    // and counted whole it wound the lean up. Elsewhere (at and above the reference, where the
+    // integral is the only regulator, and while stopping) it counts the whole deficit.
+    const double bounded =
+        p.speed_integral_step_limit_m_s > 0
+            ? std::clamp(deficit, -p.speed_integral_step_limit_m_s, p.speed_integral_step_limit_m_s)
+            : deficit;
+    const double counted = fade * bounded + (1.0 - fade) * deficit;
+    st.lean_integral =
+        std::clamp(st.lean_integral + p.speed_integral_rad_per_m * counted * t_step, -limit, limit);
     st.lean_step = std::clamp(fade * p.speed_step_gain_rad_per_m_s * deficit,
                               -p.speed_step_limit_rad, p.speed_step_limit_rad);
     // After a near stop (a push from the front) the lean comes at once, not after the integral's

@@ -145,6 +145,14 @@ struct TorqueWalkerParams {
   double speed_lean_rad_per_m_s = 0.1;
   double speed_integral_rad_per_m = 0.03;
   double speed_lean_limit_rad = 0.2;
+  /// Where the step term below acts (weighted by its fade: below the reference speed), the
+  /// integral counts a step's deficit v - v_step only within +-this, m/s (0: whole). A walk's
+  /// own steps are within ~0.1 m/s of the command; a push's are 0.3-0.9 m/s off, and counted
+  /// whole they wound the lean up: at commands of 0.5-0.7 m/s most failed pushes were 'speed
+  /// not back within 10 % in 4 strides' (controllers/README.md). At and above the reference
+  /// the integral is the only regulator and counts the whole deficit (bounded there, it cost
+  /// pushes at t_r 100 ms); while stopping too.
+  double speed_integral_step_limit_m_s = 0.2;
   /// The regulation's proportional part, for commands slower than the reference: after every
   /// step whose speed the integral counts, the lean gains k (v - v_step) until the next such
   /// step, held within +-speed_step_limit_rad. k is speed_step_gain_rad_per_m_s at commands
