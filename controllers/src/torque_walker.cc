@@ -140,6 +140,12 @@ TorqueWalkerPhase read_torque_phase(const nlohmann::json& j, const std::string& 
   return st;
 }
 
+// What a regulation integral counts of one step's value: within +-limit (0: the whole value).
+// The speed and drift integrals both bound a step so that a push's step does not wind them up.
+double within_step_limit(double value, double limit) {
+  return limit > 0 ? std::clamp(value, -limit, limit) : value;
+}
+
 }  // namespace
 
 const char* to_string(WalkerActuation a) {
@@ -721,11 +727,8 @@ void TorqueWalker::on_strike(const mjData& d, const sim::CenterOfMass& com, int 
     // within +-speed_integral_step_limit_m_s: a push's deficit is the step term's to answer,
     // and counted whole it wound the lean up. Elsewhere (at and above the reference, where the
     // integral is the only regulator, and while stopping) it counts the whole deficit.
-    const double bounded =
-        p.speed_integral_step_limit_m_s > 0
-            ? std::clamp(deficit, -p.speed_integral_step_limit_m_s, p.speed_integral_step_limit_m_s)
-            : deficit;
-    const double counted = fade * bounded + (1.0 - fade) * deficit;
+    const double counted =
+        fade * within_step_limit(deficit, p.speed_integral_step_limit_m_s) + (1.0 - fade) * deficit;
     st.lean_integral =
         std::clamp(st.lean_integral + p.speed_integral_rad_per_m * counted * t_step, -limit, limit);
     st.lean_step = std::clamp(fade * p.speed_step_gain_rad_per_m_s * deficit,
@@ -742,8 +745,7 @@ void TorqueWalker::on_strike(const mjData& d, const sim::CenterOfMass& com, int 
         -sh * (com_now.x() - st.com_at_strike.x()) + ch * (com_now.y() - st.com_at_strike.y());
     // The drift integral counts a step's sideways travel up to a drift's size (a push's is
     // the balance feedback's); 0: the whole travel.
-    const double bound = p.lateral_integral_step_limit_m;
-    const double drift = bound > 0 ? std::clamp(sideways, -bound, bound) : sideways;
+    const double drift = within_step_limit(sideways, p.lateral_integral_step_limit_m);
     st.roll_integral =
         std::clamp(st.roll_integral + p.lateral_integral_rad_per_m * drift, -limit, limit);
     if (!st.stopping) {
