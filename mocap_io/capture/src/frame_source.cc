@@ -209,7 +209,8 @@ class LiveSource final : public FrameSource {
     }
     last_.assign(devices.size(), -1.0);
     played_.assign(devices.size(), 0);
-    start_ = std::chrono::steady_clock::now();
+    started_.assign(devices.size(), std::chrono::steady_clock::time_point{});
+    streaming_.assign(devices.size(), false);
   }
   int camera_count() const override { return static_cast<int>(names_.size()); }
   std::vector<std::string> camera_names() const override { return names_; }
@@ -223,7 +224,7 @@ class LiveSource final : public FrameSource {
       if (files_[c]) pace(c, &out->dropped_before[c]);
       cv::Mat image;
       if (!cap.read(image)) return false;  // the device stopped or the file ended
-      const double now = seconds();
+      const double now = seconds(c);
       out->images[c] = to_grey(image);
       out->times_s[c] = files_[c] ? played_[c] / fps_ : now;
       if (!files_[c] && last_[c] >= 0)
@@ -236,14 +237,23 @@ class LiveSource final : public FrameSource {
   }
 
  private:
-  double seconds() const {
-    return std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
+  // s since camera c's first read. A camera streams from its first read on (OpenCV's V4L2
+  // backend starts streaming at the first grab), so a file played as one does the same: the
+  // time the reader spends getting ready before it asks costs no frames. A device's timestamps
+  // count from the first camera's first read, one clock for all.
+  double seconds(int c) {
+    const auto now = std::chrono::steady_clock::now();
+    if (!streaming_[c]) {
+      started_[c] = files_[c] || c == 0 ? now : started_[0];
+      streaming_[c] = true;
+    }
+    return std::chrono::duration<double>(now - started_[c]).count();
   }
   // A file played as a camera: wait for its next frame's time; a reader that fell behind loses
   // the frames that are overdue, as a camera's full buffer does.
   void pace(int c, int* dropped) {
     const double due = played_[c] / fps_;
-    const double now = seconds();
+    const double now = seconds(c);
     if (due > now) {
       std::this_thread::sleep_for(std::chrono::duration<double>(due - now));
       return;
@@ -262,7 +272,8 @@ class LiveSource final : public FrameSource {
   std::vector<int> played_;
   double fps_;
   int max_frames_, frame_ = 0;
-  std::chrono::steady_clock::time_point start_;
+  std::vector<std::chrono::steady_clock::time_point> started_;
+  std::vector<bool> streaming_;
 };
 
 }  // namespace
