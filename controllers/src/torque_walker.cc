@@ -204,6 +204,7 @@ TorqueWalkerParams velocity_walker_defaults() {
   p.stance_knee_kp = 723.24;
   p.stance_ankle_kp = 41.437;
   p.stance_weight_support = 0.038;
+  p.back_step_landing_knee = true;
   return p;
 }
 
@@ -255,6 +256,9 @@ void apply_torque_walker_json(const std::string& json_text, const std::string& s
   keys["back_step_capture_point"] = [&p](const nlohmann::json& v, const std::string& w) {
     p.back_step_capture_point = json_fields::boolean(v, w);
   };
+  keys["back_step_landing_knee"] = [&p](const nlohmann::json& v, const std::string& w) {
+    p.back_step_landing_knee = json_fields::boolean(v, w);
+  };
   keys["states"] = [&p](const nlohmann::json& v, const std::string& w) {
     if (!v.is_array()) json_fields::fail(w, "must be an array of states", v.dump());
     p.phases.clear();
@@ -285,6 +289,7 @@ std::string torque_walker_json(const TorqueWalkerParams& params) {
   for (const NamedField& f : kFields) j[f.name] = params.*(f.member);
   j["base_polygon_rule"] = params.base_polygon_rule;
   j["back_step_capture_point"] = params.back_step_capture_point;
+  j["back_step_landing_knee"] = params.back_step_landing_knee;
   return j.dump(2) + "\n";
 }
 
@@ -941,7 +946,11 @@ void TorqueWalker::leg_joints(ControlFrame* f, const mjModel& m, const mjData& d
     const models::RigLeg& leg = rig_->leg(s);
     const JointGroup& knee = groups[static_cast<std::size_t>(leg.knee)];
     const JointGroup& ankle = groups[static_cast<std::size_t>(leg.ankle)];
-    const double swing_knee = placed ? ik.knee_flexion_rad : ph.swing_knee_rad;
+    double swing_knee = placed ? ik.knee_flexion_rad : ph.swing_knee_rad;
+    // The base-polygon rule's step back (paper §4.3) with the landing knee: the foot behind the
+    // hip lands near the rule's step, not folded further back (back_step_landing_knee).
+    if (p.back_step_landing_knee && !placed && state_.rule_bound && state_.rule_length_m < 0)
+      swing_knee = std::min(swing_knee, p.phases.back().swing_knee_rad);
     const double share = !foot_down ? 0.0 : (ph.swing_foot_down ? 0.5 : 1.0);
     if (actuation_ == WalkerActuation::kVelocity) {
       hinge_target(f, d, leg.knee, stance ? ph.stance_knee_rad : swing_knee,

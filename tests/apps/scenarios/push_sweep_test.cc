@@ -243,6 +243,19 @@ TEST_CASE_METHOD(testing::SimulationTest,
 }
 
 TEST_CASE_METHOD(testing::SimulationTest,
+                 "The velocity-based driver's step back lands with the landing knee",
+                 "[scenarios][push]") {
+  // 350 N x 0.2 s from the front at 0.4 of the stride, 1.80 m / 80 kg, velocity actuation.
+  // With the early swing's knee (60 deg) the rule's step back folded the foot behind the hip
+  // and struck there, 0.51 m behind the stance ankle for a rule's step of 0.21 m; the front
+  // foot stayed loaded, the next swing lifted the stance foot instead and the body fell
+  // backwards 1.6 s after the onset (controllers/README.md, back_step_landing_knee).
+  check_defaults_survive_where_before_fell({}, 350, PushSweepCell{180, 0.2, 0.4},
+                                           R"({"back_step_landing_knee": false})",
+                                           controllers::WalkerActuation::kVelocity);
+}
+
+TEST_CASE_METHOD(testing::SimulationTest,
                  "The velocity-based driver's lateral gain: a push from the right mid-stride",
                  "[scenarios][push]") {
   // 350 N x 0.2 s to the left at 0.4 of the stride, 1.80 m / 80 kg: the velocity defaults'
