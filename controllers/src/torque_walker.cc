@@ -949,7 +949,8 @@ void TorqueWalker::leg_joints(ControlFrame* f, const mjModel& m, const mjData& d
     double swing_knee = placed ? ik.knee_flexion_rad : ph.swing_knee_rad;
     // The base-polygon rule's step back (paper §4.3) with the landing knee: the foot behind the
     // hip lands near the rule's step, not folded further back (back_step_landing_knee).
-    if (p.back_step_landing_knee && !placed && state_.rule_bound && state_.rule_length_m < 0)
+    if (p.back_step_landing_knee && !placed && base_polygon_rule_active() &&
+        state_.rule_length_m < 0)
       swing_knee = std::min(swing_knee, p.phases.back().swing_knee_rad);
     const double share = !foot_down ? 0.0 : (ph.swing_foot_down ? 0.5 : 1.0);
     if (actuation_ == WalkerActuation::kVelocity) {

@@ -235,7 +235,7 @@ struct TorqueWalkerParams {
   /// foot far behind the hip, and under velocity actuation it struck the floor there, 0.3 m
   /// behind the rule's step, leaving the front foot loaded for the next swing (a 350 N push from
   /// the front: velocity 180 deg 7 -> 9 of 10). The torque walker's back steps need the fold:
-  /// with it, its t_r 100 ms pushes went 70 -> 65 of 80 (controllers/README.md).
+  /// with this on, its t_r 100 ms pushes went 70 -> 63 of 80 (controllers/README.md).
   bool back_step_landing_knee = false;
   void validate() const;  ///< throws sim::InvalidArgument naming the field
 };
