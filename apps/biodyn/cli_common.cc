@@ -9,6 +9,7 @@
 #include <iomanip>
 #include <iostream>
 #include <map>
+#include <memory>
 #include <mutex>
 #include <sstream>
 #include <system_error>
@@ -309,8 +310,12 @@ nlohmann::json TerrainOptions::json() const {
           {"ramp_m", shape.ramp_m}, {"step_m", shape.step_m},   {"plateau_m", shape.plateau_m}};
 }
 
-void run_batch(std::size_t count, int threads, const std::string& mjcf, const std::string& label,
-               const std::function<void(sim::Simulation*, std::size_t)>& job) {
+namespace {
+
+// The workers of run_batch and run_jobs: make_worker() once per worker (its own state), then that
+// worker's job for the next index until none is left.
+void run_workers(std::size_t count, int threads, const std::string& label,
+                 const std::function<std::function<void(std::size_t)>()>& make_worker) {
   std::atomic<std::size_t> next{0}, done{0};
   std::mutex mutex;
   std::string first_error;
@@ -319,9 +324,9 @@ void run_batch(std::size_t count, int threads, const std::string& mjcf, const st
   for (int t = 0; t < threads; ++t) {
     workers.emplace_back([&]() {
       try {
-        sim::Simulation sim(sim::Model::from_string(mjcf, "<character>"));  // this worker's copy
+        const std::function<void(std::size_t)> job = make_worker();
         for (std::size_t i = next++; i < count; i = next++) {
-          job(&sim, i);
+          job(i);
           const std::size_t n = ++done;
           std::lock_guard<std::mutex> lock(mutex);
           bar.update(static_cast<double>(n) / static_cast<double>(count));
@@ -335,6 +340,22 @@ void run_batch(std::size_t count, int threads, const std::string& mjcf, const st
   }
   for (std::thread& w : workers) w.join();
   if (!first_error.empty()) throw sim::Error(label + ": " + first_error);
+}
+
+}  // namespace
+
+void run_batch(std::size_t count, int threads, const std::string& mjcf, const std::string& label,
+               const std::function<void(sim::Simulation*, std::size_t)>& job) {
+  run_workers(count, threads, label, [&]() -> std::function<void(std::size_t)> {
+    // this worker's copy
+    auto sim = std::make_shared<sim::Simulation>(sim::Model::from_string(mjcf, "<character>"));
+    return [sim, &job](std::size_t i) { job(sim.get(), i); };
+  });
+}
+
+void run_jobs(std::size_t count, int threads, const std::string& label,
+              const std::function<void(std::size_t)>& job) {
+  run_workers(count, threads, label, [&job]() { return job; });
 }
 
 void install_console_log(bool verbose) {

@@ -138,6 +138,9 @@ void plot_with_gnuplot(const std::string& command, const std::string& script_pat
 /// the workers and is thrown as sim::Error("<label>: <what>").
 void run_batch(std::size_t count, int threads, const std::string& mjcf, const std::string& label,
                const std::function<void(sim::Simulation*, std::size_t)>& job);
+/// The same without a shared model: job(i) builds what it runs (e.g. one body per run).
+void run_jobs(std::size_t count, int threads, const std::string& label,
+              const std::function<void(std::size_t)>& job);
 
 /// Installs a log sink printing warnings and errors to stderr (debug/info only if verbose).
 void install_console_log(bool verbose);

@@ -32,6 +32,8 @@ Command add_gait_command(CLI::App* app);
 /// `biodyn walk-search`: the torque walker's parameters searched against human gait.
 Command add_walk_search_command(CLI::App* app);
 Command add_stones_sweep_command(CLI::App* app);
+/// `biodyn walk-sweep`: walks from standing on seeded random bodies.
+Command add_walk_sweep_command(CLI::App* app);
 /// `biodyn bench`: controller cost against the bare physics step.
 Command add_bench_command(CLI::App* app);
 /// `biodyn mocap info|convert|ik|retarget|id`: capture files in, marker IK, retargeting,

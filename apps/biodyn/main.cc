@@ -14,12 +14,12 @@ int main(int argc, char** argv) {
   bool verbose = false;
   app.add_flag("-v,--verbose", verbose, "Log info messages to stderr");
   const std::vector<Command> commands = {
-      add_model_command(&app),       add_drop_command(&app),        add_pose_command(&app),
-      add_stand_push_command(&app),  add_walk_command(&app),        add_push_command(&app),
-      add_push_sweep_command(&app),  add_bench_command(&app),       add_mocap_command(&app),
-      add_muscles_command(&app),     add_evaluate_command(&app),    add_render_command(&app),
-      add_view_command(&app),        add_capture_command(&app),     add_gait_command(&app),
-      add_walk_search_command(&app), add_stones_sweep_command(&app)};
+      add_model_command(&app),       add_drop_command(&app),         add_pose_command(&app),
+      add_stand_push_command(&app),  add_walk_command(&app),         add_push_command(&app),
+      add_push_sweep_command(&app),  add_bench_command(&app),        add_mocap_command(&app),
+      add_muscles_command(&app),     add_evaluate_command(&app),     add_render_command(&app),
+      add_view_command(&app),        add_capture_command(&app),      add_gait_command(&app),
+      add_walk_search_command(&app), add_stones_sweep_command(&app), add_walk_sweep_command(&app)};
   // Parse errors on one line, naming the option and the value.
   app.failure_message([](const CLI::App* cmd, const CLI::Error& e) {
     return "biodyn" + (cmd->get_parent() ? " " + cmd->get_name() : std::string()) +

@@ -1,11 +1,11 @@
 #include "biodyn/scenarios/stones_sweep.h"
 
 #include <cmath>
-#include <random>
 #include <string>
 
 #include "biodyn/sim/errors.h"
 #include "checks.h"
+#include "seeded_random.h"
 
 namespace biodyn::scenarios {
 
@@ -23,14 +23,8 @@ void StoneSweepSpec::validate() const {
 }
 
 StoneSequence random_stone_sequence(const StoneSweepSpec& spec, std::uint64_t seed) {
-  // mt19937_64's output is fixed by the standard; the mapping to [0, 1) is ours (the standard
-  // distributions differ between libraries).
-  std::mt19937_64 rng(seed);
-  const auto uniform = [&rng](double lo, double hi) {
-    return lo + (hi - lo) * static_cast<double>(rng() >> 11) * 0x1.0p-53;
-  };
+  SeededUniform uniform(seed);
   // Rounded (mm, cm/s) so that the printed replay line is the same run.
-  const auto round_to = [](double x, double unit) { return std::round(x / unit) * unit; };
   StoneSequence s;
   s.seed = seed;
   s.speed_m_s = round_to(uniform(spec.speed_min_m_s, spec.speed_max_m_s), 0.01);

@@ -435,6 +435,60 @@ TEST_CASE(
   CHECK_FALSE(fs::exists(dir / "bad"));
 }
 
+TEST_CASE(
+    "biodyn walk-sweep: the same walks on 1 and 2 threads, a fall's replay line walks it again "
+    "to the bit",
+    "[apps][cli][walk]") {
+  const fs::path dir = fresh_dir("walk_sweep");
+  const std::string args = "walk-sweep --bodies 2 --seed 11 --speeds 0.8,1.2 --duration 2 ";
+  const Run one = run_biodyn(args + "--threads 1 -o one", dir);
+  INFO(one.out << one.err);
+  REQUIRE(one.exit_code == 0);
+  const Run two = run_biodyn(args + "--threads 2 -o two", dir);
+  REQUIRE(two.exit_code == 0);
+  CHECK(slurp(dir / "one" / "walks.csv") == slurp(dir / "two" / "walks.csv"));
+  CHECK(fs::file_size(dir / "one" / "walks.png") > 1000);
+  const auto j = nlohmann::json::parse(slurp(dir / "one" / "summary.json"));
+  CHECK(j["walks"] == 4);
+  CHECK(one.out.find(std::to_string(j["walked"].get<int>()) + " of 4") != std::string::npos);
+  // A walker without a torso (torso_kp 10) falls within a second: the failure names the body's
+  // seed, and its `biodyn walk` line falls at the same time.
+  std::ofstream(dir / "fall.json") << R"({"torso_kp": 10})";
+  const Run fall = run_biodyn(
+      "walk-sweep --bodies 1 --seed 4 --speeds 1.0 --duration 3 --params fall.json "
+      "-o fall",
+      dir);
+  INFO(fall.out << fall.err);
+  REQUIRE(fall.exit_code == 0);
+  const auto jf = nlohmann::json::parse(slurp(dir / "fall" / "summary.json"));
+  REQUIRE(jf["failed"].size() == 1);
+  CHECK(fall.out.find("FELL seed 4") != std::string::npos);
+  const std::string replay = jf["failed"][0]["replay"].get<std::string>();
+  REQUIRE(replay.rfind("biodyn walk ", 0) == 0);
+  const Run again = run_biodyn(replay.substr(7) + " --json again.json", dir);
+  INFO(again.out << again.err);
+  const auto a = nlohmann::json::parse(slurp(dir / "again.json"));
+  std::ostringstream fell_at;
+  fell_at << std::setprecision(10) << a["time_fallen"].get<double>();
+  const std::string csv = slurp(dir / "fall" / "walks.csv");
+  CHECK(csv.find("\n4,") != std::string::npos);
+  CHECK(csv.find("," + fell_at.str() + ",") != std::string::npos);
+  // Bad input: a clear error naming the option, nothing written.
+  const Run bad = run_biodyn("walk-sweep --bodies 0 -o bad", dir);
+  CHECK(bad.exit_code == 2);
+  CHECK(bad.err.find("bodies") != std::string::npos);
+  const Run speed = run_biodyn("walk-sweep --bodies 2 --speed 0.7 -o bad", dir);
+  CHECK(speed.exit_code == 2);
+  CHECK(speed.err.find("--speeds") != std::string::npos);
+  const Run height = run_biodyn("walk-sweep --bodies 2 --height 1.7 -o bad", dir);
+  CHECK(height.exit_code == 2);
+  CHECK(height.err.find("--height-min") != std::string::npos);
+  const Run list = run_biodyn("walk-sweep --bodies 2 --speeds 0.5,x -o bad", dir);
+  CHECK(list.exit_code == 2);
+  CHECK(list.err.find("--speeds") != std::string::npos);
+  CHECK_FALSE(fs::exists(dir / "bad"));
+}
+
 TEST_CASE("biodyn push-sweep gives the same results on 1 and 2 threads, with a plot",
           "[apps][cli][push][slow]") {
   const fs::path dir = fresh_dir("push_sweep");

@@ -9,6 +9,7 @@
 #include "biodyn/models/rig.h"
 #include "biodyn/scenarios/stones_sweep.h"
 #include "biodyn/scenarios/walk.h"
+#include "biodyn/scenarios/walk_sweep.h"
 #include "biodyn/sim/errors.h"
 #include "biodyn/sim/model.h"
 #include "character.h"
@@ -324,6 +325,54 @@ TEST_CASE("random stone sequences: the same for a seed, within the spec's ranges
   CHECK(scenarios::random_stone_sequence(spec, 42).lateral_m.empty());
   spec.stones = 0;
   CHECK_THROWS_WITH(spec.validate(), Catch::Contains("stones"));
+}
+
+TEST_CASE("random sweep bodies: the same for a seed, within the spec's ranges, to the cm",
+          "[apps][walk]") {
+  scenarios::WalkSweepSpec spec;
+  spec.bodies = 30;
+  spec.seed = 7;
+  const std::vector<scenarios::SweepWalk> a = scenarios::random_sweep_walks(spec);
+  REQUIRE(a.size() == 30);
+  int women = 0;
+  for (std::size_t k = 0; k < a.size(); ++k) {
+    const scenarios::SweepWalk& w = a[k];
+    CHECK(w.seed == 7 + k);
+    CHECK(w.body.height_m >= 1.55);
+    CHECK(w.body.height_m <= 1.95);
+    CHECK(std::abs(w.body.height_m * 100 - std::round(w.body.height_m * 100)) < 1e-6);
+    const double bmi = w.body.mass_kg / (w.body.height_m * w.body.height_m);
+    CHECK(bmi >= 19 - 0.1);
+    CHECK(bmi <= 30 + 0.1);
+    CHECK(w.speed_m_s >= 0.5);
+    CHECK(w.speed_m_s <= 1.5);
+    women += w.body.sex == models::Sex::kFemale ? 1 : 0;
+  }
+  CHECK(women > 5);  // either sex (30 fair draws: 5 or fewer women has p < 2e-4)
+  CHECK(women < 25);
+  // A body is its seed's: the same alone (seed 9 as the first of one) and with a speed list,
+  // where every body walks each speed in order.
+  spec.seed = 9;
+  spec.bodies = 1;
+  const scenarios::SweepWalk alone = scenarios::random_sweep_walks(spec).at(0);
+  CHECK(alone.body.height_m == a[2].body.height_m);
+  CHECK(alone.body.mass_kg == a[2].body.mass_kg);
+  CHECK(alone.speed_m_s == a[2].speed_m_s);
+  spec.speeds_m_s = {0.5, 1.0, 1.5};
+  const std::vector<scenarios::SweepWalk> listed = scenarios::random_sweep_walks(spec);
+  REQUIRE(listed.size() == 3);
+  for (std::size_t k = 0; k < 3; ++k) {
+    CHECK(listed[k].body.height_m == alone.body.height_m);
+    CHECK(listed[k].speed_m_s == spec.speeds_m_s[k]);
+  }
+  spec.bodies = 0;
+  CHECK_THROWS_WITH(spec.validate(), Catch::Contains("bodies"));
+  spec.bodies = 1;
+  spec.speeds_m_s = {2.5};
+  CHECK_THROWS_WITH(spec.validate(), Catch::Contains("speed"));
+  spec.speeds_m_s.clear();
+  spec.bmi_min = 40;
+  CHECK_THROWS_WITH(spec.validate(), Catch::Contains("BMI"));
 }
 
 TEST_CASE_METHOD(biodyn::testing::SimulationTest, "the walker stops back to standing",
