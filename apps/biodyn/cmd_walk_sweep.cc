@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <iomanip>
 #include <iostream>
+#include <map>
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <sstream>
@@ -59,8 +60,8 @@ std::string results_csv(const std::vector<scenarios::SweepWalkResult>& results) 
 }
 
 // walks.png: left, each walk's time walked against its speed (a fall below the duration);
-// right, the bodies (height, mass) with the walks that fell marked. One data block per group
-// that has walks (gnuplot's `index` counts blocks).
+// right, the bodies (height, mass) with the walks that fell marked and their speeds. One data block
+// per group that has walks (gnuplot's `index` counts blocks).
 void plot_walks(const WalkSweepOptions& o, const std::string& dir,
                 const std::vector<scenarios::SweepWalkResult>& results) {
   std::ostringstream data, speed_plot, body_plot;
@@ -83,6 +84,23 @@ void plot_walks(const WalkSweepOptions& o, const std::string& dir,
               << ", ";
     ++block;
   }
+  // Beside each body that fell, the speeds it fell at (a body walks several speeds).
+  std::map<std::uint64_t, std::string> fell_at;
+  std::ostringstream labels;
+  for (const scenarios::SweepWalkResult& r : results) {
+    if (!r.fallen) continue;
+    std::ostringstream v;
+    v << r.walk.speed_m_s;
+    std::string& text = fell_at[r.walk.seed];
+    text += (text.empty() ? "" : ", ") + v.str();
+  }
+  for (const scenarios::SweepWalkResult& r : results) {
+    const auto it = fell_at.find(r.walk.seed);
+    if (it == fell_at.end() || it->second.empty()) continue;
+    labels << "set label '" << it->second << " m/s' at " << r.walk.body.height_m << ','
+           << r.walk.body.mass_kg << " offset 0,1 center tc rgb '#c0392b'\n";
+    it->second.clear();  // one label per body
+  }
   write_file_atomically(dir + "/walks.dat", data.str());
   std::string speeds = speed_plot.str(), bodies = body_plot.str();
   speeds.resize(speeds.size() - 2);  // the last ", "
@@ -94,11 +112,13 @@ void plot_walks(const WalkSweepOptions& o, const std::string& dir,
      << o.spec.bodies << " random bodies, " << o.spec.duration_s << " s (weld " << o.walk.weld
      << ", " << o.walk.controller << ")'\n"
      << "set grid\nset key outside bottom center horizontal\n"
+     << "set offsets graph 0.05, graph 0.05, 0, 0\n"
      << "set xlabel 'speed commanded, m/s'\nset ylabel 'time walked, s'\n"
      << "set yrange [0:" << 1.05 * o.spec.duration_s << "]\n"
      << "plot " << speeds << "\n"
      << "set xlabel 'height, m'\nset ylabel 'mass, kg'\nset autoscale y\n"
-     << "plot " << bodies << "\n"
+     << "set offsets graph 0.05, graph 0.05, graph 0.1, graph 0.05\n"
+     << labels.str() << "plot " << bodies << "\n"
      << "unset multiplot\n";
   write_file_atomically(dir + "/walks.gp", gp.str());
   plot_with_gnuplot("walk-sweep", dir + "/walks.gp", dir + "/walks.png.tmp", dir + "/walks.png");
