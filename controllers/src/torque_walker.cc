@@ -85,6 +85,7 @@ constexpr NamedField kFields[] = {BIODYN_FIELD(sagittal_cd),
                                   BIODYN_FIELD(speed_recovery_gain_rad_per_m_s),
                                   BIODYN_FIELD(speed_recovery_deadband_m_s),
                                   BIODYN_FIELD(speed_lean_limit_rad),
+                                  BIODYN_FIELD(speed_integral_limit_rad),
                                   BIODYN_FIELD(lateral_integral_rad_per_m),
                                   BIODYN_FIELD(lateral_integral_step_limit_m),
                                   BIODYN_FIELD(step_clearance_m),
@@ -205,6 +206,9 @@ TorqueWalkerParams velocity_walker_defaults() {
   p.stance_ankle_kp = 41.437;
   p.stance_weight_support = 0.038;
   p.back_step_landing_knee = true;
+  // Its speed levels off below a fast command at t_r 100 ms, and the integral's windup tipped
+  // short bodies over (speed_integral_limit_rad; controllers/README.md).
+  p.speed_integral_limit_rad = 0.1;
   return p;
 }
 
@@ -406,6 +410,8 @@ void TorqueWalkerParams::validate() const {
         plan_speed_gain);
   check(speed_lean_limit_rad >= 0 && speed_lean_limit_rad <= 0.5, w + "speed_lean_limit_rad",
         "must be in [0, 0.5] rad", speed_lean_limit_rad);
+  check(speed_integral_limit_rad >= 0 && speed_integral_limit_rad <= 0.5,
+        w + "speed_integral_limit_rad", "must be in [0, 0.5] rad", speed_integral_limit_rad);
 }
 
 void TorqueWalker::set_params(const TorqueWalkerParams& params) {
@@ -722,7 +728,6 @@ void TorqueWalker::on_strike(const mjData& d, const sim::CenterOfMass& com, int 
     const double v_step =
         (ch * (com_now.x() - st.com_at_strike.x()) + sh * (com_now.y() - st.com_at_strike.y())) /
         std::max(t_step, 1e-3);
-    const double limit = p.speed_lean_limit_rad;
     const double deficit = st.speed_m_s - v_step;
     const double fade =
         st.stopping
@@ -734,8 +739,8 @@ void TorqueWalker::on_strike(const mjData& d, const sim::CenterOfMass& com, int 
     // integral is the only regulator, and while stopping) it counts the whole deficit.
     const double counted =
         fade * within_step_limit(deficit, p.speed_integral_step_limit_m_s) + (1.0 - fade) * deficit;
-    st.lean_integral =
-        std::clamp(st.lean_integral + p.speed_integral_rad_per_m * counted * t_step, -limit, limit);
+    st.lean_integral = std::clamp(st.lean_integral + p.speed_integral_rad_per_m * counted * t_step,
+                                  -p.speed_integral_limit_rad, p.speed_integral_limit_rad);
     st.lean_step = std::clamp(fade * p.speed_step_gain_rad_per_m_s * deficit,
                               -p.speed_step_limit_rad, p.speed_step_limit_rad);
     // After a near stop (a push from the front) the lean comes at once, not after the integral's
@@ -751,8 +756,8 @@ void TorqueWalker::on_strike(const mjData& d, const sim::CenterOfMass& com, int 
     // The drift integral counts a step's sideways travel up to a drift's size (a push's is
     // the balance feedback's); 0: the whole travel.
     const double drift = within_step_limit(sideways, p.lateral_integral_step_limit_m);
-    st.roll_integral =
-        std::clamp(st.roll_integral + p.lateral_integral_rad_per_m * drift, -limit, limit);
+    st.roll_integral = std::clamp(st.roll_integral + p.lateral_integral_rad_per_m * drift,
+                                  -p.speed_lean_limit_rad, p.speed_lean_limit_rad);
     if (!st.stopping) {
       st.walk_step_speed_m_s = v_step;
       ++st.walk_steps;

@@ -466,6 +466,38 @@ TEST_CASE_METHOD(biodyn::testing::SimulationTest,
   }
 }
 
+TEST_CASE_METHOD(biodyn::testing::SimulationTest,
+                 "the velocity-based driver's speed integral is bounded: a short body walks a "
+                 "command it cannot reach",
+                 "[apps][walk]") {
+  // A held-out body (walk-sweep --seed 1000: body 1005) levels off at 0.87 m/s under a 1.0 m/s
+  // command at t_r 100 ms. Its speed integral wound the lean up and it fell at 31 s; bounded
+  // at 0.1 rad (the velocity defaults) it walks on.
+  models::CharacterSpec body;
+  body.height_m = 1.58;
+  body.mass_kg = 63.5;
+  body.sex = models::Sex::kFemale;
+  sim::Simulation sim(
+      sim::Model::from_string(models::to_mjcf(models::generate_character(body)), "<character>"));
+  for (const bool bounded : {true, false}) {
+    scenarios::WalkRunParams p;
+    p.duration_s = 45;
+    p.config.character = body;
+    p.config.weld = controllers::WeldMode::kHonest;
+    p.config.walker_actuation = controllers::WalkerActuation::kVelocity;
+    p.config.reaction_time_s = 0.1;
+    p.config.speed_m_s = 1.0;
+    if (!bounded) {
+      p.config.gait_json = R"({"speed_integral_limit_rad": 0.2})";
+      p.config.gait_source = "test";
+    }
+    const scenarios::WalkRunResult r = scenarios::run_walk(&sim, p);
+    INFO((bounded ? "bounded" : "unbounded")
+         << ": fell at " << r.time_fallen_s << ", steady speed " << r.steady_speed_m_s);
+    CHECK(r.fallen == !bounded);
+  }
+}
+
 TEST_CASE_METHOD(biodyn::testing::SimulationTest, "walk inputs out of range are rejected by name",
                  "[apps][walk]") {
   sim::Simulation sim = make_default_sim();

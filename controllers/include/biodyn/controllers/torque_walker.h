@@ -140,11 +140,19 @@ struct TorqueWalkerParams {
   /// walks at about reference_speed_m_s with the lean above; a commanded speed v adds
   /// speed_lean_rad_per_m_s (v - reference) at once, and after every step
   /// speed_integral_rad_per_m (v - v_step) t_step, v_step the step's mean CoM speed along the
-  /// heading (held within +-speed_lean_limit_rad).
+  /// heading (the lean held within +-speed_lean_limit_rad, the integral within
+  /// +-speed_integral_limit_rad).
   double reference_speed_m_s = 1.0;
   double speed_lean_rad_per_m_s = 0.1;
   double speed_integral_rad_per_m = 0.03;
   double speed_lean_limit_rad = 0.2;
+  /// The integral's own bound, rad (within the lean's). A command the gait cannot reach (the
+  /// velocity-based driver's speed levels off at 0.85-1.1 m/s at t_r 100 ms) winds the integral
+  /// up over tens of seconds, and that lean tipped short bodies over at 1.0 and 1.5 m/s (30-60
+  /// s walks of random bodies: 6 and 4 of 30 fell; bounded at 0.1 rad, 2 and 1, at the same
+  /// push figures). The step and recovery terms still lean up to speed_lean_limit_rad
+  /// (controllers/README.md).
+  double speed_integral_limit_rad = 0.2;
   /// Where the step term below acts (weighted by its fade: below the reference speed), the
   /// integral counts a step's deficit v - v_step only within +-this, m/s (0: whole). A walk's
   /// own steps are within ~0.1 m/s of the command; a push's are 0.3-0.9 m/s off, and counted
