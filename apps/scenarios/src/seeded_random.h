@@ -23,8 +23,12 @@ class SeededUniform {
   std::mt19937_64 rng_;
 };
 
-/// x to the nearest multiple of `unit` (a drawn figure rounded so that a printed replay line
-/// gives the same run).
-inline double round_to(double x, double unit) { return std::round(x / unit) * unit; }
+/// x to the nearest multiple of `unit` (0.1, 0.01, 0.001: a drawn figure rounded so that a
+/// printed replay line gives the same run). Divided by the whole number 1 / unit, not multiplied
+/// by unit: k / 100 is the double that "k e-2" parses to, k x 0.01 is one ulp off for 407 of
+/// k = 0..3000.
+inline double round_to(double x, double unit) {
+  return std::round(x / unit) / std::round(1.0 / unit);
+}
 
 }  // namespace biodyn::scenarios
