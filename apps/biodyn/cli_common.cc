@@ -358,6 +358,13 @@ void run_jobs(std::size_t count, int threads, const std::string& label,
   run_workers(count, threads, label, [&job]() { return job; });
 }
 
+int batch_threads(int requested, std::size_t jobs) {
+  const int threads = requested > 0
+                          ? requested
+                          : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  return static_cast<int>(std::min<std::size_t>(static_cast<std::size_t>(threads), jobs));
+}
+
 void install_console_log(bool verbose) {
   sim::set_log_sink([verbose](sim::LogLevel level, std::string_view msg) {
     if (!verbose && (level == sim::LogLevel::kDebug || level == sim::LogLevel::kInfo)) return;

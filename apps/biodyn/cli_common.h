@@ -141,6 +141,8 @@ void run_batch(std::size_t count, int threads, const std::string& mjcf, const st
 /// The same without a shared model: job(i) builds what it runs (e.g. one body per run).
 void run_jobs(std::size_t count, int threads, const std::string& label,
               const std::function<void(std::size_t)>& job);
+/// A batch's worker count: `requested` (--threads; 0: every core), at most one per job.
+int batch_threads(int requested, std::size_t jobs);
 
 /// Installs a log sink printing warnings and errors to stderr (debug/info only if verbose).
 void install_console_log(bool verbose);

@@ -8,7 +8,6 @@
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <sstream>
-#include <thread>
 
 #include "biodyn/models/mjcf.h"
 #include "biodyn/scenarios/push_sweep.h"
@@ -199,9 +198,7 @@ int run_sweep(SweepOptions& o) {
   spec.walk.config.walk_push = push;
   spec.validate();  // before any worker starts
   const std::vector<scenarios::PushSweepCell> cells = scenarios::push_sweep_cells(spec);
-  int threads = o.threads > 0 ? o.threads
-                              : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
-  threads = std::min<int>(threads, static_cast<int>(cells.size()));
+  const int threads = batch_threads(o.threads, cells.size());
   const models::CharacterSpec character_spec = spec.walk.config.model_spec();
   const models::Character character = models::generate_character(character_spec);
   const std::string mjcf = models::to_mjcf(character, o.walk.physics());

@@ -8,7 +8,6 @@
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <sstream>
-#include <thread>
 
 #include "biodyn/models/mjcf.h"
 #include "biodyn/scenarios/stones_sweep.h"
@@ -122,9 +121,7 @@ int run_stones(StonesOptions& o) {
   for (int k = 0; k < spec.sequences; ++k)
     sequences.push_back(
         scenarios::random_stone_sequence(spec, spec.seed + static_cast<std::uint64_t>(k)));
-  int threads = o.threads > 0 ? o.threads
-                              : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
-  threads = std::min<int>(threads, spec.sequences);
+  const int threads = batch_threads(o.threads, static_cast<std::size_t>(spec.sequences));
   const models::CharacterSpec character_spec = spec.walk.config.model_spec();
   const std::string mjcf =
       models::to_mjcf(models::generate_character(character_spec), o.walk.physics());

@@ -9,7 +9,6 @@
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <sstream>
-#include <thread>
 
 #include "biodyn/models/mjcf.h"
 #include "biodyn/scenarios/walk_sweep.h"
@@ -141,9 +140,7 @@ int run_walk_sweep(WalkSweepOptions& o) {
   check_outputs({{"-o", o.out, true}}, {});
   const models::PhysicsOptions physics = o.walk.physics();
   const std::vector<scenarios::SweepWalk> walks = scenarios::random_sweep_walks(spec);
-  int threads = o.threads > 0 ? o.threads
-                              : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
-  threads = std::min<int>(threads, static_cast<int>(walks.size()));
+  const int threads = batch_threads(o.threads, walks.size());
   std::ostringstream speeds;
   if (spec.speeds_m_s.empty()) {
     speeds << "a speed each from " << spec.speed_min_m_s << "-" << spec.speed_max_m_s << " m/s";
@@ -180,9 +177,10 @@ int run_walk_sweep(WalkSweepOptions& o) {
         << (r.diverged ? " (the simulation diverged)" : "") << ": " << models::to_string(w.body.sex)
         << " " << w.body.height_m << " m / " << std::setprecision(1) << w.body.mass_kg << " kg at "
         << std::setprecision(2) << w.speed_m_s << " m/s";
-    std::cout << "  FELL seed " << w.seed << ": " << why.str()
-              << "\n    replay: " << replay_line(o, w) << "\n";
-    failed.push_back({{"seed", w.seed}, {"why", why.str()}, {"replay", replay_line(o, w)}});
+    const std::string replay = replay_line(o, w);
+    std::cout << "  FELL seed " << w.seed << ": " << why.str() << "\n    replay: " << replay
+              << "\n";
+    failed.push_back({{"seed", w.seed}, {"why", why.str()}, {"replay", replay}});
   }
   const int walked = static_cast<int>(results.size()) - fallen;
   const double share = static_cast<double>(walked) / static_cast<double>(results.size());
