@@ -206,6 +206,9 @@ TorqueWalkerParams velocity_walker_defaults() {
   p.stance_ankle_kp = 41.437;
   p.stance_weight_support = 0.038;
   p.back_step_landing_knee = true;
+  // Its integral builds the walk's lean slowly: without the start's lean handed over, small
+  // bodies met the terrain's step up still slow and stalled (controllers/README.md).
+  p.start_pitch_handover = true;
   // Its speed levels off below a fast command at t_r 100 ms, and the integral's windup tipped
   // short bodies over (speed_integral_limit_rad; controllers/README.md).
   p.speed_integral_limit_rad = 0.1;
@@ -263,6 +266,9 @@ void apply_torque_walker_json(const std::string& json_text, const std::string& s
   keys["back_step_landing_knee"] = [&p](const nlohmann::json& v, const std::string& w) {
     p.back_step_landing_knee = json_fields::boolean(v, w);
   };
+  keys["start_pitch_handover"] = [&p](const nlohmann::json& v, const std::string& w) {
+    p.start_pitch_handover = json_fields::boolean(v, w);
+  };
   keys["states"] = [&p](const nlohmann::json& v, const std::string& w) {
     if (!v.is_array()) json_fields::fail(w, "must be an array of states", v.dump());
     p.phases.clear();
@@ -294,6 +300,7 @@ std::string torque_walker_json(const TorqueWalkerParams& params) {
   j["base_polygon_rule"] = params.base_polygon_rule;
   j["back_step_capture_point"] = params.back_step_capture_point;
   j["back_step_landing_knee"] = params.back_step_landing_knee;
+  j["start_pitch_handover"] = params.start_pitch_handover;
   return j.dump(2) + "\n";
 }
 
@@ -741,6 +748,12 @@ void TorqueWalker::on_strike(const mjData& d, const sim::CenterOfMass& com, int 
         fade * within_step_limit(deficit, p.speed_integral_step_limit_m_s) + (1.0 - fade) * deficit;
     st.lean_integral = std::clamp(st.lean_integral + p.speed_integral_rad_per_m * counted * t_step,
                                   -p.speed_integral_limit_rad, p.speed_integral_limit_rad);
+    if (p.start_pitch_handover && !st.start_handed_over) {
+      st.start_handed_over = true;  // the first free step after the start
+      if (!st.stopping)
+        st.lean_integral = std::clamp(std::max(st.lean_integral, p.start_pitch_rad),
+                                      -p.speed_integral_limit_rad, p.speed_integral_limit_rad);
+    }
     st.lean_step = std::clamp(fade * p.speed_step_gain_rad_per_m_s * deficit,
                               -p.speed_step_limit_rad, p.speed_step_limit_rad);
     // After a near stop (a push from the front) the lean comes at once, not after the integral's

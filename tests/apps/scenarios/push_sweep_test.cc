@@ -245,12 +245,12 @@ TEST_CASE_METHOD(testing::SimulationTest,
 TEST_CASE_METHOD(testing::SimulationTest,
                  "The velocity-based driver's step back lands with the landing knee",
                  "[scenarios][push]") {
-  // 350 N x 0.2 s from the front at 0.4 of the stride, 1.80 m / 80 kg, velocity actuation.
-  // With the early swing's knee (60 deg) the rule's step back folded the foot behind the hip
-  // and struck there, 0.51 m behind the stance ankle for a rule's step of 0.21 m; the front
-  // foot stayed loaded, the next swing lifted the stance foot instead and the body fell
-  // backwards 1.6 s after the onset (controllers/README.md, back_step_landing_knee).
-  check_defaults_survive_where_before_fell({}, 350, PushSweepCell{180, 0.2, 0.4},
+  // 350 N x 0.2 s from the front at 0.9 of the stride, 1.80 m / 80 kg, velocity actuation.
+  // With the early swing's knee the rule's step back folds the foot behind the hip and strikes
+  // on a bent knee (38 deg; 21 deg with the landing knee), the next foot lands on 60 deg and
+  // the body falls backwards 1.3 s after the onset (controllers/README.md,
+  // back_step_landing_knee; the cell was 0.4 of the stride before start_pitch_handover).
+  check_defaults_survive_where_before_fell({}, 350, PushSweepCell{180, 0.2, 0.9},
                                            R"({"back_step_landing_knee": false})",
                                            controllers::WalkerActuation::kVelocity);
 }
@@ -336,11 +336,12 @@ TEST_CASE_METHOD(testing::SimulationTest,
 TEST_CASE_METHOD(testing::SimulationTest,
                  "The velocity-based driver's catching step: a push from behind at t_r 100 ms",
                  "[scenarios][push]") {
-  // 350 N x 0.2 s forward at the stride's start, 1.80 m / 80 kg, t_r 100 ms: without the
-  // catching step the body fell 1.1 s after the onset. Its early swing is 0.28 s; a catching
-  // step still swings half of it (cut to nothing, the foot came straight back down behind the
-  // body and every push from behind at t_r 20 ms fell: controllers/README.md).
-  check_defaults_survive_where_before_fell({}, 350, PushSweepCell{0, 0.2, 0.0},
+  // 350 N x 0.2 s forward at 0.1 of the stride, 1.80 m / 80 kg, t_r 100 ms: without the
+  // catching step the body falls. Its early swing is 0.28 s; a catching step still swings half
+  // of it (cut to nothing, the foot came straight back down behind the body and every push
+  // from behind at t_r 20 ms fell: controllers/README.md). (The cell was the stride's start
+  // before start_pitch_handover; that push now falls either way.)
+  check_defaults_survive_where_before_fell({}, 350, PushSweepCell{0, 0.2, 0.1},
                                            R"({"catch_step_s_per_m_s": 0})",
                                            controllers::WalkerActuation::kVelocity, 0.1);
 }

@@ -116,6 +116,12 @@ struct TorqueWalkerParams {
   double pelvis_pitch_rad = 0.125;  ///< forward lean of the pelvis in the world
   double start_pitch_rad = 0.073;   ///< extra lean for the first start_time_s (from standing)
   double start_time_s = 1.934;
+  /// When the start ends, the speed integral takes over its extra lean (the integral is raised
+  /// to at least start_pitch_rad at the first free step after start_time_s), so the lean does
+  /// not drop as the walk gets going. The velocity driver's integral takes ~8 s to build the
+  /// lean its speed needs; arriving at 0.85 m/s of a 1.0 m/s command, small bodies stalled at
+  /// the terrain's 5 cm step up (controllers/README.md). false: the start's lean just ends.
+  bool start_pitch_handover = false;
   double torso_kp = 1273;
   double hip_kp = 434;
   double knee_kp = 218;
@@ -316,7 +322,8 @@ struct TorqueWalkerState {
   double ankle_height_m = 0;  ///< the ankles' height standing flat, measured at reset
   // Speed and drift regulation (rad).
   double lean_integral = 0, roll_integral = 0;
-  double lean_step = 0;  ///< the proportional part (speed_step_gain_rad_per_m_s)
+  double lean_step = 0;            ///< the proportional part (speed_step_gain_rad_per_m_s)
+  bool start_handed_over = false;  ///< start_pitch_handover has been done
   // Base-polygon balance: the rule's step length and width for this swing (NaN: not moved).
   double rule_length_m = std::numeric_limits<double>::quiet_NaN();
   double rule_width_m = std::numeric_limits<double>::quiet_NaN();
