@@ -748,12 +748,9 @@ void TorqueWalker::on_strike(const mjData& d, const sim::CenterOfMass& com, int 
         fade * within_step_limit(deficit, p.speed_integral_step_limit_m_s) + (1.0 - fade) * deficit;
     st.lean_integral = std::clamp(st.lean_integral + p.speed_integral_rad_per_m * counted * t_step,
                                   -p.speed_integral_limit_rad, p.speed_integral_limit_rad);
-    if (p.start_pitch_handover && !st.start_handed_over) {
-      st.start_handed_over = true;  // the first free step after the start
-      if (!st.stopping)
-        st.lean_integral = std::clamp(std::max(st.lean_integral, p.start_pitch_rad),
-                                      -p.speed_integral_limit_rad, p.speed_integral_limit_rad);
-    }
+    if (p.start_pitch_handover && st.walk_steps == 0 && !st.stopping)  // the first free step
+      st.lean_integral = std::clamp(std::max(st.lean_integral, p.start_pitch_rad),
+                                    -p.speed_integral_limit_rad, p.speed_integral_limit_rad);
     st.lean_step = std::clamp(fade * p.speed_step_gain_rad_per_m_s * deficit,
                               -p.speed_step_limit_rad, p.speed_step_limit_rad);
     // After a near stop (a push from the front) the lean comes at once, not after the integral's

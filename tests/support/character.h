@@ -5,9 +5,11 @@
 
 namespace biodyn::testing {
 
-/// The character `spec` describes, generated and compiled.
-inline sim::Model generated_character(const models::CharacterSpec& spec) {
-  return load_inline(models::to_mjcf(models::generate_character(spec)));
+/// The character `spec` describes, generated and compiled (in the scene `options` give, e.g.
+/// a terrain).
+inline sim::Model generated_character(const models::CharacterSpec& spec,
+                                      const models::PhysicsOptions& options = {}) {
+  return load_inline(models::to_mjcf(models::generate_character(spec), options));
 }
 
 /// The character `spec` describes with the legs' Hill muscles (its muscle list and anatomy;

@@ -477,8 +477,7 @@ TEST_CASE_METHOD(biodyn::testing::SimulationTest,
   body.height_m = 1.58;
   body.mass_kg = 63.5;
   body.sex = models::Sex::kFemale;
-  sim::Simulation sim(
-      sim::Model::from_string(models::to_mjcf(models::generate_character(body)), "<character>"));
+  sim::Simulation sim(testing::generated_character(body));
   for (const bool bounded : {true, false}) {
     scenarios::WalkRunParams p;
     p.duration_s = 45;
@@ -509,8 +508,7 @@ TEST_CASE_METHOD(biodyn::testing::SimulationTest,
   body.mass_kg = 50;
   models::PhysicsOptions physics;
   physics.terrain.kind = models::Terrain::Kind::kSteps;
-  sim::Simulation sim(sim::Model::from_string(
-      models::to_mjcf(models::generate_character(body), physics), "<character>"));
+  sim::Simulation sim(testing::generated_character(body, physics));
   for (const bool handover : {true, false}) {
     scenarios::WalkRunParams p;
     p.duration_s = 16;  // past the step down at 9 m

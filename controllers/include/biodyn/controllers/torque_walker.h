@@ -322,8 +322,7 @@ struct TorqueWalkerState {
   double ankle_height_m = 0;  ///< the ankles' height standing flat, measured at reset
   // Speed and drift regulation (rad).
   double lean_integral = 0, roll_integral = 0;
-  double lean_step = 0;            ///< the proportional part (speed_step_gain_rad_per_m_s)
-  bool start_handed_over = false;  ///< start_pitch_handover has been done
+  double lean_step = 0;  ///< the proportional part (speed_step_gain_rad_per_m_s)
   // Base-polygon balance: the rule's step length and width for this swing (NaN: not moved).
   double rule_length_m = std::numeric_limits<double>::quiet_NaN();
   double rule_width_m = std::numeric_limits<double>::quiet_NaN();
