@@ -27,9 +27,17 @@ json outcome_json(const scenarios::GaitSearchParams& p, const scenarios::Candida
     for (const scenarios::GaitFigure& f : o.figures) figures[f.name] = {f.value, f.met()};
     cases.push_back({{"height_m", c.height_m},
                      {"mass_kg", c.mass_kg},
+                     {"sex", models::to_string(c.sex)},
                      {"speed_m_s", c.speed_m_s},
                      {"reaction_time_s", c.reaction_time_s},
                      {"judged_on_gait", c.gait},
+                     {"push", c.push_force_N > 0 ? json{{"force_N", c.push_force_N},
+                                                        {"duration_s", c.push_duration_s},
+                                                        {"direction_deg", c.push_direction_deg},
+                                                        {"onset_phase", c.push_phase},
+                                                        {"survived", o.push_failure.empty()},
+                                                        {"failure", o.push_failure}}
+                                                 : json(nullptr)},
                      {"fell", o.fell},
                      {"time_fallen_s", o.fell ? json(o.time_fallen_s) : json(nullptr)},
                      {"steady_speed_m_s", o.speed_m_s},
@@ -51,9 +59,9 @@ std::string best_json(const std::string& candidate) {
 Command add_walk_search_command(CLI::App* app) {
   struct Options {
     std::string params, out, controller = "torque";
-    int generations = 30, population = 32, threads = 0;
+    int generations = 30, population = 32, threads = 0, pushes = 0;
     unsigned long long seed = 1;
-    double duration_s = 16;
+    double duration_s = 16, spread = 1.0 / 6;
   };
   auto o = std::make_shared<Options>();
   CLI::App* cmd = app->add_subcommand(
@@ -61,8 +69,8 @@ Command add_walk_search_command(CLI::App* app) {
       "Search the torque walker's parameters against human gait (cross-entropy; the cost: falls, "
       "speed, and the gait figures of biodyn gait outside their human bands) on 1.80 m / 80 kg at "
       "1.0 and 1.3 m/s, 1.55 m / 50 kg and 1.95 m / 120 kg at 1.0 m/s, and walking at 0.5 and "
-      "1.5 m/s (--controller velocity: these two at t_r 100 ms, and every body walking at 1.0 m/s "
-      "at t_r 100 ms)");
+      "1.5 m/s (--controller velocity: these two at t_r 100 ms, and every body and three women "
+      "walking at 1.0 m/s at t_r 100 ms); --pushes adds pushes");
   cmd->add_option("--params", o->params,
                   "Walker parameters to start from (JSON; default: the walker's defaults with a "
                   "double support put first)");
@@ -75,6 +83,16 @@ Command add_walk_search_command(CLI::App* app) {
   cmd->add_option("--seed", o->seed, "Random seed (the same seed gives the same search)")
       ->capture_default_str();
   cmd->add_option("--duration", o->duration_s, "Simulated time of each walk, s")
+      ->capture_default_str();
+  cmd->add_option("--pushes", o->pushes,
+                  "Also judge each candidate on this many pushes (a multiple of 8, up to 80): "
+                  "350 N x 0.2 s at the pelvis, 1.80 m / 80 kg at 1.0 m/s, t_r 100 ms, 8 "
+                  "directions at phases push-sweep does not use; the balance gains join the "
+                  "searched parameters")
+      ->capture_default_str();
+  cmd->add_option("--spread", o->spread,
+                  "The first generation's SD as a fraction of each parameter's range, (0, 0.5] "
+                  "(smaller refines a start already good)")
       ->capture_default_str();
   cmd->add_option("--threads", o->threads, "Worker threads (default: all cores)");
   cmd->add_option("-o,--out", o->out,
@@ -92,19 +110,22 @@ Command add_walk_search_command(CLI::App* app) {
               controllers::apply_torque_walker_json(read_file(o->params), o->params, &base);
             scenarios::GaitSearchParams p =
                 scenarios::default_gait_search(controllers::torque_walker_json(base), actuation);
+            scenarios::add_push_cases(&p, o->pushes);
             p.generations = o->generations;
             p.population = o->population;
             p.seed = o->seed;
             p.duration_s = o->duration_s;
+            p.initial_spread = o->spread;
             p.threads = o->threads > 0
                             ? o->threads
                             : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
             p.validate();
             std::cout << "biodyn walk-search: controller " << o->controller << ", "
-                      << p.dimensions.size() << " parameters, " << p.cases.size() << " walks of "
-                      << p.duration_s << " s per candidate, " << p.population << " candidates x "
-                      << p.generations << " generations, seed " << p.seed << ", " << p.threads
-                      << " threads\n";
+                      << p.dimensions.size() << " parameters, " << p.cases.size() << " walks ("
+                      << o->pushes << " with a push) of " << p.duration_s << " s per candidate, "
+                      << p.population << " candidates x " << p.generations
+                      << " generations, first spread " << p.initial_spread
+                      << " of each range, seed " << p.seed << ", " << p.threads << " threads\n";
             std::ostringstream csv;
             csv << "generation,best_cost,elite_mean_cost";
             for (const scenarios::SearchDimension& d : p.dimensions) csv << ",mean" << d.pointer;

@@ -12,6 +12,7 @@
 #include "biodyn/controllers/torque_walker.h"
 #include "biodyn/models/mjcf.h"
 #include "biodyn/scenarios/motion_recorder.h"
+#include "biodyn/scenarios/push_sweep.h"
 #include "biodyn/scenarios/walk.h"
 #include "biodyn/sim/errors.h"
 #include "biodyn/sim/model.h"
@@ -24,6 +25,9 @@ using nlohmann::json;
 /// Cost of a fall: the whole run lost, less the share of it walked (a candidate that walks
 /// longer is nearer).
 constexpr double kFallCost = 1000;
+/// Cost of a push not survived (a walk's fall costs 1000-2000: a push lost is less than a walk
+/// lost, more than every gait figure's miss).
+constexpr double kPushFailCost = 300;
 /// A walk's mean speed may miss the command by this fraction before it costs.
 constexpr double kSpeedTolerance = 0.10;
 /// deg: a mean curve this far (RMS) from the normative one costs 1 (then squared).
@@ -51,18 +55,52 @@ class Normal {
   std::mt19937_64 rng_;
 };
 
-CaseOutcome walk_case(const GaitSearchParams& p, const SearchCase& c,
-                      const std::string& walker_json) {
+WalkRunParams case_run(const GaitSearchParams& p, const SearchCase& c,
+                       const std::string& walker_json) {
   WalkRunParams run;
   run.config.scenario = "walk";
   run.config.character.height_m = c.height_m;
   run.config.character.mass_kg = c.mass_kg;
+  run.config.character.sex = c.sex;
   run.config.speed_m_s = c.speed_m_s;
   run.config.gait_json = walker_json;
   run.config.walker_actuation = p.actuation;
   run.config.reaction_time_s = c.reaction_time_s;
   run.config.gait_source = "search candidate";
   run.duration_s = p.duration_s;
+  return run;
+}
+
+CaseOutcome push_case(const GaitSearchParams& p, const SearchCase& c,
+                      const std::string& walker_json) {
+  PushSweepSpec spec;
+  spec.walk = case_run(p, c, walker_json);
+  spec.walk.config.walk_push = WalkPush{};
+  spec.directions = 1;
+  spec.durations_s = {c.push_duration_s};
+  spec.phases = 1;
+  spec.fixed_force_N = c.push_force_N;
+  sim::Simulation sim(sim::Model::from_string(
+      models::to_mjcf(models::generate_character(spec.walk.config.model_spec())), "<character>"));
+  const PushCellResult r =
+      run_push_cell(&sim, spec, {c.push_direction_deg, c.push_duration_s, c.push_phase});
+  CaseOutcome out;
+  if (r.not_pushed) {
+    // The walk fell (or never settled) before the push: as bad as a walk's fall at its start.
+    out.fell = true;
+    out.cost = 2 * kFallCost;
+  } else if (r.outcome != PushOutcome::kSurvived) {
+    out.fell = r.outcome == PushOutcome::kFell;
+    out.cost = kPushFailCost;
+  }
+  out.push_failure = r.failure;
+  return out;
+}
+
+CaseOutcome walk_case(const GaitSearchParams& p, const SearchCase& c,
+                      const std::string& walker_json) {
+  if (c.push_force_N > 0) return push_case(p, c, walker_json);
+  WalkRunParams run = case_run(p, c, walker_json);
   const models::CharacterSpec spec = run.config.model_spec();
   sim::Simulation sim(
       sim::Model::from_string(models::to_mjcf(models::generate_character(spec)), "<character>"));
@@ -123,6 +161,8 @@ void GaitSearchParams::validate() const {
     fail("duration: expected > analyse_from + 3 s (a few cycles), got " +
          std::to_string(duration_s));
   if (threads < 1) fail("threads: expected >= 1, got " + std::to_string(threads));
+  if (!(initial_spread > 0 && initial_spread <= 0.5))
+    fail("spread: expected (0, 0.5], got " + std::to_string(initial_spread));
   // Every pointer must name a number of the base parameters, and the base must be valid.
   const json base = json::parse(base_json);
   for (const SearchDimension& d : dimensions) {
@@ -190,18 +230,56 @@ GaitSearchParams default_gait_search(const std::string& base_json,
       {"/sagittal_cv", 0.0, 0.5},
       {"/toe_up_rad", 0.0, 0.3},
   };
-  p.cases = {{1.80, 80, 1.0, true},  {1.80, 80, 1.3, true},  {1.55, 50, 1.0, true},
-             {1.95, 120, 1.0, true}, {1.80, 80, 0.5, false}, {1.80, 80, 1.5, false}};
+  const models::Sex man = models::Sex::kMale;
+  p.cases = {{1.80, 80, 1.0, man, true},  {1.80, 80, 1.3, man, true},  {1.55, 50, 1.0, man, true},
+             {1.95, 120, 1.0, man, true}, {1.80, 80, 0.5, man, false}, {1.80, 80, 1.5, man, false}};
   if (actuation == controllers::WalkerActuation::kVelocity) {
     for (SearchCase& c : p.cases)
       if (!c.gait) c.reaction_time_s = 0.1;
     // t_r 100 ms on every body (the first searches had it on 1.80 m / 80 kg only, and their
     // best fell within 2 s of the start on 1.55 m / 50 kg and 1.95 m / 120 kg).
-    p.cases.push_back({1.80, 80, 1.0, false, 0.1});
-    p.cases.push_back({1.55, 50, 1.0, false, 0.1});
-    p.cases.push_back({1.95, 120, 1.0, false, 0.1});
+    p.cases.push_back({1.80, 80, 1.0, man, false, 0.1});
+    p.cases.push_back({1.55, 50, 1.0, man, false, 0.1});
+    p.cases.push_back({1.95, 120, 1.0, man, false, 0.1});
+    // Women too (de Leva's female segments): a search on men alone found a walker whose women
+    // nearly all fell in their first 1.5 s at t_r 100 ms (controllers/README.md, sixteenth
+    // session).
+    for (const auto& [height, mass] : {std::pair{1.60, 55.0}, {1.75, 85.0}, {1.90, 95.0}})
+      p.cases.push_back({height, mass, 1.0, models::Sex::kFemale, false, 0.1});
   }
   return p;
+}
+
+void add_push_cases(GaitSearchParams* p, int count) {
+  if (count < 0 || count > 80 || count % 8 != 0)
+    throw sim::InvalidArgument("gait search: pushes: expected a multiple of 8 in [0, 80], got " +
+                               std::to_string(count));
+  if (count == 0) return;
+  // push-sweep's phases are k / 10 of the stride; (j + 1/4) / n never is one (10 j + 2.5 = k n
+  // has no integer solution).
+  const int per_direction = count / 8;
+  for (int j = 0; j < per_direction; ++j) {
+    for (int k = 0; k < 8; ++k) {
+      SearchCase c;
+      c.gait = false;
+      c.reaction_time_s = 0.1;
+      c.push_force_N = 350;
+      c.push_direction_deg = 45.0 * k;
+      c.push_phase = (j + 0.25) / per_direction;
+      p->cases.push_back(c);
+    }
+  }
+  // The balance feedback a push calls on (torque_walker.h): the swing hip's placement across,
+  // the catching step, the speed's lean terms.
+  p->dimensions.insert(p->dimensions.end(), {
+                                                {"/frontal_cd", -0.3, 0.3},
+                                                {"/frontal_cv", 0.0, 0.8},
+                                                {"/max_swing_roll_rad", 0.15, 0.45},
+                                                {"/catch_step_s_per_m_s", 0.0, 1.0},
+                                                {"/catch_side_deadband_m_s", 0.1, 1.0},
+                                                {"/speed_step_gain_rad_per_m_s", 0.0, 0.5},
+                                                {"/speed_recovery_gain_rad_per_m_s", 0.0, 0.5},
+                                            });
 }
 
 CandidateResult evaluate_candidate(const GaitSearchParams& p, const std::string& walker_json,
@@ -233,7 +311,7 @@ CandidateResult run_gait_search(const GaitSearchParams& p,
   for (std::size_t i = 0; i < n; ++i) {
     const SearchDimension& d = p.dimensions[i];
     mean[i] = std::clamp(base.at(json::json_pointer(d.pointer)).get<double>(), d.lo, d.hi);
-    sd[i] = (d.hi - d.lo) / 6;
+    sd[i] = (d.hi - d.lo) * p.initial_spread;
   }
   Normal normal(p.seed);
   CandidateResult best;

@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "biodyn/controllers/torque_walker.h"
+#include "biodyn/models/character.h"
 #include "biodyn/scenarios/gait_analysis.h"
 
 namespace biodyn::scenarios {
@@ -25,9 +26,14 @@ struct SearchDimension {
 /// One walk each candidate makes.
 struct SearchCase {
   double height_m = 1.8, mass_kg = 80, speed_m_s = 1.0;
+  models::Sex sex = models::Sex::kMale;
   /// Judged on the gait figures (else only on not falling and the speed).
   bool gait = true;
   double reaction_time_s = 0;  ///< s; > 0 replaces every joint's t_r
+  /// N; > 0: a push case (judged on surviving it, push_sweep.h): after steady walking, one
+  /// pelvis push of this force for push_duration_s from push_direction_deg at push_phase.
+  double push_force_N = 0;
+  double push_duration_s = 0.2, push_direction_deg = 0, push_phase = 0;
 };
 
 struct GaitSearchParams {
@@ -40,6 +46,9 @@ struct GaitSearchParams {
   double analyse_from_s = 6;  ///< s, the gait figures from here (after the start-up)
   int population = 32, generations = 30;
   double elite_fraction = 0.25;
+  /// The first Gaussian's SD, as a fraction of each dimension's range (1/6: the box is +-3 SD;
+  /// smaller refines a start already good).
+  double initial_spread = 1.0 / 6;
   unsigned long long seed = 1;
   int threads = 1;
   void validate() const;  ///< throws sim::InvalidArgument naming the field
@@ -49,9 +58,17 @@ struct GaitSearchParams {
 /// the phases' targets and the leg gains, on 1.80 m / 80 kg at 1.0 and 1.3 m/s and 1.55 m /
 /// 50 kg and 1.95 m / 120 kg at 1.0 m/s (judged on the gait), and 1.80 m / 80 kg at 0.5 and
 /// 1.5 m/s (judged on walking); with the velocity-based controllers those two walk with
-/// t_r = 100 ms, and a third at 1.0 m/s too (the reaction time the paper could not reach).
+/// t_r = 100 ms, and every body walks 1.0 m/s at t_r = 100 ms too (the reaction time the paper
+/// could not reach), among them three women (1.60 m / 55 kg, 1.75 m / 85 kg, 1.90 m / 95 kg).
 GaitSearchParams default_gait_search(const std::string& base_json,
                                      controllers::WalkerActuation actuation);
+
+/// Adds `count` push cases to `p` (the ones push-sweep measures: 350 N x 0.2 s at the pelvis,
+/// 1.80 m / 80 kg at 1.0 m/s, t_r 100 ms, 8 directions, the phases between push-sweep's own so
+/// that its 8 x 10 table stays a check the search did not see), and the balance feedback's
+/// gains to the searched dimensions (once: a second call adds them again). `count` in [0, 80],
+/// a multiple of 8.
+void add_push_cases(GaitSearchParams* p, int count);
 
 /// What one case of one candidate gave.
 struct CaseOutcome {
@@ -59,6 +76,7 @@ struct CaseOutcome {
   double time_fallen_s = 0, speed_m_s = 0;
   double cost = 0;
   std::vector<GaitFigure> figures;  ///< gait cases that did not fall
+  std::string push_failure;         ///< push cases: how a push that was not survived ended
 };
 
 struct CandidateResult {
