@@ -71,6 +71,12 @@ WalkRunParams case_run(const GaitSearchParams& p, const SearchCase& c,
   return run;
 }
 
+/// A simulation of the body `run` walks.
+sim::Simulation case_simulation(const WalkRunParams& run) {
+  return sim::Simulation(sim::Model::from_string(
+      models::to_mjcf(models::generate_character(run.config.model_spec())), "<character>"));
+}
+
 CaseOutcome push_case(const GaitSearchParams& p, const SearchCase& c,
                       const std::string& walker_json) {
   PushSweepSpec spec;
@@ -80,8 +86,7 @@ CaseOutcome push_case(const GaitSearchParams& p, const SearchCase& c,
   spec.durations_s = {c.push_duration_s};
   spec.phases = 1;
   spec.fixed_force_N = c.push_force_N;
-  sim::Simulation sim(sim::Model::from_string(
-      models::to_mjcf(models::generate_character(spec.walk.config.model_spec())), "<character>"));
+  sim::Simulation sim = case_simulation(spec.walk);
   const PushCellResult r =
       run_push_cell(&sim, spec, {c.push_direction_deg, c.push_duration_s, c.push_phase});
   CaseOutcome out;
@@ -101,9 +106,7 @@ CaseOutcome walk_case(const GaitSearchParams& p, const SearchCase& c,
                       const std::string& walker_json) {
   if (c.push_force_N > 0) return push_case(p, c, walker_json);
   WalkRunParams run = case_run(p, c, walker_json);
-  const models::CharacterSpec spec = run.config.model_spec();
-  sim::Simulation sim(
-      sim::Model::from_string(models::to_mjcf(models::generate_character(spec)), "<character>"));
+  sim::Simulation sim = case_simulation(run);
   const double dt = sim.model().opt.timestep;
   MotionRecorder recorder(sim.model(),
                           std::max(1, static_cast<int>(std::lround(1 / (kRecordHz * dt)))),
@@ -270,16 +273,22 @@ void add_push_cases(GaitSearchParams* p, int count) {
     }
   }
   // The balance feedback a push calls on (torque_walker.h): the swing hip's placement across,
-  // the catching step, the speed's lean terms.
-  p->dimensions.insert(p->dimensions.end(), {
-                                                {"/frontal_cd", -0.3, 0.3},
-                                                {"/frontal_cv", 0.0, 0.8},
-                                                {"/max_swing_roll_rad", 0.15, 0.45},
-                                                {"/catch_step_s_per_m_s", 0.0, 1.0},
-                                                {"/catch_side_deadband_m_s", 0.1, 1.0},
-                                                {"/speed_step_gain_rad_per_m_s", 0.0, 0.5},
-                                                {"/speed_recovery_gain_rad_per_m_s", 0.0, 0.5},
-                                            });
+  // the catching step, the speed's lean terms (each once, if not searched already).
+  const SearchDimension balance[] = {
+      {"/frontal_cd", -0.3, 0.3},
+      {"/frontal_cv", 0.0, 0.8},
+      {"/max_swing_roll_rad", 0.15, 0.45},
+      {"/catch_step_s_per_m_s", 0.0, 1.0},
+      {"/catch_side_deadband_m_s", 0.1, 1.0},
+      {"/speed_step_gain_rad_per_m_s", 0.0, 0.5},
+      {"/speed_recovery_gain_rad_per_m_s", 0.0, 0.5},
+  };
+  for (const SearchDimension& d : balance) {
+    const bool searched =
+        std::any_of(p->dimensions.begin(), p->dimensions.end(),
+                    [&d](const SearchDimension& e) { return e.pointer == d.pointer; });
+    if (!searched) p->dimensions.push_back(d);
+  }
 }
 
 CandidateResult evaluate_candidate(const GaitSearchParams& p, const std::string& walker_json,

@@ -34,6 +34,28 @@ scenarios::WalkRunParams calm_push_walk(double onset_phase) {
   return p;
 }
 
+// The velocity-based driver walking `body` at 1.0 m/s, honest weld, on `terrain`: with its
+// defaults, or with `gait_json` changing one of them (the pair a "the default walks where the
+// change falls" test runs).
+scenarios::WalkRunResult velocity_walk(sim::Simulation* sim, const models::CharacterSpec& body,
+                                       double duration_s, double reaction_time_s,
+                                       const models::Terrain& terrain,
+                                       const std::string& gait_json = "") {
+  scenarios::WalkRunParams p;
+  p.duration_s = duration_s;
+  p.config.character = body;
+  p.config.terrain = terrain;
+  p.config.weld = controllers::WeldMode::kHonest;
+  p.config.walker_actuation = controllers::WalkerActuation::kVelocity;
+  p.config.reaction_time_s = reaction_time_s;
+  p.config.speed_m_s = 1.0;
+  if (!gait_json.empty()) {
+    p.config.gait_json = gait_json;
+    p.config.gait_source = "test";
+  }
+  return scenarios::run_walk(sim, p);
+}
+
 }  // namespace
 
 TEST_CASE_METHOD(biodyn::testing::SimulationTest, "a walk reports what it measured, consistently",
@@ -479,18 +501,8 @@ TEST_CASE_METHOD(biodyn::testing::SimulationTest,
   body.sex = models::Sex::kFemale;
   sim::Simulation sim(testing::generated_character(body));
   for (const bool bounded : {true, false}) {
-    scenarios::WalkRunParams p;
-    p.duration_s = 45;
-    p.config.character = body;
-    p.config.weld = controllers::WeldMode::kHonest;
-    p.config.walker_actuation = controllers::WalkerActuation::kVelocity;
-    p.config.reaction_time_s = 0.1;
-    p.config.speed_m_s = 1.0;
-    if (!bounded) {
-      p.config.gait_json = R"({"speed_integral_limit_rad": 0.2})";
-      p.config.gait_source = "test";
-    }
-    const scenarios::WalkRunResult r = scenarios::run_walk(&sim, p);
+    const scenarios::WalkRunResult r = velocity_walk(
+        &sim, body, 45, 0.1, {}, bounded ? "" : R"({"speed_integral_limit_rad": 0.2})");
     INFO((bounded ? "bounded" : "unbounded")
          << ": fell at " << r.time_fallen_s << ", steady speed " << r.steady_speed_m_s);
     CHECK(r.fallen == !bounded);
@@ -510,18 +522,9 @@ TEST_CASE_METHOD(biodyn::testing::SimulationTest,
   physics.terrain.kind = models::Terrain::Kind::kSteps;
   sim::Simulation sim(testing::generated_character(body, physics));
   for (const bool handover : {true, false}) {
-    scenarios::WalkRunParams p;
-    p.duration_s = 16;  // past the step down at 9 m
-    p.config.character = body;
-    p.config.terrain = physics.terrain;
-    p.config.weld = controllers::WeldMode::kHonest;
-    p.config.walker_actuation = controllers::WalkerActuation::kVelocity;
-    p.config.speed_m_s = 1.0;
-    if (!handover) {
-      p.config.gait_json = R"({"start_pitch_handover": false})";
-      p.config.gait_source = "test";
-    }
-    const scenarios::WalkRunResult r = scenarios::run_walk(&sim, p);
+    // 16 s: past the step down at 9 m; t_r 0: the controller's own, 20 ms.
+    const scenarios::WalkRunResult r = velocity_walk(
+        &sim, body, 16, 0, physics.terrain, handover ? "" : R"({"start_pitch_handover": false})");
     INFO((handover ? "handover" : "none")
          << ": fell at " << r.time_fallen_s << ", distance " << r.distance_m);
     CHECK(r.fallen == !handover);

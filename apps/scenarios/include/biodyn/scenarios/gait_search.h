@@ -66,8 +66,8 @@ GaitSearchParams default_gait_search(const std::string& base_json,
 /// Adds `count` push cases to `p` (the ones push-sweep measures: 350 N x 0.2 s at the pelvis,
 /// 1.80 m / 80 kg at 1.0 m/s, t_r 100 ms, 8 directions, the phases between push-sweep's own so
 /// that its 8 x 10 table stays a check the search did not see), and the balance feedback's
-/// gains to the searched dimensions (once: a second call adds them again). `count` in [0, 80],
-/// a multiple of 8.
+/// gains to the searched dimensions (those not searched already). `count` in [0, 80], a
+/// multiple of 8.
 void add_push_cases(GaitSearchParams* p, int count);
 
 /// What one case of one candidate gave.
