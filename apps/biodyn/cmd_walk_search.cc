@@ -59,8 +59,8 @@ std::string best_json(const std::string& candidate) {
 Command add_walk_search_command(CLI::App* app) {
   struct Options {
     std::string params, out, controller = "torque";
-    int generations = 30, population = 32, threads = 0, pushes = 0;
-    unsigned long long seed = 1;
+    int generations = 30, population = 32, threads = 0, pushes = 0, push_bodies = 1;
+    unsigned long long seed = 1, push_body_seed = 3000;
     double duration_s = 16, spread = 1.0 / 6;
   };
   auto o = std::make_shared<Options>();
@@ -86,9 +86,18 @@ Command add_walk_search_command(CLI::App* app) {
       ->capture_default_str();
   cmd->add_option("--pushes", o->pushes,
                   "Also judge each candidate on this many pushes (a multiple of 8, up to 80): "
-                  "350 N x 0.2 s at the pelvis, 1.80 m / 80 kg at 1.0 m/s, t_r 100 ms, 8 "
+                  "350 N x 0.2 s at the pelvis, 1.80 m / 80 kg (see --push-bodies) at 1.0 m/s, t_r "
+                  "100 ms, 8 "
                   "directions at phases push-sweep does not use; the balance gains join the "
                   "searched parameters")
+      ->capture_default_str();
+  cmd->add_option("--push-bodies", o->push_bodies,
+                  "The pushes are shared among this many bodies (1 to 16): 1.80 m / 80 kg and "
+                  "walk-sweep's random bodies from --push-body-seed")
+      ->capture_default_str();
+  cmd->add_option("--push-body-seed", o->push_body_seed,
+                  "Seed of the pushed random bodies (walk-sweep's; check the result on other "
+                  "seeds)")
       ->capture_default_str();
   cmd->add_option("--spread", o->spread,
                   "The first generation's SD as a fraction of each parameter's range, (0, 0.5] "
@@ -110,7 +119,7 @@ Command add_walk_search_command(CLI::App* app) {
               controllers::apply_torque_walker_json(read_file(o->params), o->params, &base);
             scenarios::GaitSearchParams p =
                 scenarios::default_gait_search(controllers::torque_walker_json(base), actuation);
-            scenarios::add_push_cases(&p, o->pushes);
+            scenarios::add_push_cases(&p, o->pushes, o->push_bodies, o->push_body_seed);
             p.generations = o->generations;
             p.population = o->population;
             p.seed = o->seed;

@@ -14,6 +14,7 @@
 #include "biodyn/scenarios/motion_recorder.h"
 #include "biodyn/scenarios/push_sweep.h"
 #include "biodyn/scenarios/walk.h"
+#include "biodyn/scenarios/walk_sweep.h"
 #include "biodyn/sim/errors.h"
 #include "biodyn/sim/model.h"
 
@@ -253,17 +254,39 @@ GaitSearchParams default_gait_search(const std::string& base_json,
   return p;
 }
 
-void add_push_cases(GaitSearchParams* p, int count) {
+void add_push_cases(GaitSearchParams* p, int count, int bodies, std::uint64_t body_seed) {
   if (count < 0 || count > 80 || count % 8 != 0)
     throw sim::InvalidArgument("gait search: pushes: expected a multiple of 8 in [0, 80], got " +
                                std::to_string(count));
+  if (bodies < 1 || bodies > 16)
+    throw sim::InvalidArgument("gait search: push bodies: expected 1 to 16, got " +
+                               std::to_string(bodies));
   if (count == 0) return;
+  // The pushed bodies: 1.80 m / 80 kg, then walk-sweep's seeded random bodies (seeds body_seed,
+  // body_seed + 1, ...), each walking 1.0 m/s.
+  struct Body {
+    double height_m, mass_kg;
+    models::Sex sex;
+  };
+  std::vector<Body> pushed = {{1.80, 80, models::Sex::kMale}};
+  WalkSweepSpec drawn;
+  drawn.bodies = bodies - 1;
+  drawn.seed = body_seed;
+  drawn.speeds_m_s = {1.0};
+  for (const SweepWalk& w : random_sweep_walks(drawn))
+    pushed.push_back({w.body.height_m, w.body.mass_kg, w.body.sex});
   // push-sweep's phases are k / 10 of the stride; (j + 1/4) / n never is one (10 j + 2.5 = k n
   // has no integer solution).
   const int per_direction = count / 8;
   for (int j = 0; j < per_direction; ++j) {
     for (int k = 0; k < 8; ++k) {
+      // Body (j + k) mod K: each body is pushed from every direction as j runs, at phases spread
+      // over the stride (a body per direction would tie each body to one direction).
+      const Body& b = pushed[static_cast<std::size_t>((j + k) % bodies)];
       SearchCase c;
+      c.height_m = b.height_m;
+      c.mass_kg = b.mass_kg;
+      c.sex = b.sex;
       c.gait = false;
       c.reaction_time_s = 0.1;
       c.push_force_N = 350;

@@ -98,8 +98,10 @@ TEST_CASE("biodyn walk-search: the same search on 1 and 2 threads, and its resul
   CHECK(walk.err.find("error") == std::string::npos);
 }
 
-TEST_CASE("biodyn walk-search: push cases and spread out of range are refused, naming the option",
-          "[apps][cli][gait]") {
+TEST_CASE(
+    "biodyn walk-search: push cases, push bodies and spread out of range are refused, naming the "
+    "option",
+    "[apps][cli][gait]") {
   const fs::path dir = fresh_dir("gait_cli_test", "search_bad");
   CliRun r = run_biodyn("walk-search --pushes 12 -o s", dir);
   CHECK(r.exit_code == 2);
@@ -108,6 +110,9 @@ TEST_CASE("biodyn walk-search: push cases and spread out of range are refused, n
   r = run_biodyn("walk-search --spread 0 -o s", dir);
   CHECK(r.exit_code == 2);
   CHECK(r.err.find("spread") != std::string::npos);
+  r = run_biodyn("walk-search --pushes 8 --push-bodies 0 -o s", dir);
+  CHECK(r.exit_code == 2);
+  CHECK(r.err.find("push bodies") != std::string::npos);
   CHECK_FALSE(fs::exists(dir / "s" / "best.json"));
 }
 

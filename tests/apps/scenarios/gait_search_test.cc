@@ -1,12 +1,16 @@
 // The walker search's push cases (gait_search.h, `biodyn walk-search --pushes`): where they push,
 // that push-sweep's own table stays unseen by them, and that a candidate is judged by what the
-// push did to its walk; the first generation's spread refused outside (0, 0.5].
+// push did to its walk; the pushes shared among seeded random bodies; the first generation's
+// spread refused outside (0, 0.5].
+#include <algorithm>
 #include <catch2/catch.hpp>
 #include <cmath>
+#include <map>
 #include <set>
 
 #include "biodyn/controllers/torque_walker.h"
 #include "biodyn/scenarios/gait_search.h"
+#include "biodyn/scenarios/walk_sweep.h"
 #include "biodyn/sim/errors.h"
 
 using namespace biodyn;
@@ -57,6 +61,41 @@ TEST_CASE("the search's push cases: 8 directions, phases push-sweep does not use
     INFO(bad);
     CHECK_THROWS_WITH(scenarios::add_push_cases(&q, bad),
                       Catch::Contains("pushes") && Catch::Contains(std::to_string(bad)));
+  }
+}
+
+TEST_CASE("the search's pushes shared among bodies: 1.80 m / 80 kg and walk-sweep's random ones",
+          "[scenarios][search]") {
+  scenarios::GaitSearchParams p = velocity_search();
+  const std::size_t walks = p.cases.size();
+  scenarios::add_push_cases(&p, 24, 3, 4242);
+  REQUIRE(p.cases.size() == walks + 24);
+  scenarios::WalkSweepSpec drawn;
+  drawn.bodies = 2;
+  drawn.seed = 4242;
+  drawn.speeds_m_s = {1.0};
+  const std::vector<scenarios::SweepWalk> random = scenarios::random_sweep_walks(drawn);
+  // Each body: which directions it is pushed from.
+  std::map<std::pair<double, double>, std::set<double>> directions;
+  for (std::size_t k = walks; k < p.cases.size(); ++k) {
+    const scenarios::SearchCase& c = p.cases[k];
+    directions[{c.height_m, c.mass_kg}].insert(c.push_direction_deg);
+    const bool named = c.height_m == 1.80 && c.mass_kg == 80;
+    const bool drawn_body = std::any_of(random.begin(), random.end(), [&c](const auto& w) {
+      return w.body.height_m == c.height_m && w.body.mass_kg == c.mass_kg && w.body.sex == c.sex;
+    });
+    CHECK((named || drawn_body));
+  }
+  REQUIRE(directions.size() == 3);
+  for (const auto& [body, from] : directions) {
+    INFO(body.first << " m " << body.second << " kg");
+    CHECK(from.size() == 8);  // 3 pushes per direction, each to another body
+  }
+  for (int bad : {0, 17}) {
+    INFO(bad);
+    scenarios::GaitSearchParams q = velocity_search();
+    CHECK_THROWS_WITH(scenarios::add_push_cases(&q, 8, bad),
+                      Catch::Contains("push bodies") && Catch::Contains(std::to_string(bad)));
   }
 }
 

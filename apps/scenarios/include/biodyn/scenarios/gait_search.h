@@ -6,6 +6,7 @@
 /// (gait_analysis.h) lie outside the human bands, and the best quarter sets the next Gaussian.
 /// Deterministic for a seed, whatever the thread count (each candidate is its own run).
 
+#include <cstdint>
 #include <functional>
 #include <string>
 #include <vector>
@@ -64,11 +65,12 @@ GaitSearchParams default_gait_search(const std::string& base_json,
                                      controllers::WalkerActuation actuation);
 
 /// Adds `count` push cases to `p` (the ones push-sweep measures: 350 N x 0.2 s at the pelvis,
-/// 1.80 m / 80 kg at 1.0 m/s, t_r 100 ms, 8 directions, the phases between push-sweep's own so
-/// that its 8 x 10 table stays a check the search did not see), and the balance feedback's
-/// gains to the searched dimensions (those not searched already). `count` in [0, 80], a
-/// multiple of 8.
-void add_push_cases(GaitSearchParams* p, int count);
+/// walking 1.0 m/s at t_r 100 ms, 8 directions, the phases between push-sweep's own so that its
+/// 8 x 10 table stays a check the search did not see), and the balance feedback's gains to the
+/// searched dimensions (those not searched already). `count` in [0, 80], a multiple of 8. The
+/// pushed bodies: 1.80 m / 80 kg alone (`bodies` 1), or with `bodies` - 1 of walk-sweep's
+/// random bodies from `body_seed` (keep it apart from the seeds the result is checked on).
+void add_push_cases(GaitSearchParams* p, int count, int bodies = 1, std::uint64_t body_seed = 3000);
 
 /// What one case of one candidate gave.
 struct CaseOutcome {
