@@ -611,9 +611,15 @@ void TorqueWalker::drive(const ControlInput& in, ControlFrame* frame) {
       k_hip * p.damping_time_s * w_damped;
 
   // Pelvis in the world by the virtual torso torque; the stance hip makes it (Coros 2010).
-  const double lean = p.pelvis_pitch_rad +
-                      (d.time - state_.start_s < p.start_time_s ? p.start_pitch_rad : 0.0) +
-                      speed_lean_rad();
+  // From standing the start's own lean tips the body forward, and a command's feed-forward lean
+  // above the reference waits for the start to end: the two together at 1.5 m/s threw the
+  // first steps ahead of the swing leg at t_r 100 ms (the velocity driver's start falls).
+  const bool starting = d.time - state_.start_s < p.start_time_s;
+  const double lean =
+      p.pelvis_pitch_rad + (starting ? p.start_pitch_rad : 0.0) + speed_lean_rad() -
+      (starting
+           ? std::max(0.0, p.speed_lean_rad_per_m_s * (state_.speed_m_s - p.reference_speed_m_s))
+           : 0.0);
   const Quaterniond q_pelvis_goal = q_heading * Quaterniond(AngleAxisd(lean, Vector3d::UnitY()));
   const double k_torso = p.torso_kp * gain_scale_;
   const Vector3d tau_torso =
@@ -746,11 +752,17 @@ void TorqueWalker::on_strike(const mjData& d, const sim::CenterOfMass& com, int 
     // integral is the only regulator, and while stopping) it counts the whole deficit.
     const double counted =
         fade * within_step_limit(deficit, p.speed_integral_step_limit_m_s) + (1.0 - fade) * deficit;
+    // Above the reference the feed-forward lean counts against the integral's bound: a command
+    // the gait cannot reach winds the integral to it, and that lean on top of the feed-forward
+    // tipped short bodies over at 1.5 m/s (speed_integral_limit_rad).
+    const double feedforward =
+        std::max(0.0, p.speed_lean_rad_per_m_s * (st.speed_m_s - p.reference_speed_m_s));
+    const double integral_max = std::max(0.0, p.speed_integral_limit_rad - feedforward);
     st.lean_integral = std::clamp(st.lean_integral + p.speed_integral_rad_per_m * counted * t_step,
-                                  -p.speed_integral_limit_rad, p.speed_integral_limit_rad);
+                                  -p.speed_integral_limit_rad, integral_max);
     if (p.start_pitch_handover && st.walk_steps == 0 && !st.stopping)  // the first free step
       st.lean_integral = std::clamp(std::max(st.lean_integral, p.start_pitch_rad),
-                                    -p.speed_integral_limit_rad, p.speed_integral_limit_rad);
+                                    -p.speed_integral_limit_rad, integral_max);
     st.lean_step = std::clamp(fade * p.speed_step_gain_rad_per_m_s * deficit,
                               -p.speed_step_limit_rad, p.speed_step_limit_rad);
     // After a near stop (a push from the front) the lean comes at once, not after the integral's

@@ -40,7 +40,7 @@ scenarios::WalkRunParams calm_push_walk(double onset_phase) {
 scenarios::WalkRunResult velocity_walk(sim::Simulation* sim, const models::CharacterSpec& body,
                                        double duration_s, double reaction_time_s,
                                        const models::Terrain& terrain,
-                                       const std::string& gait_json = "") {
+                                       const std::string& gait_json = "", double speed_m_s = 1.0) {
   scenarios::WalkRunParams p;
   p.duration_s = duration_s;
   p.config.character = body;
@@ -48,7 +48,7 @@ scenarios::WalkRunResult velocity_walk(sim::Simulation* sim, const models::Chara
   p.config.weld = controllers::WeldMode::kHonest;
   p.config.walker_actuation = controllers::WalkerActuation::kVelocity;
   p.config.reaction_time_s = reaction_time_s;
-  p.config.speed_m_s = 1.0;
+  p.config.speed_m_s = speed_m_s;
   if (!gait_json.empty()) {
     p.config.gait_json = gait_json;
     p.config.gait_source = "test";
@@ -507,6 +507,33 @@ TEST_CASE_METHOD(biodyn::testing::SimulationTest,
          << ": fell at " << r.time_fallen_s << ", steady speed " << r.steady_speed_m_s);
     CHECK(r.fallen == !bounded);
   }
+  // At 1.5 m/s the feed-forward lean of the command above the reference, 0.05 rad, counts
+  // against the bound, so the integral stops at 0.05 (walk-sweep --seed 1000 --speeds 1.5: this
+  // body fell at 8.4 s). A bound of 0.15 lets it wind to 0.1 on top, as before.
+  for (const bool bounded : {true, false}) {
+    const scenarios::WalkRunResult r = velocity_walk(
+        &sim, body, 16, 0.1, {}, bounded ? "" : R"({"speed_integral_limit_rad": 0.15})", 1.5);
+    INFO((bounded ? "bounded" : "0.15 rad")
+         << " at 1.5 m/s: fell at " << r.time_fallen_s << ", steady speed " << r.steady_speed_m_s);
+    CHECK(r.fallen == !bounded);
+  }
+}
+
+TEST_CASE_METHOD(biodyn::testing::SimulationTest,
+                 "the velocity-based driver starts a fast walk without the command's lean: "
+                 "1.85 m / 71.9 kg gets going at 1.5 m/s and t_r 100 ms",
+                 "[apps][walk]") {
+  // The start's own lean (start_pitch_rad) and the 1.5 m/s command's feed-forward lean
+  // together threw its first steps ahead of the swing leg: it fell at 2.0 s. The command's lean
+  // now waits for the start to end (start_time_s, 1.9 s).
+  models::CharacterSpec body;
+  body.height_m = 1.85;
+  body.mass_kg = 71.9;
+  sim::Simulation sim(testing::generated_character(body));
+  const scenarios::WalkRunResult r = velocity_walk(&sim, body, 6, 0.1, {}, "", 1.5);
+  INFO("fell at " << r.time_fallen_s << ", distance " << r.distance_m);
+  CHECK_FALSE(r.fallen);
+  CHECK(r.distance_m > 2.0);
 }
 
 TEST_CASE_METHOD(biodyn::testing::SimulationTest,
