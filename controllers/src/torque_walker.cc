@@ -534,10 +534,14 @@ double TorqueWalker::speed_lean_rad() const {
                     -p.speed_lean_limit_rad, p.speed_lean_limit_rad);
 }
 
-double TorqueWalker::phase_duration_s(int phase) const {
+double TorqueWalker::phase_duration_s(int phase, bool starting) const {
   const TorqueWalkerPhase& ph = params_.phases[static_cast<std::size_t>(phase)];
-  return std::max(
-      ph.duration_s - ph.duration_per_m_s * (state_.speed_m_s - params_.reference_speed_m_s), 0.05);
+  // A command faster than the reference shortens the phases once the start has ended (as its
+  // lean waits, drive()): the shorter swings of the first steps from standing at 1.5 m/s came
+  // down ahead of the body at t_r 100 ms.
+  const double v =
+      starting ? std::min(state_.speed_m_s, params_.reference_speed_m_s) : state_.speed_m_s;
+  return std::max(ph.duration_s - ph.duration_per_m_s * (v - params_.reference_speed_m_s), 0.05);
 }
 
 double TorqueWalker::hinge_pd(ControlFrame* f, const mjModel& m, const mjData& d, int dof,
@@ -681,7 +685,8 @@ void TorqueWalker::advance_phases(const mjModel& m, const mjData& d, const sim::
   const bool struck = state_.strike.update(foot_touches_floor(m, d, *rig_, swing));
   const TorqueWalkerPhase& ph = params_.phases[static_cast<std::size_t>(state_.phase)];
   if (!ph.ends_at_strike) {
-    double duration = phase_duration_s(state_.phase);
+    double duration =
+        phase_duration_s(state_.phase, d.time - state_.start_s < params_.start_time_s);
     // Not while stopping (the command is 0 then) or stepping on planned stones (their own
     // timing and speed; a placed step comes down by its target, below).
     // Nor before the walk has a speed of its own (the start from standing overshoots a slow

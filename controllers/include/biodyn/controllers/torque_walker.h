@@ -377,8 +377,9 @@ class TorqueWalker : public ControlDriver {
   double speed_command() const { return state_.speed_m_s; }
   /// rad, the lean the speed regulation adds now (feed-forward + integral).
   double speed_lean_rad() const;
-  /// s, a time phase's length at the commanded speed.
-  double phase_duration_s(int phase) const;
+  /// s, a time phase's length at the commanded speed (`starting`: from standing, within
+  /// start_time_s, at most the reference speed's).
+  double phase_duration_s(int phase, bool starting) const;
   /// Constrained stepping: the next steps' lengths, m, along the heading (ankle to ankle),
   /// from the swing that starts at the next strike; afterwards the steps are free again.
   /// `widths_m` (empty, or one per length): each step's width, m, ankle to ankle across the
