@@ -209,6 +209,7 @@ TorqueWalkerParams velocity_walker_defaults() {
   // Its integral builds the walk's lean slowly: without the start's lean handed over, small
   // bodies met the terrain's step up still slow and stalled (controllers/README.md).
   p.start_pitch_handover = true;
+  p.start_at_reference_speed = true;
   // Its speed levels off below a fast command at t_r 100 ms, and the integral's windup tipped
   // short bodies over (speed_integral_limit_rad; controllers/README.md).
   p.speed_integral_limit_rad = 0.1;
@@ -269,6 +270,9 @@ void apply_torque_walker_json(const std::string& json_text, const std::string& s
   keys["start_pitch_handover"] = [&p](const nlohmann::json& v, const std::string& w) {
     p.start_pitch_handover = json_fields::boolean(v, w);
   };
+  keys["start_at_reference_speed"] = [&p](const nlohmann::json& v, const std::string& w) {
+    p.start_at_reference_speed = json_fields::boolean(v, w);
+  };
   keys["states"] = [&p](const nlohmann::json& v, const std::string& w) {
     if (!v.is_array()) json_fields::fail(w, "must be an array of states", v.dump());
     p.phases.clear();
@@ -301,6 +305,7 @@ std::string torque_walker_json(const TorqueWalkerParams& params) {
   j["back_step_capture_point"] = params.back_step_capture_point;
   j["back_step_landing_knee"] = params.back_step_landing_knee;
   j["start_pitch_handover"] = params.start_pitch_handover;
+  j["start_at_reference_speed"] = params.start_at_reference_speed;
   return j.dump(2) + "\n";
 }
 
@@ -521,10 +526,12 @@ void TorqueWalker::plan_steps(const std::vector<double>& lengths_m,
   state_.plan_next = 0;
 }
 
-double TorqueWalker::speed_lean_rad() const {
+double TorqueWalker::speed_lean_rad(bool starting) const {
   const TorqueWalkerParams& p = params_;
+  // start_at_reference_speed: the command's feed-forward lean waits for the start to end.
   const double v =
-      std::isnan(state_.plan_speed_m_s)
+      starting && p.start_at_reference_speed ? p.reference_speed_m_s
+      : std::isnan(state_.plan_speed_m_s)
           ? state_.speed_m_s
           : state_.speed_m_s +
                 p.plan_speed_gain * std::clamp(state_.plan_speed_m_s - state_.speed_m_s,
@@ -536,11 +543,9 @@ double TorqueWalker::speed_lean_rad() const {
 
 double TorqueWalker::phase_duration_s(int phase, bool starting) const {
   const TorqueWalkerPhase& ph = params_.phases[static_cast<std::size_t>(phase)];
-  // A command faster than the reference shortens the phases once the start has ended (as its
-  // lean waits, drive()): the shorter swings of the first steps from standing at 1.5 m/s came
-  // down ahead of the body at t_r 100 ms.
+  // start_at_reference_speed: the command's phase lengths wait for the start to end.
   const double v =
-      starting ? std::min(state_.speed_m_s, params_.reference_speed_m_s) : state_.speed_m_s;
+      starting && params_.start_at_reference_speed ? params_.reference_speed_m_s : state_.speed_m_s;
   return std::max(ph.duration_s - ph.duration_per_m_s * (v - params_.reference_speed_m_s), 0.05);
 }
 
@@ -615,15 +620,9 @@ void TorqueWalker::drive(const ControlInput& in, ControlFrame* frame) {
       k_hip * p.damping_time_s * w_damped;
 
   // Pelvis in the world by the virtual torso torque; the stance hip makes it (Coros 2010).
-  // From standing the start's own lean tips the body forward, and a command's feed-forward lean
-  // above the reference waits for the start to end: the two together at 1.5 m/s threw the
-  // first steps ahead of the swing leg at t_r 100 ms (the velocity driver's start falls).
   const bool starting = d.time - state_.start_s < p.start_time_s;
   const double lean =
-      p.pelvis_pitch_rad + (starting ? p.start_pitch_rad : 0.0) + speed_lean_rad() -
-      (starting
-           ? std::max(0.0, p.speed_lean_rad_per_m_s * (state_.speed_m_s - p.reference_speed_m_s))
-           : 0.0);
+      p.pelvis_pitch_rad + (starting ? p.start_pitch_rad : 0.0) + speed_lean_rad(starting);
   const Quaterniond q_pelvis_goal = q_heading * Quaterniond(AngleAxisd(lean, Vector3d::UnitY()));
   const double k_torso = p.torso_kp * gain_scale_;
   const Vector3d tau_torso =

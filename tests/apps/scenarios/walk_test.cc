@@ -520,24 +520,30 @@ TEST_CASE_METHOD(biodyn::testing::SimulationTest,
 }
 
 TEST_CASE_METHOD(biodyn::testing::SimulationTest,
-                 "the velocity-based driver starts a fast walk as it starts one at the reference "
-                 "speed: tall bodies get going at 1.5 m/s and t_r 100 ms",
+                 "the velocity-based driver starts every walk as at the reference speed: tall "
+                 "bodies get going at 1.5 and 0.6 m/s at t_r 100 ms",
                  "[apps][walk]") {
-  // The start's own lean (start_pitch_rad) and the 1.5 m/s command's feed-forward lean
-  // together threw 1.85 m / 71.9 kg's first steps ahead of the swing leg: it fell at 2.0 s.
-  // With the lean waiting, the command's shorter phases still brought 1.92 m / 71.3 kg's first
-  // swings down ahead of the body (a man of walk-sweep --seed 4000; it fell at 1.9 s).
-  // Both now wait for the start to end (start_time_s, 1.9 s).
-  for (const auto& [height, mass] : {std::pair{1.85, 71.9}, {1.92, 71.3}}) {
+  // With the command's lean and phase lengths from the first step (start_at_reference_speed
+  // off), 1.85 m / 71.9 kg at 1.5 m/s threw its first steps ahead of the swing leg and fell at
+  // 2.0 s, and 1.95 m / 106.5 kg at 0.6 m/s, its lean taken away, fell at 0.7 s.
+  struct Start {
+    double height_m, mass_kg, speed_m_s;
+  };
+  for (const Start& start : {Start{1.85, 71.9, 1.5}, Start{1.95, 106.5, 0.6}}) {
     models::CharacterSpec body;
-    body.height_m = height;
-    body.mass_kg = mass;
+    body.height_m = start.height_m;
+    body.mass_kg = start.mass_kg;
     sim::Simulation sim(testing::generated_character(body));
-    const scenarios::WalkRunResult r = velocity_walk(&sim, body, 8, 0.1, {}, "", 1.5);
-    INFO(height << " m / " << mass << " kg: fell at " << r.time_fallen_s << ", distance "
-                << r.distance_m);
-    CHECK_FALSE(r.fallen);
-    CHECK(r.distance_m > 2.0);
+    for (const bool at_reference : {true, false}) {
+      const scenarios::WalkRunResult r = velocity_walk(
+          &sim, body, 8, 0.1, {}, at_reference ? "" : R"({"start_at_reference_speed": false})",
+          start.speed_m_s);
+      INFO(start.height_m << " m / " << start.mass_kg << " kg at " << start.speed_m_s
+                          << " m/s, start at the reference speed " << at_reference << ": fell at "
+                          << r.time_fallen_s << ", distance " << r.distance_m);
+      CHECK(r.fallen == !at_reference);
+      if (at_reference) CHECK(r.distance_m > 2.0);
+    }
   }
 }
 

@@ -122,6 +122,15 @@ struct TorqueWalkerParams {
   /// lean its speed needs; arriving at 0.85 m/s of a 1.0 m/s command, small bodies stalled at
   /// the terrain's 5 cm step up (controllers/README.md). false: the start's lean just ends.
   bool start_pitch_handover = false;
+  /// From standing, until start_time_s, the lean's feed-forward and the phases' lengths are the
+  /// reference speed's whatever the command; the command's come after. The start's own lean
+  /// tips the body forward: at t_r 100 ms the velocity driver's tall bodies fell in the start
+  /// at 1.5 m/s (the command's lean on top and its shorter swings brought the first steps down
+  /// ahead of the body) and at 0.5-0.6 m/s (its lean taken away: they fell backwards); random
+  /// bodies at t_r 100 ms, 4 seeds of 10: 62 -> 80 of 80 at 1.5 m/s, 79 -> 80 at 0.5 m/s
+  /// (controllers/README.md, seventeenth session). Off for the torque walker: its random stones
+  /// walked 106 -> 102 of 150 with it (lengths only, seeds 5000, 7000, 2000).
+  bool start_at_reference_speed = false;
   double torso_kp = 1273;
   double hip_kp = 434;
   double knee_kp = 218;
@@ -375,10 +384,10 @@ class TorqueWalker : public ControlDriver {
     state_.speed_m_s = m_s;
   }
   double speed_command() const { return state_.speed_m_s; }
-  /// rad, the lean the speed regulation adds now (feed-forward + integral).
-  double speed_lean_rad() const;
-  /// s, a time phase's length at the commanded speed (`starting`: from standing, within
-  /// start_time_s, at most the reference speed's).
+  /// rad, the lean the speed regulation adds now (feed-forward + integral); `starting`: within
+  /// start_time_s from standing (start_at_reference_speed).
+  double speed_lean_rad(bool starting) const;
+  /// s, a time phase's length at the commanded speed (`starting`: as speed_lean_rad).
   double phase_duration_s(int phase, bool starting) const;
   /// Constrained stepping: the next steps' lengths, m, along the heading (ankle to ankle),
   /// from the swing that starts at the next strike; afterwards the steps are free again.
