@@ -620,7 +620,7 @@ void TorqueWalker::drive(const ControlInput& in, ControlFrame* frame) {
       k_hip * p.damping_time_s * w_damped;
 
   // Pelvis in the world by the virtual torso torque; the stance hip makes it (Coros 2010).
-  const bool starting = d.time - state_.start_s < p.start_time_s;
+  const bool starting = in_start(d.time);
   const double lean =
       p.pelvis_pitch_rad + (starting ? p.start_pitch_rad : 0.0) + speed_lean_rad(starting);
   const Quaterniond q_pelvis_goal = q_heading * Quaterniond(AngleAxisd(lean, Vector3d::UnitY()));
@@ -684,8 +684,7 @@ void TorqueWalker::advance_phases(const mjModel& m, const mjData& d, const sim::
   const bool struck = state_.strike.update(foot_touches_floor(m, d, *rig_, swing));
   const TorqueWalkerPhase& ph = params_.phases[static_cast<std::size_t>(state_.phase)];
   if (!ph.ends_at_strike) {
-    double duration =
-        phase_duration_s(state_.phase, d.time - state_.start_s < params_.start_time_s);
+    double duration = phase_duration_s(state_.phase, in_start(d.time));
     // Not while stopping (the command is 0 then) or stepping on planned stones (their own
     // timing and speed; a placed step comes down by its target, below).
     // Nor before the walk has a speed of its own (the start from standing overshoots a slow
@@ -739,7 +738,7 @@ void TorqueWalker::on_strike(const mjData& d, const sim::CenterOfMass& com, int 
   // (not during the start from standing, and not before there was a step).
   const Vector3d& com_now = com.position_W;
   // Planned steps and steps the base-polygon rule moved are not the gait's own.
-  if (st.strikes > 0 && d.time - st.start_s >= p.start_time_s && std::isnan(st.swing_target_m) &&
+  if (st.strikes > 0 && !in_start(d.time) && std::isnan(st.swing_target_m) &&
       !base_polygon_rule_active()) {
     const double t_step = d.time - st.last_strike.time_s;
     const double v_step =

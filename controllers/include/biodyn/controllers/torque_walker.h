@@ -387,6 +387,9 @@ class TorqueWalker : public ControlDriver {
   /// rad, the lean the speed regulation adds now (feed-forward + integral); `starting`: within
   /// start_time_s from standing (start_at_reference_speed).
   double speed_lean_rad(bool starting) const;
+  /// Within start_time_s of the start from standing (the start's lean, start_at_reference_speed;
+  /// the speed regulation counts steps only after it).
+  bool in_start(double time_s) const { return time_s - state_.start_s < params_.start_time_s; }
   /// s, a time phase's length at the commanded speed (`starting`: as speed_lean_rad).
   double phase_duration_s(int phase, bool starting) const;
   /// Constrained stepping: the next steps' lengths, m, along the heading (ankle to ankle),
