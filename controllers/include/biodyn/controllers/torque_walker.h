@@ -170,8 +170,8 @@ struct TorqueWalkerParams {
   /// recovery terms still lean up to speed_lean_limit_rad (controllers/README.md). Above the
   /// reference the feed-forward lean counts against this bound (the integral is held within
   /// it less speed_lean_rad_per_m_s (v - reference)): at 1.5 m/s the velocity driver's short
-  /// women leaned 0.05 + 0.1 rad and fell at 8-12 s (t_r 100 ms, 6 of 40 random walks; now 2,
-  /// at 24 and 41 s), and the named body walks 0.87 m/s instead of 1.00 there.
+  /// women leaned 0.05 + 0.1 rad and fell at 8-12 s (t_r 100 ms, 6 of 40 random walks; with
+  /// start_at_reference_speed too, none), and the named body walks 0.87 m/s instead of 1.00.
   double speed_integral_limit_rad = 0.2;
   /// Where the step term below acts (weighted by its fade: below the reference speed), the
   /// integral counts a step's deficit v - v_step only within +-this, m/s (0: whole). A walk's
