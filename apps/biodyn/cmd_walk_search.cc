@@ -86,10 +86,9 @@ Command add_walk_search_command(CLI::App* app) {
       ->capture_default_str();
   cmd->add_option("--pushes", o->pushes,
                   "Also judge each candidate on this many pushes (a multiple of 8, up to 80): "
-                  "350 N x 0.2 s at the pelvis, 1.80 m / 80 kg (see --push-bodies) at 1.0 m/s, t_r "
-                  "100 ms, 8 "
-                  "directions at phases push-sweep does not use; the balance gains join the "
-                  "searched parameters")
+                  "350 N x 0.2 s at the pelvis, 1.80 m / 80 kg (see --push-bodies) at 1.0 m/s, "
+                  "t_r 100 ms, 8 directions at phases push-sweep does not use; the balance gains "
+                  "join the searched parameters")
       ->capture_default_str();
   cmd->add_option("--push-bodies", o->push_bodies,
                   "The pushes are shared among this many bodies (1 to 16): 1.80 m / 80 kg and "

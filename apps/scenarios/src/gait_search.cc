@@ -264,17 +264,16 @@ void add_push_cases(GaitSearchParams* p, int count, int bodies, std::uint64_t bo
   if (count == 0) return;
   // The pushed bodies: 1.80 m / 80 kg, then walk-sweep's seeded random bodies (seeds body_seed,
   // body_seed + 1, ...), each walking 1.0 m/s.
-  struct Body {
-    double height_m, mass_kg;
-    models::Sex sex;
-  };
-  std::vector<Body> pushed = {{1.80, 80, models::Sex::kMale}};
+  models::CharacterSpec named;
+  named.height_m = 1.80;
+  named.mass_kg = 80;
+  named.sex = models::Sex::kMale;
+  std::vector<models::CharacterSpec> pushed = {named};
   WalkSweepSpec drawn;
   drawn.bodies = bodies - 1;
   drawn.seed = body_seed;
   drawn.speeds_m_s = {1.0};
-  for (const SweepWalk& w : random_sweep_walks(drawn))
-    pushed.push_back({w.body.height_m, w.body.mass_kg, w.body.sex});
+  for (const SweepWalk& w : random_sweep_walks(drawn)) pushed.push_back(w.body);
   // push-sweep's phases are k / 10 of the stride; (j + 1/4) / n never is one (10 j + 2.5 = k n
   // has no integer solution).
   const int per_direction = count / 8;
@@ -282,7 +281,7 @@ void add_push_cases(GaitSearchParams* p, int count, int bodies, std::uint64_t bo
     for (int k = 0; k < 8; ++k) {
       // Body (j + k) mod K: each body is pushed from every direction as j runs, at phases spread
       // over the stride (a body per direction would tie each body to one direction).
-      const Body& b = pushed[static_cast<std::size_t>((j + k) % bodies)];
+      const models::CharacterSpec& b = pushed[static_cast<std::size_t>((j + k) % bodies)];
       SearchCase c;
       c.height_m = b.height_m;
       c.mass_kg = b.mass_kg;
