@@ -63,6 +63,8 @@ constexpr NamedField kFields[] = {BIODYN_FIELD(sagittal_cd),
                                   BIODYN_FIELD(pelvis_pitch_rad),
                                   BIODYN_FIELD(start_pitch_rad),
                                   BIODYN_FIELD(start_time_s),
+                                  BIODYN_FIELD(start_shift_s),
+                                  BIODYN_FIELD(start_shift_reach_s),
                                   BIODYN_FIELD(torso_kp),
                                   BIODYN_FIELD(hip_kp),
                                   BIODYN_FIELD(knee_kp),
@@ -210,6 +212,9 @@ TorqueWalkerParams velocity_walker_defaults() {
   // bodies met the terrain's step up still slow and stalled (controllers/README.md).
   p.start_pitch_handover = true;
   p.start_at_reference_speed = true;
+  // At t_r 100 ms its first swing, lifted with the CoM midway between the feet, let light bodies
+  // fall towards the swing side (controllers/README.md, eighteenth session).
+  p.start_shift_s = 0.08;
   // Its speed levels off below a fast command at t_r 100 ms, and the integral's windup tipped
   // short bodies over (speed_integral_limit_rad; controllers/README.md).
   p.speed_integral_limit_rad = 0.1;
@@ -346,6 +351,10 @@ void TorqueWalkerParams::validate() const {
   }
   check(start_time_s >= 0 && start_time_s <= 10, w + "start_time_s", "must be in [0, 10] s",
         start_time_s);
+  check(start_shift_s >= 0 && start_shift_s <= 1, w + "start_shift_s", "must be in [0, 1] s",
+        start_shift_s);
+  check(start_shift_reach_s > 0 && start_shift_reach_s <= 2, w + "start_shift_reach_s",
+        "must be in (0, 2] s", start_shift_reach_s);
   check(damping_time_s >= 0 && damping_time_s <= 1, w + "damping_time_s", "must be in [0, 1] s",
         damping_time_s);
   const std::pair<const char*, double> angles[] = {{"swing_hip_out_rad", swing_hip_out_rad},

@@ -60,6 +60,7 @@ WalkScenario::WalkScenario(sim::Simulation* sim, ScenarioConfig config)
   walker_.set_heading_rate(config_.heading_rate_deg_s / kDegPerRad);
   walker_.set_speed(config_.speed_m_s);
   pipeline_.set_driver(&walker_);
+  if (walker_params_.start_shift_s > 0) start_weight_shift();
   fall_ = std::make_unique<FallWatch>(rig_, kWalkingFallPelvisFraction);
   fall_->start(sim->data());
   if (config_.walk_push) push_body_ = push_body_id(rig_, config_.walk_push->body);
@@ -69,9 +70,26 @@ WalkScenario::~WalkScenario() = default;
 
 bool WalkScenario::fallen() const { return fall_->down(sim_->model(), sim_->data()); }
 
+void WalkScenario::start_weight_shift() {
+  controllers::Pose shift = stand_pose_;
+  shift.name = "weight shift";
+  shift.support = walker_.state().stance == models::kLeft ? controllers::Support::kLeft
+                                                          : controllers::Support::kRight;
+  shift.reach_time_s = walker_params_.start_shift_reach_s;
+  pipeline_.set_pose(shift);
+  pipeline_.set_driver(nullptr);
+  run_.start_shift_until_s = sim_->data().time + walker_params_.start_shift_s;
+}
+
 void WalkScenario::advance() {
   pipeline_.step();
   const mjData& d = sim_->data();
+  // The start's weight shift over: the walker starts from here (its first swing lifts).
+  if (shifting_weight() && d.time >= run_.start_shift_until_s - 0.5 * sim_->model().opt.timestep) {
+    run_.start_shift_until_s = -1;
+    walker_.reset(d);
+    pipeline_.set_driver(&walker_);
+  }
   // Stopping: the walker plans its last steps; once the feet are side by side the standing
   // controller (pose and balance) takes over with both feet in stance.
   if (config_.stop_at_s >= 0 && d.time >= config_.stop_at_s && !walker_.stopping())
@@ -279,7 +297,7 @@ void WalkScenario::restore(const ScenarioState& in) {
   walker_.restore(s.walker);
   run_ = s.run;
   // The standing controller drives once the stop is done.
-  pipeline_.set_driver(run_.stopped_at_s >= 0 ? nullptr : &walker_);
+  pipeline_.set_driver(run_.stopped_at_s >= 0 || shifting_weight() ? nullptr : &walker_);
 }
 
 }  // namespace biodyn::scenarios

@@ -5,13 +5,17 @@
 #include <sstream>
 #include <string>
 
+#include "biodyn/controllers/gait_core.h"
 #include "biodyn/models/mjcf.h"
 #include "biodyn/models/rig.h"
+#include "biodyn/scenarios/registry.h"
 #include "biodyn/scenarios/stones_sweep.h"
 #include "biodyn/scenarios/walk.h"
+#include "biodyn/scenarios/walk_scenario.h"
 #include "biodyn/scenarios/walk_sweep.h"
 #include "biodyn/sim/errors.h"
 #include "biodyn/sim/model.h"
+#include "biodyn/sim/queries.h"
 #include "character.h"
 #include "test_support.h"
 
@@ -521,18 +525,22 @@ TEST_CASE_METHOD(biodyn::testing::SimulationTest,
 
 TEST_CASE_METHOD(biodyn::testing::SimulationTest,
                  "the velocity-based driver starts every walk as at the reference speed: tall "
-                 "bodies get going at 1.5 and 0.6 m/s at t_r 100 ms",
+                 "heavy bodies get going at 1.5 and 0.5 m/s at t_r 100 ms",
                  "[apps][walk]") {
   // With the command's lean and phase lengths from the first step (start_at_reference_speed
-  // off), 1.85 m / 71.9 kg at 1.5 m/s threw its first steps ahead of the swing leg and fell at
-  // 2.0 s, and 1.95 m / 106.5 kg at 0.6 m/s, its lean taken away, fell at 0.7 s.
+  // off), a 1.87 m / 103.7 kg woman at 1.5 m/s threw her first steps ahead of the swing leg and
+  // fell at 1.1 s, and 1.89 m / 105 kg at 0.5 m/s, his lean taken away, fell at 1.5 s (random
+  // bodies of walk-sweep's seeds 1000 and 177).
   struct Start {
     double height_m, mass_kg, speed_m_s;
+    models::Sex sex;
   };
-  for (const Start& start : {Start{1.85, 71.9, 1.5}, Start{1.95, 106.5, 0.6}}) {
+  for (const Start& start : {Start{1.87, 103.7, 1.5, models::Sex::kFemale},
+                             Start{1.89, 105.0, 0.5, models::Sex::kMale}}) {
     models::CharacterSpec body;
     body.height_m = start.height_m;
     body.mass_kg = start.mass_kg;
+    body.sex = start.sex;
     sim::Simulation sim(testing::generated_character(body));
     for (const bool at_reference : {true, false}) {
       const scenarios::WalkRunResult r = velocity_walk(
@@ -544,6 +552,64 @@ TEST_CASE_METHOD(biodyn::testing::SimulationTest,
       CHECK(r.fallen == !at_reference);
       if (at_reference) CHECK(r.distance_m > 2.0);
     }
+  }
+}
+
+TEST_CASE_METHOD(biodyn::testing::SimulationTest,
+                 "the velocity-based driver shifts its weight onto the first stance foot before "
+                 "it lifts the other: a light body gets going at t_r 100 ms",
+                 "[apps][walk]") {
+  models::CharacterSpec body;
+  body.height_m = 1.55;
+  body.mass_kg = 50.5;
+  sim::Simulation sim(testing::generated_character(body));
+  SECTION("the walk, with and without the shift") {
+    // Lifted with the CoM midway between the feet (start_shift_s 0), the first swing let the CoM
+    // fall towards the swing side at 0.46 m/s, and the body fell at 1.9 s.
+    for (const bool shift : {true, false}) {
+      const scenarios::WalkRunResult r =
+          velocity_walk(&sim, body, 8, 0.1, {}, shift ? "" : R"({"start_shift_s": 0})");
+      INFO("shift " << shift << ": fell at " << r.time_fallen_s << ", distance " << r.distance_m);
+      CHECK(r.fallen == !shift);
+      if (shift) CHECK(r.distance_m > 2.0);
+    }
+  }
+  SECTION("the shift: the standing balance drives, both feet down, the CoM moving left") {
+    scenarios::ScenarioConfig config;
+    config.scenario = "walk";
+    config.character = body;
+    config.walker_actuation = controllers::WalkerActuation::kVelocity;
+    config.reaction_time_s = 0.1;
+    const std::unique_ptr<scenarios::Scenario> s = scenarios::make_scenario(&sim, config);
+    const double shift_s = s->walk()->walker().params().start_shift_s;
+    REQUIRE(shift_s > 0);
+    const mjModel& m = sim.model();
+    const mjData& d = sim.data();
+    const auto right_sole_down = [&] {
+      return controllers::foot_touches_floor(m, d, s->rig(), models::kRight);
+    };
+    s->run_until(0.5 * shift_s);
+    CHECK(s->pipeline()->driver() == nullptr);  // the standing controller's balance
+    CHECK(right_sole_down());
+    // Towards the left foot, the walker's first stance (the capture point's goal).
+    const double com_vy = sim::center_of_mass(m, d).velocity_W.y();
+    CHECK(com_vy > 0.02);
+    const std::unique_ptr<scenarios::ScenarioState> saved = s->new_state();
+    s->save(saved.get());
+    bool lifted = false;
+    while (d.time < 0.4) {
+      s->step();
+      lifted = lifted || !right_sole_down();
+      if (d.time < shift_s - 1e-9) CHECK(right_sole_down());
+    }
+    CHECK(s->pipeline()->driver() != nullptr);  // the walker
+    CHECK(lifted);
+    // A restore within the shift repeats it and the handover to the walker.
+    const std::vector<double> future(d.qpos, d.qpos + m.nq);
+    s->restore(*saved);
+    CHECK(s->pipeline()->driver() == nullptr);
+    s->run_until(0.4);
+    CHECK(std::equal(future.begin(), future.end(), d.qpos));
   }
 }
 

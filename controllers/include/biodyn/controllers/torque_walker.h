@@ -131,6 +131,18 @@ struct TorqueWalkerParams {
   /// (controllers/README.md, seventeenth session). Off for the torque walker: its random stones
   /// walked 106 -> 102 of 150 with it (lengths only, seeds 5000, 7000, 2000).
   bool start_at_reference_speed = false;
+  /// Gait initiation from standing: before the first lift people push the CoM towards the
+  /// stance foot (the anticipatory postural adjustment; Crenna & Frigo 1991, Winter 1995). For
+  /// start_shift_s the standing balance (poses.h) holds the capture point over the first stance
+  /// foot, both feet down, its targets due start_shift_reach_s after the start; then the walker
+  /// lifts the swing foot (walk_scenario.cc). A short push, not a whole shift: after the
+  /// velocity driver's 0.08 s the CoM is 3-4 mm on its way, moving at 0.09 m/s, and it is 5 cm
+  /// towards the stance foot at the first strike (9 cm towards the swing side without). At
+  /// t_r 100 ms light bodies fell without it; shifts of 0.12-0.3 s felled others in their first
+  /// steps (controllers/README.md, eighteenth session). 0: the first swing lifts at once (the
+  /// torque walker's default).
+  double start_shift_s = 0;
+  double start_shift_reach_s = 0.2;
   double torso_kp = 1273;
   double hip_kp = 434;
   double knee_kp = 218;

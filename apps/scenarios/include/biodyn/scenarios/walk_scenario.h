@@ -44,7 +44,8 @@ struct Stone {
 class WalkScenario : public Scenario {
  public:
   /// Builds at t = 0: `sim` reset, the character standing in the pose "stand", the walker
-  /// starting from it. Throws sim::InvalidArgument for a bad config (naming the field or file).
+  /// starting from it (after the start's weight shift, when its params ask for one). Throws
+  /// sim::InvalidArgument for a bad config (naming the field or file).
   WalkScenario(sim::Simulation* sim, ScenarioConfig config);
   ~WalkScenario() override;
 
@@ -100,6 +101,8 @@ class WalkScenario : public Scenario {
     double stones_start_s = -1;
     std::vector<Stone> stones;
     double stopped_at_s = -1;
+    /// s, when the start's weight shift ends and the walker takes over (-1: none, or over).
+    double start_shift_until_s = -1;
     int left_strikes = 0;
     // The last kBaselineStrides + 1 left strikes (oldest first): times and CoM xy.
     double left_strike_s[kBaselineStrides + 1] = {};
@@ -111,6 +114,10 @@ class WalkScenario : public Scenario {
     double push_end_s = std::numeric_limits<double>::quiet_NaN();
   };
   void advance() override;
+  /// Gait initiation (TorqueWalkerParams::start_shift_s): the standing controller moves the CoM
+  /// towards the walker's first stance foot, both feet down, before the walker drives.
+  void start_weight_shift();
+  bool shifting_weight() const { return run_.start_shift_until_s >= 0; }
   /// At a strike: the stones' walked lengths, the plan's start, the push's timing.
   void on_strike();
   /// The baseline's mean stride speed if its strides are steady (walk_scenario.cc), else NaN.
