@@ -215,9 +215,13 @@ TorqueWalkerParams velocity_walker_defaults() {
   // At t_r 100 ms its first swing, lifted with the CoM midway between the feet, let light bodies
   // fall towards the swing side (controllers/README.md, eighteenth session).
   p.start_shift_s = 0.08;
-  // Its speed levels off below a fast command at t_r 100 ms, and the integral's windup tipped
-  // short bodies over (speed_integral_limit_rad; controllers/README.md).
-  p.speed_integral_limit_rad = 0.1;
+  // Its speed levels off below the command at t_r 100 ms (0.85 m/s of 1.0), the integral at its
+  // bound, and with 0.1 rad short heavy women's speed ran away forwards after 8-40 s
+  // (speed_integral_limit_rad; controllers/README.md, eighteenth session). Where the integral is
+  // bound the speed recovery term is what answers a push from the front: it acts from a 0.3 m/s
+  // deficit (speed_recovery_deadband_m_s).
+  p.speed_integral_limit_rad = 0.08;
+  p.speed_recovery_deadband_m_s = 0.3;
   return p;
 }
 

@@ -311,6 +311,19 @@ TEST_CASE_METHOD(testing::SimulationTest,
 }
 
 TEST_CASE_METHOD(testing::SimulationTest,
+                 "The velocity-based driver's speed recovery: with its integral at its bound, a "
+                 "push from the front is answered from a 0.3 m/s deficit",
+                 "[scenarios][push]") {
+  // 350 N x 0.2 s backwards at 0.1 of the stride, 1.80 m / 80 kg, 1.0 m/s, t_r 100 ms: the
+  // body walks 0.82 m/s with the speed integral at its bound (0.08 rad), so only the recovery
+  // term can lean it further; from a 0.6 m/s deficit (the torque walker's) it came too late
+  // and the speed was not back within 10 % in 4 strides.
+  check_defaults_survive_where_before_fell(
+      {}, 350, PushSweepCell{180, 0.2, 0.1}, R"({"speed_recovery_deadband_m_s": 0.6})",
+      controllers::WalkerActuation::kVelocity, 0.1, 1.0, PushOutcome::kSpeedNotRecovered);
+}
+
+TEST_CASE_METHOD(testing::SimulationTest,
                  "A push at a slow command: the speed integral does not wind up on it "
                  "(speed_integral_step_limit_m_s)",
                  "[scenarios][push]") {
@@ -337,12 +350,13 @@ TEST_CASE_METHOD(testing::SimulationTest,
 TEST_CASE_METHOD(testing::SimulationTest,
                  "The velocity-based driver's catching step: a push from behind at t_r 100 ms",
                  "[scenarios][push]") {
-  // 350 N x 0.2 s forward at 0.1 of the stride, 1.80 m / 80 kg, t_r 100 ms: without the
-  // catching step the body falls. Its early swing is 0.28 s; a catching step still swings half
-  // of it (cut to nothing, the foot came straight back down behind the body and every push
-  // from behind at t_r 20 ms fell: controllers/README.md). (The cell was the stride's start
-  // before start_pitch_handover; that push now falls either way.)
-  check_defaults_survive_where_before_fell({}, 350, PushSweepCell{0, 0.2, 0.1},
+  // 350 N x 0.2 s forward at half the stride, 1.80 m / 80 kg, t_r 100 ms: without the
+  // catching step the body falls (1.4 s after the onset). Its early swing is 0.28 s; a catching
+  // step still swings half of it (cut to nothing, the foot came straight back down behind the
+  // body and every push from behind at t_r 20 ms fell: controllers/README.md). (The cell was the
+  // stride's start before start_pitch_handover, then 0.1 of the stride before the velocity
+  // driver's speed bound of 0.08 rad; those pushes survive either way now.)
+  check_defaults_survive_where_before_fell({}, 350, PushSweepCell{0, 0.2, 0.5},
                                            R"({"catch_step_s_per_m_s": 0})",
                                            controllers::WalkerActuation::kVelocity, 0.1);
 }

@@ -498,7 +498,7 @@ TEST_CASE_METHOD(biodyn::testing::SimulationTest,
                  "[apps][walk]") {
   // A held-out body (walk-sweep --seed 1000: body 1005) levels off at 0.87 m/s under a 1.0 m/s
   // command at t_r 100 ms. Its speed integral wound the lean up and it fell at 31 s; bounded
-  // at 0.1 rad (the velocity defaults) it walks on.
+  // at 0.1 rad it walks on (and at the velocity defaults' 0.08).
   models::CharacterSpec body;
   body.height_m = 1.58;
   body.mass_kg = 63.5;
@@ -519,6 +519,22 @@ TEST_CASE_METHOD(biodyn::testing::SimulationTest,
         &sim, body, 16, 0.1, {}, bounded ? "" : R"({"speed_integral_limit_rad": 0.15})", 1.5);
     INFO((bounded ? "bounded" : "0.15 rad")
          << " at 1.5 m/s: fell at " << r.time_fallen_s << ", steady speed " << r.steady_speed_m_s);
+    CHECK(r.fallen == !bounded);
+  }
+  // A heavier short woman (walk-sweep --seed 177: body 184) at 1.5 m/s: at the bound of 0.1 rad
+  // her step speed ran away forwards, the landing knee bending 35 -> 60 deg in four steps, and
+  // she fell at 10 s; at the defaults' 0.08 she walks on.
+  models::CharacterSpec heavier = body;
+  heavier.height_m = 1.56;
+  heavier.mass_kg = 70;
+  sim::Simulation sim_heavier(testing::generated_character(heavier));
+  for (const bool bounded : {true, false}) {
+    const scenarios::WalkRunResult r =
+        velocity_walk(&sim_heavier, heavier, 20, 0.1, {},
+                      bounded ? "" : R"({"speed_integral_limit_rad": 0.1})", 1.5);
+    INFO((bounded ? "bounded" : "0.1 rad")
+         << ", 1.56 m / 70 kg at 1.5 m/s: fell at " << r.time_fallen_s << ", steady speed "
+         << r.steady_speed_m_s);
     CHECK(r.fallen == !bounded);
   }
 }

@@ -184,6 +184,10 @@ struct TorqueWalkerParams {
   /// it less speed_lean_rad_per_m_s (v - reference)): at 1.5 m/s the velocity driver's short
   /// women leaned 0.05 + 0.1 rad and fell at 8-12 s (t_r 100 ms, 6 of 40 random walks; with
   /// start_at_reference_speed too, none), and the named body walks 0.87 m/s instead of 1.00.
+  /// The velocity driver's bound is 0.08 rad: at 0.1 short heavy women (1.56-1.61 m,
+  /// 70-77 kg) still fell, their step speed running away forwards at the bound after 8-40 s, 6
+  /// of 300 random walks at t_r 100 ms; at 0.08 none of 420 (controllers/README.md, eighteenth
+  /// session).
   double speed_integral_limit_rad = 0.2;
   /// Where the step term below acts (weighted by its fade: below the reference speed), the
   /// integral counts a step's deficit v - v_step only within +-this, m/s (0: whole). A walk's
@@ -211,8 +215,11 @@ struct TorqueWalkerParams {
   /// the walk has been at the command (not in a start or after a command change). A push from
   /// the front can leave the body walking on the spot or slowly backwards (-0.1 m/s); the
   /// integral alone took 6 steps to lean it forward again, and the speed was not back in 4
-  /// strides. The deadband is wide (0.6 m/s): at 0.3 it also acted on the step-to-step scatter
-  /// of fast walkers at t_r 100 ms and cost held-out pushes (controllers/README.md). 0: off.
+  /// strides. The deadband is wide (0.6 m/s): the torque walker's at 0.3 also acted on the scatter
+  /// of fast walkers at t_r 100 ms and cost held-out pushes (controllers/README.md). The
+  /// velocity driver's is 0.3 m/s: at t_r 100 ms its integral sits at its bound, and at 0.6 a
+  /// push from the front was not answered (the named body's 180 deg pushes 0 of 10 with the
+  /// bound at 0.08 rad; 7 of 10 at 0.3 m/s; eighteenth session). 0: off.
   double speed_recovery_gain_rad_per_m_s = 0.2;
   double speed_recovery_deadband_m_s = 0.6;
   /// The frontal counterpart: after every step the swing thigh's roll gains
