@@ -215,6 +215,15 @@ TEST_CASE_METHOD(biodyn::testing::SimulationTest,
   p = controllers::TorqueWalkerParams{};
   p.damping_time_s = -1;
   CHECK_THROWS_WITH(controllers::TorqueWalker(rig, p), Catch::Matchers::Contains("damping_time_s"));
+  p = controllers::TorqueWalkerParams{};
+  p.start_shift_s = 1.5;  // a start's weight shift, not a stand
+  CHECK_THROWS_WITH(controllers::TorqueWalker(rig, p),
+                    Catch::Matchers::Contains("start_shift_s") &&
+                        Catch::Matchers::Contains("must be in [0, 1] s"));
+  p = controllers::TorqueWalkerParams{};
+  p.start_shift_reach_s = 0;
+  CHECK_THROWS_WITH(controllers::TorqueWalker(rig, p),
+                    Catch::Matchers::Contains("start_shift_reach_s"));
   const sim::Model ball = testing::load_inline(
       "<mujoco><worldbody><body name='pelvis'><freejoint/><geom "
       "size='0.1'/></body></worldbody></mujoco>");
