@@ -215,6 +215,10 @@ TorqueWalkerParams velocity_walker_defaults() {
   // At t_r 100 ms its first swing, lifted with the CoM midway between the feet, let light bodies
   // fall towards the swing side (controllers/README.md, eighteenth session).
   p.start_shift_s = 0.08;
+  // At t_r 100 ms, 1.95 m / 115-120 kg at 0.5 m/s (weld off) fell backwards at 3.1-3.7 s, after a
+  // start of 1.934 s had handed the lean over to the slow command (controllers/README.md,
+  // eighteenth session).
+  p.start_time_s = 3.0;
   // Its speed levels off below the command at t_r 100 ms (0.85 m/s of 1.0), the integral at its
   // bound, and with 0.1 rad short heavy women's speed ran away forwards after 8-40 s
   // (speed_integral_limit_rad; controllers/README.md, eighteenth session). Where the integral is

@@ -245,12 +245,12 @@ TEST_CASE_METHOD(testing::SimulationTest,
 TEST_CASE_METHOD(testing::SimulationTest,
                  "The velocity-based driver's step back lands with the landing knee",
                  "[scenarios][push]") {
-  // 350 N x 0.2 s from the front at 0.9 of the stride, 1.80 m / 80 kg, velocity actuation.
+  // 350 N x 0.2 s from the front at 0.4 of the stride, 1.80 m / 80 kg, velocity actuation.
   // With the early swing's knee the rule's step back folds the foot behind the hip and strikes
-  // on a bent knee (38 deg; 21 deg with the landing knee), the next foot lands on 60 deg and
-  // the body falls backwards 1.3 s after the onset (controllers/README.md,
-  // back_step_landing_knee; the cell was 0.4 of the stride before start_pitch_handover).
-  check_defaults_survive_where_before_fell({}, 350, PushSweepCell{180, 0.2, 0.9},
+  // on a bent knee, the next foot lands bent too and the body falls backwards 1.4 s after the
+  // onset (controllers/README.md, back_step_landing_knee; the cell was 0.9 of the stride from
+  // start_pitch_handover until the velocity driver's start of 3 s, and 0.4 before).
+  check_defaults_survive_where_before_fell({}, 350, PushSweepCell{180, 0.2, 0.4},
                                            R"({"back_step_landing_knee": false})",
                                            controllers::WalkerActuation::kVelocity);
 }
@@ -339,10 +339,10 @@ TEST_CASE_METHOD(testing::SimulationTest,
                  "The velocity-based driver's sideways catching step: a push to the left at "
                  "t_r 100 ms",
                  "[scenarios][push]") {
-  // 350 N x 0.2 s to the left at 0.2 of the stride, 1.80 m / 80 kg, t_r 100 ms: without the
-  // sideways catch the body fell 2.3 s after the onset. (The cell was 0.1 of the stride before the
-  // start's weight shift, start_shift_s; that push now falls either way.)
-  check_defaults_survive_where_before_fell({}, 350, PushSweepCell{90, 0.2, 0.2},
+  // 350 N x 0.2 s to the left at 0.3 of the stride, 1.80 m / 80 kg, t_r 100 ms: without the
+  // sideways catch the body fell 1.8 s after the onset. (The cell was 0.1 of the stride before the
+  // start's weight shift, start_shift_s, then 0.2 before the velocity driver's start of 3 s.)
+  check_defaults_survive_where_before_fell({}, 350, PushSweepCell{90, 0.2, 0.3},
                                            R"({"catch_side_deadband_m_s": 0})",
                                            controllers::WalkerActuation::kVelocity, 0.1);
 }
@@ -350,13 +350,13 @@ TEST_CASE_METHOD(testing::SimulationTest,
 TEST_CASE_METHOD(testing::SimulationTest,
                  "The velocity-based driver's catching step: a push from behind at t_r 100 ms",
                  "[scenarios][push]") {
-  // 350 N x 0.2 s forward at half the stride, 1.80 m / 80 kg, t_r 100 ms: without the
-  // catching step the body falls (1.4 s after the onset). Its early swing is 0.28 s; a catching
+  // 350 N x 0.2 s forward at 0.6 of the stride, 1.80 m / 80 kg, t_r 100 ms: without the
+  // catching step the body falls (1.6 s after the onset). Its early swing is 0.28 s; a catching
   // step still swings half of it (cut to nothing, the foot came straight back down behind the
   // body and every push from behind at t_r 20 ms fell: controllers/README.md). (The cell was the
   // stride's start before start_pitch_handover, then 0.1 of the stride before the velocity
-  // driver's speed bound of 0.08 rad; those pushes survive either way now.)
-  check_defaults_survive_where_before_fell({}, 350, PushSweepCell{0, 0.2, 0.5},
+  // driver's speed bound of 0.08 rad, then 0.5 before its start of 3 s.)
+  check_defaults_survive_where_before_fell({}, 350, PushSweepCell{0, 0.2, 0.6},
                                            R"({"catch_step_s_per_m_s": 0})",
                                            controllers::WalkerActuation::kVelocity, 0.1);
 }

@@ -38,18 +38,18 @@ scenarios::WalkRunParams calm_push_walk(double onset_phase) {
   return p;
 }
 
-// The velocity-based driver walking `body` at 1.0 m/s, honest weld, on `terrain`: with its
-// defaults, or with `gait_json` changing one of them (the pair a "the default walks where the
+// The velocity-based driver walking `body` (by default at 1.0 m/s, honest weld) on `terrain`: with
+// its defaults, or with `gait_json` changing one of them (the pair a "the default walks where the
 // change falls" test runs).
-scenarios::WalkRunResult velocity_walk(sim::Simulation* sim, const models::CharacterSpec& body,
-                                       double duration_s, double reaction_time_s,
-                                       const models::Terrain& terrain,
-                                       const std::string& gait_json = "", double speed_m_s = 1.0) {
+scenarios::WalkRunResult velocity_walk(
+    sim::Simulation* sim, const models::CharacterSpec& body, double duration_s,
+    double reaction_time_s, const models::Terrain& terrain, const std::string& gait_json = "",
+    double speed_m_s = 1.0, controllers::WeldMode weld = controllers::WeldMode::kHonest) {
   scenarios::WalkRunParams p;
   p.duration_s = duration_s;
   p.config.character = body;
   p.config.terrain = terrain;
-  p.config.weld = controllers::WeldMode::kHonest;
+  p.config.weld = weld;
   p.config.walker_actuation = controllers::WalkerActuation::kVelocity;
   p.config.reaction_time_s = reaction_time_s;
   p.config.speed_m_s = speed_m_s;
@@ -521,12 +521,12 @@ TEST_CASE_METHOD(biodyn::testing::SimulationTest,
          << " at 1.5 m/s: fell at " << r.time_fallen_s << ", steady speed " << r.steady_speed_m_s);
     CHECK(r.fallen == !bounded);
   }
-  // A heavier short woman (walk-sweep --seed 177: body 184) at 1.5 m/s: at the bound of 0.1 rad
-  // her step speed ran away forwards, the landing knee bending 35 -> 60 deg in four steps, and
-  // she fell at 10 s; at the defaults' 0.08 she walks on.
+  // A heavier short woman (walk-sweep --seed 6000: body 6009) at 1.5 m/s: at the bound of
+  // 0.1 rad her step speed runs away forwards, the landing knee bending further every step, and
+  // she falls at 9.9 s; at the defaults' 0.08 she walks on.
   models::CharacterSpec heavier = body;
   heavier.height_m = 1.56;
-  heavier.mass_kg = 70;
+  heavier.mass_kg = 72.9;
   sim::Simulation sim_heavier(testing::generated_character(heavier));
   for (const bool bounded : {true, false}) {
     const scenarios::WalkRunResult r =
@@ -568,6 +568,28 @@ TEST_CASE_METHOD(biodyn::testing::SimulationTest,
       CHECK(r.fallen == !at_reference);
       if (at_reference) CHECK(r.distance_m > 2.0);
     }
+  }
+}
+
+TEST_CASE_METHOD(biodyn::testing::SimulationTest,
+                 "the velocity-based driver's start lasts 3 s: the heaviest tall body gets going "
+                 "at 0.5 m/s at t_r 100 ms",
+                 "[apps][walk]") {
+  // With the start's 1.934 s (the torque walker's), 1.95 m / 120 kg at 0.5 m/s, weld off, fell
+  // backwards at 3.7 s: the start handed the lean over to the slow command before the walk had
+  // got going.
+  models::CharacterSpec body;
+  body.height_m = 1.95;
+  body.mass_kg = 120;
+  sim::Simulation sim(testing::generated_character(body));
+  for (const bool long_start : {true, false}) {
+    const scenarios::WalkRunResult r =
+        velocity_walk(&sim, body, 8, 0.1, {}, long_start ? "" : R"({"start_time_s": 1.934})", 0.5,
+                      controllers::WeldMode::kOff);
+    INFO("start of 3 s " << long_start << ": fell at " << r.time_fallen_s << ", distance "
+                         << r.distance_m);
+    CHECK(r.fallen == !long_start);
+    if (long_start) CHECK(r.distance_m > 2.0);
   }
 }
 
