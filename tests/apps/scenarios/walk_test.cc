@@ -38,26 +38,40 @@ scenarios::WalkRunParams calm_push_walk(double onset_phase) {
   return p;
 }
 
-// The velocity-based driver walking `body` (by default at 1.0 m/s, honest weld) on `terrain`: with
-// its defaults, or with `gait_json` changing one of them (the pair a "the default walks where the
-// change falls" test runs).
-scenarios::WalkRunResult velocity_walk(
-    sim::Simulation* sim, const models::CharacterSpec& body, double duration_s,
-    double reaction_time_s, const models::Terrain& terrain, const std::string& gait_json = "",
-    double speed_m_s = 1.0, controllers::WeldMode weld = controllers::WeldMode::kHonest) {
-  scenarios::WalkRunParams p;
-  p.duration_s = duration_s;
-  p.config.character = body;
-  p.config.terrain = terrain;
-  p.config.weld = weld;
-  p.config.walker_actuation = controllers::WalkerActuation::kVelocity;
-  p.config.reaction_time_s = reaction_time_s;
-  p.config.speed_m_s = speed_m_s;
-  if (!gait_json.empty()) {
-    p.config.gait_json = gait_json;
-    p.config.gait_source = "test";
+// A velocity-driver walk from standing: by default 8 s at 1.0 m/s, honest weld, flat ground.
+struct VelocityWalk {
+  double duration_s = 8;
+  double reaction_time_s = 0;  // 0: the controller params' own, 20 ms
+  double speed_m_s = 1.0;
+  controllers::WeldMode weld = controllers::WeldMode::kHonest;
+  models::Terrain terrain;
+};
+
+// A velocity default's worth: `body` walks `walk` with the defaults (covering more than
+// `min_distance_m`, when given) and falls with `before` (walker JSON: the parameter as it was).
+void check_defaults_walk_where_before_fell(sim::Simulation* sim, const models::CharacterSpec& body,
+                                           const VelocityWalk& walk, const std::string& before,
+                                           double min_distance_m = 0) {
+  for (const bool defaults : {true, false}) {
+    scenarios::WalkRunParams p;
+    p.duration_s = walk.duration_s;
+    p.config.character = body;
+    p.config.terrain = walk.terrain;
+    p.config.weld = walk.weld;
+    p.config.walker_actuation = controllers::WalkerActuation::kVelocity;
+    p.config.reaction_time_s = walk.reaction_time_s;
+    p.config.speed_m_s = walk.speed_m_s;
+    if (!defaults) {
+      p.config.gait_json = before;
+      p.config.gait_source = "test";
+    }
+    const scenarios::WalkRunResult r = scenarios::run_walk(sim, p);
+    INFO(body.height_m << " m / " << body.mass_kg << " kg at " << walk.speed_m_s << " m/s, "
+                       << (defaults ? "defaults" : before) << ": fell at " << r.time_fallen_s
+                       << ", distance " << r.distance_m << ", steady speed " << r.steady_speed_m_s);
+    CHECK(r.fallen == !defaults);
+    if (defaults && min_distance_m > 0) CHECK(r.distance_m > min_distance_m);
   }
-  return scenarios::run_walk(sim, p);
 }
 
 }  // namespace
@@ -504,23 +518,16 @@ TEST_CASE_METHOD(biodyn::testing::SimulationTest,
   body.mass_kg = 63.5;
   body.sex = models::Sex::kFemale;
   sim::Simulation sim(testing::generated_character(body));
-  for (const bool bounded : {true, false}) {
-    const scenarios::WalkRunResult r = velocity_walk(
-        &sim, body, 45, 0.1, {}, bounded ? "" : R"({"speed_integral_limit_rad": 0.2})");
-    INFO((bounded ? "bounded" : "unbounded")
-         << ": fell at " << r.time_fallen_s << ", steady speed " << r.steady_speed_m_s);
-    CHECK(r.fallen == !bounded);
-  }
+  VelocityWalk walk;
+  walk.duration_s = 45;
+  walk.reaction_time_s = 0.1;
+  check_defaults_walk_where_before_fell(&sim, body, walk, R"({"speed_integral_limit_rad": 0.2})");
   // At 1.5 m/s the feed-forward lean of the command above the reference, 0.05 rad, counts
   // against the bound, so the integral stops at 0.05 (walk-sweep --seed 1000 --speeds 1.5: this
   // body fell at 8.4 s). A bound of 0.15 lets it wind to 0.1 on top, as before.
-  for (const bool bounded : {true, false}) {
-    const scenarios::WalkRunResult r = velocity_walk(
-        &sim, body, 16, 0.1, {}, bounded ? "" : R"({"speed_integral_limit_rad": 0.15})", 1.5);
-    INFO((bounded ? "bounded" : "0.15 rad")
-         << " at 1.5 m/s: fell at " << r.time_fallen_s << ", steady speed " << r.steady_speed_m_s);
-    CHECK(r.fallen == !bounded);
-  }
+  walk.duration_s = 16;
+  walk.speed_m_s = 1.5;
+  check_defaults_walk_where_before_fell(&sim, body, walk, R"({"speed_integral_limit_rad": 0.15})");
   // A heavier short woman (walk-sweep --seed 6000: body 6009) at 1.5 m/s: at the bound of
   // 0.1 rad her step speed runs away forwards, the landing knee bending further every step, and
   // she falls at 9.9 s; at the defaults' 0.08 she walks on.
@@ -528,15 +535,9 @@ TEST_CASE_METHOD(biodyn::testing::SimulationTest,
   heavier.height_m = 1.56;
   heavier.mass_kg = 72.9;
   sim::Simulation sim_heavier(testing::generated_character(heavier));
-  for (const bool bounded : {true, false}) {
-    const scenarios::WalkRunResult r =
-        velocity_walk(&sim_heavier, heavier, 20, 0.1, {},
-                      bounded ? "" : R"({"speed_integral_limit_rad": 0.1})", 1.5);
-    INFO((bounded ? "bounded" : "0.1 rad")
-         << ", 1.56 m / 70 kg at 1.5 m/s: fell at " << r.time_fallen_s << ", steady speed "
-         << r.steady_speed_m_s);
-    CHECK(r.fallen == !bounded);
-  }
+  walk.duration_s = 20;
+  check_defaults_walk_where_before_fell(&sim_heavier, heavier, walk,
+                                        R"({"speed_integral_limit_rad": 0.1})");
 }
 
 TEST_CASE_METHOD(biodyn::testing::SimulationTest,
@@ -558,16 +559,11 @@ TEST_CASE_METHOD(biodyn::testing::SimulationTest,
     body.mass_kg = start.mass_kg;
     body.sex = start.sex;
     sim::Simulation sim(testing::generated_character(body));
-    for (const bool at_reference : {true, false}) {
-      const scenarios::WalkRunResult r = velocity_walk(
-          &sim, body, 8, 0.1, {}, at_reference ? "" : R"({"start_at_reference_speed": false})",
-          start.speed_m_s);
-      INFO(start.height_m << " m / " << start.mass_kg << " kg at " << start.speed_m_s
-                          << " m/s, start at the reference speed " << at_reference << ": fell at "
-                          << r.time_fallen_s << ", distance " << r.distance_m);
-      CHECK(r.fallen == !at_reference);
-      if (at_reference) CHECK(r.distance_m > 2.0);
-    }
+    VelocityWalk walk;
+    walk.reaction_time_s = 0.1;
+    walk.speed_m_s = start.speed_m_s;
+    check_defaults_walk_where_before_fell(&sim, body, walk,
+                                          R"({"start_at_reference_speed": false})", 2.0);
   }
 }
 
@@ -582,15 +578,11 @@ TEST_CASE_METHOD(biodyn::testing::SimulationTest,
   body.height_m = 1.95;
   body.mass_kg = 120;
   sim::Simulation sim(testing::generated_character(body));
-  for (const bool long_start : {true, false}) {
-    const scenarios::WalkRunResult r =
-        velocity_walk(&sim, body, 8, 0.1, {}, long_start ? "" : R"({"start_time_s": 1.934})", 0.5,
-                      controllers::WeldMode::kOff);
-    INFO("start of 3 s " << long_start << ": fell at " << r.time_fallen_s << ", distance "
-                         << r.distance_m);
-    CHECK(r.fallen == !long_start);
-    if (long_start) CHECK(r.distance_m > 2.0);
-  }
+  VelocityWalk walk;
+  walk.reaction_time_s = 0.1;
+  walk.speed_m_s = 0.5;
+  walk.weld = controllers::WeldMode::kOff;
+  check_defaults_walk_where_before_fell(&sim, body, walk, R"({"start_time_s": 1.934})", 2.0);
 }
 
 TEST_CASE_METHOD(biodyn::testing::SimulationTest,
@@ -604,13 +596,9 @@ TEST_CASE_METHOD(biodyn::testing::SimulationTest,
   SECTION("the walk, with and without the shift") {
     // Lifted with the CoM midway between the feet (start_shift_s 0), the first swing let the CoM
     // fall towards the swing side at 0.46 m/s, and the body fell at 1.9 s.
-    for (const bool shift : {true, false}) {
-      const scenarios::WalkRunResult r =
-          velocity_walk(&sim, body, 8, 0.1, {}, shift ? "" : R"({"start_shift_s": 0})");
-      INFO("shift " << shift << ": fell at " << r.time_fallen_s << ", distance " << r.distance_m);
-      CHECK(r.fallen == !shift);
-      if (shift) CHECK(r.distance_m > 2.0);
-    }
+    VelocityWalk walk;
+    walk.reaction_time_s = 0.1;
+    check_defaults_walk_where_before_fell(&sim, body, walk, R"({"start_shift_s": 0})", 2.0);
   }
   SECTION("the shift: the standing balance drives, both feet down, the CoM moving left") {
     scenarios::ScenarioConfig config;
@@ -663,15 +651,11 @@ TEST_CASE_METHOD(biodyn::testing::SimulationTest,
   models::PhysicsOptions physics;
   physics.terrain.kind = models::Terrain::Kind::kSteps;
   sim::Simulation sim(testing::generated_character(body, physics));
-  for (const bool handover : {true, false}) {
-    // 16 s: past the step down at 9 m; t_r 0: the controller's own, 20 ms.
-    const scenarios::WalkRunResult r = velocity_walk(
-        &sim, body, 16, 0, physics.terrain, handover ? "" : R"({"start_pitch_handover": false})");
-    INFO((handover ? "handover" : "none")
-         << ": fell at " << r.time_fallen_s << ", distance " << r.distance_m);
-    CHECK(r.fallen == !handover);
-    if (handover) CHECK(r.distance_m > 10.0);
-  }
+  VelocityWalk walk;
+  walk.duration_s = 16;  // past the step down at 9 m; t_r the controller's own, 20 ms
+  walk.terrain = physics.terrain;
+  check_defaults_walk_where_before_fell(&sim, body, walk, R"({"start_pitch_handover": false})",
+                                        10.0);
 }
 
 TEST_CASE_METHOD(biodyn::testing::SimulationTest, "walk inputs out of range are rejected by name",
