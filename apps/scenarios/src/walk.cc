@@ -287,7 +287,7 @@ class WalkTrace : public StepObserver {
     *out_ << "time_s,com_x,com_y,com_z,com_vx,com_vy,pelvis_z,heading_deg,stance,state,strikes,"
              "base_polygon_rule,"
              "contacts_l,contacts_r,weld_l,weld_r,knee_l_deg,knee_r_deg,max_torque_ratio,push_fx,"
-             "push_fy\n";
+             "push_fy,foot_l_x,foot_l_y,foot_l_z,foot_r_x,foot_r_y,foot_r_z\n";
   }
   void on_step(const Scenario& scenario) override {
     const WalkScenario& s = static_cast<const WalkScenario&>(scenario);
@@ -317,7 +317,13 @@ class WalkTrace : public StepObserver {
           << w.base_polygon_rule_active() << ',' << static_cast<int>(touching[0]) << ','
           << static_cast<int>(touching[1]) << ',' << rep.weld_active[0] << ',' << rep.weld_active[1]
           << ',' << knee_deg(0) << ',' << knee_deg(1) << ',' << rep.joints.max_torque_ratio << ','
-          << (xf ? xf[0] : 0.0) << ',' << (xf ? xf[1] : 0.0) << '\n';
+          << (xf ? xf[0] : 0.0) << ',' << (xf ? xf[1] : 0.0);
+    // Each foot's origin (the ankle), world: where the steps land against the CoM.
+    for (int side = 0; side < 2; ++side) {
+      const mjtNum* p = d.xpos + 3 * s.rig().leg(side).foot;
+      *out_ << ',' << p[0] << ',' << p[1] << ',' << p[2];
+    }
+    *out_ << '\n';
   }
 
  private:

@@ -5,6 +5,8 @@
 #include <iomanip>
 #include <nlohmann/json.hpp>
 #include <sstream>
+#include <string>
+#include <vector>
 
 #include "cli_runner.h"
 #include "test_support.h"
@@ -267,6 +269,22 @@ TEST_CASE("biodyn walk --timestep steps the model at that timestep", "[apps][cli
   const std::string trace = slurp(dir / "trace.csv");
   const auto lines = std::count(trace.begin(), trace.end(), '\n');
   CHECK(lines - 1 == Approx(500).margin(1));
+  // The trace ends with each foot's origin (the ankle), world: at the start both stand on the
+  // floor, the left foot left of the right one (the character faces +x).
+  std::istringstream csv(trace);
+  std::string header, first;
+  std::getline(csv, header);
+  std::getline(csv, first);
+  REQUIRE_THAT(header, Catch::EndsWith(",foot_l_x,foot_l_y,foot_l_z,foot_r_x,foot_r_y,foot_r_z"));
+  std::vector<double> row;
+  std::istringstream cells(first);
+  for (std::string cell; std::getline(cells, cell, ',');) row.push_back(std::stod(cell));
+  REQUIRE(row.size() ==
+          static_cast<std::size_t>(std::count(header.begin(), header.end(), ',') + 1));
+  const double* feet = row.data() + row.size() - 6;
+  CHECK(feet[1] - feet[4] > 0.1);                  // left of right, by the hips' spacing
+  CHECK(feet[2] == Approx(feet[5]).margin(1e-3));  // both ankles at one height
+  CHECK((feet[2] > 0.03 && feet[2] < 0.15));       // an ankle's height above the floor
 }
 
 TEST_CASE("biodyn walk --steps reports the stepping stones, a bad length is refused",
