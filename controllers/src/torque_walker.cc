@@ -36,6 +36,9 @@ constexpr int kCatchAfterSteps = 3;
 // actuation's 0.28 s early swing, cut to nothing by a hard push, put the foot straight back
 // down behind the body (every push from behind at t_r 20 ms fell).
 constexpr double kCatchMinShare = 0.5;
+// stance_hip_load_share: below this share of the body weight on both feet together (in the air,
+// or a foot only grazing the floor) the stance hip keeps the whole torso torque.
+constexpr double kLoadShareMinWeight = 0.1;
 // The plan's speed (plan_speed_gain) is taken within this of the command before the gain,
 // m/s (a stone out of reach would otherwise lean the body far forward).
 constexpr double kPlanSpeedLimit_m_s = 0.3;
@@ -280,6 +283,9 @@ void apply_torque_walker_json(const std::string& json_text, const std::string& s
   keys["back_step_landing_knee"] = [&p](const nlohmann::json& v, const std::string& w) {
     p.back_step_landing_knee = json_fields::boolean(v, w);
   };
+  keys["stance_hip_load_share"] = [&p](const nlohmann::json& v, const std::string& w) {
+    p.stance_hip_load_share = json_fields::boolean(v, w);
+  };
   keys["start_pitch_handover"] = [&p](const nlohmann::json& v, const std::string& w) {
     p.start_pitch_handover = json_fields::boolean(v, w);
   };
@@ -317,6 +323,7 @@ std::string torque_walker_json(const TorqueWalkerParams& params) {
   j["base_polygon_rule"] = params.base_polygon_rule;
   j["back_step_capture_point"] = params.back_step_capture_point;
   j["back_step_landing_knee"] = params.back_step_landing_knee;
+  j["stance_hip_load_share"] = params.stance_hip_load_share;
   j["start_pitch_handover"] = params.start_pitch_handover;
   j["start_at_reference_speed"] = params.start_at_reference_speed;
   return j.dump(2) + "\n";
@@ -651,7 +658,26 @@ void TorqueWalker::drive(const ControlInput& in, ControlFrame* frame) {
     return;
   }
   hip_torque(frame, d, swing, tau_swing);
-  hip_torque(frame, d, stance, -tau_torso - tau_swing - tau_lumbar);
+  // stance_hip_load_share: the roll and yaw parts follow the stance foot's share of the load;
+  // the pitch part (about the heading's sideways axis) stays whole.
+  const Vector3d tau_stance = -tau_torso - tau_swing - tau_lumbar;
+  const Vector2d along = state_.heading.along();
+  const Vector3d pitch_axis(-along.y(), along.x(), 0);
+  const Vector3d tau_pitch = tau_stance.dot(pitch_axis) * pitch_axis;
+  hip_torque(frame, d, stance,
+             tau_pitch + stance_hip_share(m, in.last_report) * (tau_stance - tau_pitch));
+}
+
+double TorqueWalker::stance_hip_share(const mjModel& m, const StepReport& last) const {
+  if (!params_.stance_hip_load_share) return 1.0;
+  // Each foot's vertical ground force in the last step: weld and contacts (foot_contact.h).
+  const auto load = [&last](int side) {
+    return std::max(last.weld[static_cast<std::size_t>(side)].ground_force_W.z(), 0.0);
+  };
+  const double stance = load(state_.stance), swing = load(1 - state_.stance);
+  const double weight = body_mass_kg_ * std::abs(m.opt.gravity[2]);
+  if (stance + swing < kLoadShareMinWeight * weight) return 1.0;  // in the air: nothing to share
+  return stance / (stance + swing);
 }
 
 void TorqueWalker::hinge_target(ControlFrame* f, const mjData& d, int group, double angle,

@@ -243,6 +243,19 @@ TEST_CASE_METHOD(testing::SimulationTest,
 }
 
 TEST_CASE_METHOD(testing::SimulationTest,
+                 "The stance hip's share of the torso torque follows its foot's load",
+                 "[scenarios][push]") {
+  // 350 N x 0.2 s from behind-left (45 deg) at 0.3 of the stride, 1.80 m / 80 kg, t_r 100 ms.
+  // The catching step lands 30 cm beside the CoM; with the whole roll torque on the new stance
+  // hip, holding the pelvis level with the CoM far inside its foot while the trailing foot still
+  // carries the weight, that foot slides 40 cm outwards and lifts: a fall 1.1 s after the onset
+  // (controllers/README.md, stance_hip_load_share).
+  check_defaults_survive_where_before_fell({}, 350, PushSweepCell{45, 0.2, 0.3},
+                                           R"({"stance_hip_load_share": false})",
+                                           controllers::WalkerActuation::kTorque, 0.1);
+}
+
+TEST_CASE_METHOD(testing::SimulationTest,
                  "The velocity-based driver's step back lands with the landing knee",
                  "[scenarios][push]") {
   // 350 N x 0.2 s from the front at 0.4 of the stride, 1.80 m / 80 kg, velocity actuation.
