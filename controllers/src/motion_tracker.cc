@@ -302,8 +302,7 @@ void MotionTracker::drive_feedback(const ControlInput& in, ControlFrame* frame) 
     sim::floor_contacts(m, d, rig_->floor_geom(), &contacts_);
     for (int s = 0; s < 2; ++s) {
       const models::RigLeg& leg = rig_->leg(s);
-      const double load = std::clamp(
-          in.last_report.weld[static_cast<std::size_t>(s)].ground_force_W.z(), 0.0, 1.5 * weight_);
+      const double load = std::min(foot_load_N(in.last_report, s), 1.5 * weight_);
       limit_ankle_to_contacts(frame, m, d, groups[static_cast<std::size_t>(leg.ankle)], leg.foot,
                               leg.toes, contacts_, load, params_.ankle_cop_margin);
     }

@@ -670,13 +670,10 @@ void TorqueWalker::drive(const ControlInput& in, ControlFrame* frame) {
 
 double TorqueWalker::stance_hip_share(const mjModel& m, const StepReport& last) const {
   if (!params_.stance_hip_load_share) return 1.0;
-  // Each foot's vertical ground force in the last step: weld and contacts (foot_contact.h).
-  const auto load = [&last](int side) {
-    return std::max(last.weld[static_cast<std::size_t>(side)].ground_force_W.z(), 0.0);
-  };
-  const double stance = load(state_.stance), swing = load(1 - state_.stance);
+  const double stance = foot_load_N(last, state_.stance);
+  const double swing = foot_load_N(last, 1 - state_.stance);
   const double weight = body_mass_kg_ * std::abs(m.opt.gravity[2]);
-  if (stance + swing < kLoadShareMinWeight * weight) return 1.0;  // in the air: nothing to share
+  if (stance + swing <= kLoadShareMinWeight * weight) return 1.0;  // in the air: nothing to share
   return stance / (stance + swing);
 }
 

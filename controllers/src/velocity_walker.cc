@@ -346,8 +346,7 @@ void VelocityWalker::limit_ankles(ControlFrame* f, const ControlInput& in) {
     const double cop_fraction = cop[0] + phase * (cop[1] - cop[0]);
     // The foot's load in the last step, capped at 1.5 body weights: a torque that grows with
     // the load it creates would launch the body (positive feedback through the push-off).
-    const double load = std::clamp(
-        in.last_report.weld[static_cast<std::size_t>(s)].ground_force_W.z(), 0.0, 1.5 * weight_);
+    const double load = std::min(foot_load_N(in.last_report, s), 1.5 * weight_);
     const models::RigLeg& leg = rig_->leg(s);
     limit_ankle_to_contacts(f, in.m, in.d, rig_->groups()[static_cast<std::size_t>(leg.ankle)],
                             leg.foot, leg.toes, contacts_, load, margin,

@@ -4,6 +4,7 @@
 
 #include <mujoco/mujoco.h>
 
+#include <algorithm>
 #include <array>
 
 #include "biodyn/controllers/control_frame.h"
@@ -26,6 +27,12 @@ struct StepReport {
   int joints_outside_limits = 0;  ///< ball joints outside their swing-twist limits
   BalanceOffsets balance;         ///< the standing balance's offsets (zero under another driver)
 };
+
+/// A foot's load, N: the vertical ground force on it (weld and contacts) in the report's step,
+/// never negative. `side` 0 left, 1 right.
+inline double foot_load_N(const StepReport& report, int side) {
+  return std::max(report.weld[static_cast<std::size_t>(side)].ground_force_W.z(), 0.0);
+}
 
 /// What a driver reads each step.
 struct ControlInput {
