@@ -659,17 +659,18 @@ void TorqueWalker::drive(const ControlInput& in, ControlFrame* frame) {
   }
   hip_torque(frame, d, swing, tau_swing);
   // stance_hip_load_share: the roll and yaw parts follow the stance foot's share of the load;
-  // the pitch part (about the heading's sideways axis) stays whole.
-  const Vector3d tau_stance = -tau_torso - tau_swing - tau_lumbar;
-  const Vector2d along = state_.heading.along();
-  const Vector3d pitch_axis(-along.y(), along.x(), 0);
-  const Vector3d tau_pitch = tau_stance.dot(pitch_axis) * pitch_axis;
-  hip_torque(frame, d, stance,
-             tau_pitch + stance_hip_share(m, in.last_report) * (tau_stance - tau_pitch));
+  // the pitch part (about the heading's sideways axis) stays whole. Off: SIMBICON's whole torque.
+  Vector3d tau_stance = -tau_torso - tau_swing - tau_lumbar;
+  if (params_.stance_hip_load_share) {
+    const Vector2d along = state_.heading.along();
+    const Vector3d pitch_axis(-along.y(), along.x(), 0);
+    const Vector3d tau_pitch = tau_stance.dot(pitch_axis) * pitch_axis;
+    tau_stance = tau_pitch + stance_hip_share(m, in.last_report) * (tau_stance - tau_pitch);
+  }
+  hip_torque(frame, d, stance, tau_stance);
 }
 
 double TorqueWalker::stance_hip_share(const mjModel& m, const StepReport& last) const {
-  if (!params_.stance_hip_load_share) return 1.0;
   const double stance = foot_load_N(last, state_.stance);
   const double swing = foot_load_N(last, 1 - state_.stance);
   const double weight = body_mass_kg_ * std::abs(m.opt.gravity[2]);

@@ -29,8 +29,9 @@
 ///    the heading) by a virtual torso torque tau_torso; the stance hip takes
 ///    tau_stance = -tau_torso - tau_swing - tau_lumbar so that the joints' reactions on the
 ///    pelvis sum to tau_torso (the lower back's reaction included, the lumbar's or on the
-///    paper's lower-body model the trunk's: the upper body is half the mass). Its roll and yaw
-///    parts scale with the stance foot's share of the feet's load (stance_hip_load_share).
+///    paper's lower-body model the trunk's: the upper body is half the mass). Optionally its
+///    roll and yaw parts scale with the stance foot's share of the feet's load
+///    (stance_hip_load_share).
 /// Gains are for an 80 kg body and scale with the body mass. Nothing acts on the root: the
 /// torso torque is made by the hips against the legs, and the feet hold by contact only.
 ///
@@ -293,13 +294,16 @@ struct TorqueWalkerParams {
   /// swings the leg instead of the pelvis. After a catching step 30 cm wide (a diagonal push from
   /// behind at t_r 100 ms) the new stance hip, holding the pelvis level with the CoM far inside
   /// its foot while the trailing foot still carried the weight, slid that foot 40 cm outwards
-  /// and lifted it, and the body fell. Shared whole (pitch too) it cost the stones their pitch
-  /// control (lengths-only sequences 106 -> 93 of 150). Named body at t_r 100 ms 70 -> 73 of 80
-  /// (every direction >= 8), 20 held-out bodies 523 -> 545 of 800; at t_r 20 ms 80 -> 80 and
-  /// 762 -> 760 (controllers/README.md, nineteenth session). Torque actuation only (velocity
-  /// actuation's stance hip holds the pelvis only while its foot touches the floor). false: the
-  /// whole torso torque on the stance hip (SIMBICON; Coros et al. 2010).
-  bool stance_hip_load_share = true;
+  /// and lifted it, and the body fell. On: the named body's 350 N x 0.2 s pushes at t_r 100 ms
+  /// 70 -> 73 of 80 (every direction >= 8), 23 held-out bodies 602 -> 625 of 920; at t_r 20 ms
+  /// 80 -> 80 and 876 -> 875. Off by default: 0.1 s pushes from the front at t_r 20 ms then
+  /// first fail at 600-750 N in 6 of 10 phases (at 900-950 N in 4 without; mean over the
+  /// phases 955 -> 770 N). Shared whole (pitch too) it cost the stones their pitch control
+  /// (lengths-only sequences 106 -> 93 of 150). Torque actuation only (velocity actuation's
+  /// stance hip holds the pelvis only while its foot touches the floor). false: the whole torso
+  /// torque on the stance hip (SIMBICON; Coros et al. 2010); controllers/README.md, nineteenth
+  /// session.
+  bool stance_hip_load_share = false;
   void validate() const;  ///< throws sim::InvalidArgument naming the field
 };
 
@@ -490,7 +494,7 @@ class TorqueWalker : public ControlDriver {
   void hip_torque(ControlFrame* f, const mjData& d, int side,
                   const Eigen::Vector3d& torque_W) const;
   /// The stance hip's share of its roll and yaw torque (stance_hip_load_share): the stance foot's
-  /// share of both feet's vertical ground force in the last step, 1 when off or in the air.
+  /// share of both feet's vertical ground force in the last step, 1 in the air.
   double stance_hip_share(const mjModel& m, const StepReport& last) const;
   /// The stop's closing step (the planned step of length 0 that brings the feet side by side).
   bool closing_step() const { return state_.stopping && state_.swing_target_m == 0.0; }
