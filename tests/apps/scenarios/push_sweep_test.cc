@@ -58,23 +58,35 @@ PushOutcome honest_push(
   return r.outcome;
 }
 
-// A parameter's worth on one push: `cell` survives with the defaults and fails with `before`
-// (walker JSON: the parameter as it was) by `before_outcome` (a fall, or the speed not back).
+// A parameter's worth on one push: `cell` survives with the walker JSON `surviving` and fails
+// with `failing` by `failing_outcome` (a fall, or the speed not back); "" is the defaults.
+void check_survives_where_other_fails(const models::CharacterSpec& body, double force_N,
+                                      const PushSweepCell& cell, const char* surviving,
+                                      const char* failing, controllers::WalkerActuation actuation,
+                                      double reaction_time_s, double speed_m_s,
+                                      PushOutcome failing_outcome) {
+  const auto name = [](const char* json) { return *json ? json : "defaults"; };
+  std::string survivor_failure, other_failure;
+  const PushOutcome survivor = honest_push(body, force_N, cell, surviving, &survivor_failure,
+                                           actuation, reaction_time_s, speed_m_s);
+  const PushOutcome other = honest_push(body, force_N, cell, failing, &other_failure, actuation,
+                                        reaction_time_s, speed_m_s);
+  INFO(name(surviving) << ": " << (survivor_failure.empty() ? "survived" : survivor_failure) << "; "
+                       << name(failing) << ": "
+                       << (other_failure.empty() ? "survived" : other_failure));
+  CHECK(survivor == PushOutcome::kSurvived);
+  CHECK(other == failing_outcome);
+}
+
+// The defaults survive `cell` and `before` (walker JSON: the parameter as it was) fails it.
 void check_defaults_survive_where_before_fell(
     const models::CharacterSpec& body, double force_N, const PushSweepCell& cell,
     const char* before,
     controllers::WalkerActuation actuation = controllers::WalkerActuation::kTorque,
     double reaction_time_s = 0, double speed_m_s = 1.0,
     PushOutcome before_outcome = PushOutcome::kFell) {
-  std::string now_failure, before_failure;
-  const PushOutcome now =
-      honest_push(body, force_N, cell, "", &now_failure, actuation, reaction_time_s, speed_m_s);
-  const PushOutcome then = honest_push(body, force_N, cell, before, &before_failure, actuation,
-                                       reaction_time_s, speed_m_s);
-  INFO("defaults: " << (now_failure.empty() ? "survived" : now_failure) << "; " << before << ": "
-                    << (before_failure.empty() ? "survived" : before_failure));
-  CHECK(now == PushOutcome::kSurvived);
-  CHECK(then == before_outcome);
+  check_survives_where_other_fails(body, force_N, cell, "", before, actuation, reaction_time_s,
+                                   speed_m_s, before_outcome);
 }
 
 }  // namespace
@@ -251,16 +263,9 @@ TEST_CASE_METHOD(testing::SimulationTest,
   // trailing foot still carries the weight, that foot slides 40 cm outwards and lifts: a fall
   // 1.1 s after the onset. With the option the foot stays down (controllers/README.md,
   // stance_hip_load_share; off by default: it costs 0.1 s pushes from the front).
-  std::string with_failure, default_failure;
-  const PushSweepCell cell{45, 0.2, 0.3};
-  const PushOutcome with = honest_push({}, 350, cell, R"({"stance_hip_load_share": true})",
-                                       &with_failure, controllers::WalkerActuation::kTorque, 0.1);
-  const PushOutcome without =
-      honest_push({}, 350, cell, "", &default_failure, controllers::WalkerActuation::kTorque, 0.1);
-  INFO("with: " << (with_failure.empty() ? "survived" : with_failure)
-                << "; defaults: " << (default_failure.empty() ? "survived" : default_failure));
-  CHECK(with == PushOutcome::kSurvived);
-  CHECK(without == PushOutcome::kFell);
+  check_survives_where_other_fails(
+      {}, 350, PushSweepCell{45, 0.2, 0.3}, R"({"stance_hip_load_share": true})", "",
+      controllers::WalkerActuation::kTorque, 0.1, 1.0, PushOutcome::kFell);
 }
 
 TEST_CASE_METHOD(testing::SimulationTest,
