@@ -286,6 +286,9 @@ void apply_torque_walker_json(const std::string& json_text, const std::string& s
   keys["stance_hip_load_share"] = [&p](const nlohmann::json& v, const std::string& w) {
     p.stance_hip_load_share = json_fields::boolean(v, w);
   };
+  keys["flight_stance_thigh"] = [&p](const nlohmann::json& v, const std::string& w) {
+    p.flight_stance_thigh = json_fields::boolean(v, w);
+  };
   keys["start_pitch_handover"] = [&p](const nlohmann::json& v, const std::string& w) {
     p.start_pitch_handover = json_fields::boolean(v, w);
   };
@@ -324,6 +327,7 @@ std::string torque_walker_json(const TorqueWalkerParams& params) {
   j["back_step_capture_point"] = params.back_step_capture_point;
   j["back_step_landing_knee"] = params.back_step_landing_knee;
   j["stance_hip_load_share"] = params.stance_hip_load_share;
+  j["flight_stance_thigh"] = params.flight_stance_thigh;
   j["start_pitch_handover"] = params.start_pitch_handover;
   j["start_at_reference_speed"] = params.start_at_reference_speed;
   return j.dump(2) + "\n";
@@ -658,10 +662,19 @@ void TorqueWalker::drive(const ControlInput& in, ControlFrame* frame) {
     return;
   }
   hip_torque(frame, d, swing, tau_swing);
-  // stance_hip_load_share: the roll and yaw parts follow the stance foot's share of the load;
-  // the pitch part (about the heading's sideways axis) stays whole. Off: SIMBICON's whole torque.
+  // SIMBICON's whole torque on the pelvis; in the air (flight_stance_thigh) the stance thigh
+  // upright in the heading frame instead, damped relative to the pelvis like a free swing;
+  // stance_hip_load_share: the roll and yaw parts follow the stance foot's share of the load,
+  // the pitch part (about the heading's sideways axis) stays whole.
   Vector3d tau_stance = -tau_torso - tau_swing - tau_lumbar;
-  if (params_.stance_hip_load_share) {
+  if (params_.flight_stance_thigh && !foot_touches_floor(m, d, *rig_, stance) &&
+      !foot_touches_floor(m, d, *rig_, swing)) {
+    const models::RigLeg& leg = rig_->leg(stance);
+    const Vector3d w_stance_thigh = sim::vec3_at(d.cvel + 6 * leg.thigh);
+    tau_stance =
+        k_hip * rotation_vector(q_heading * sim::quat_at(d.xquat + 4 * leg.thigh).conjugate()) -
+        k_hip * p.damping_time_s * (w_stance_thigh - w_pelvis);
+  } else if (params_.stance_hip_load_share) {
     const Vector2d along = state_.heading.along();
     const Vector3d pitch_axis(-along.y(), along.x(), 0);
     const Vector3d tau_pitch = tau_stance.dot(pitch_axis) * pitch_axis;

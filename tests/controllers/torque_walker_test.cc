@@ -114,6 +114,24 @@ WalkResult walk(double duration_s, const char* weld,
   return r;
 }
 
+// The joint torques (torque_max_Nm per DOF, the free joint's 0) of a torque walker's first
+// drive() after its reset on `d`, the left foot its stance; `heading_rad` gets its heading.
+std::vector<double> first_drive_torques(const models::Rig& rig, const mjModel& m, const mjData& d,
+                                        const controllers::TorqueWalkerParams& p,
+                                        double* heading_rad = nullptr) {
+  controllers::TorqueWalker walker(rig, p);
+  walker.reset(d);
+  REQUIRE(walker.stance_side() == models::kLeft);
+  controllers::ControlFrame frame(rig, m.nv);
+  frame.begin_step();
+  const controllers::StepReport report{};
+  walker.drive({m, d, rig, report}, &frame);
+  if (heading_rad) *heading_rad = walker.heading_rad();
+  std::vector<double> tau(static_cast<std::size_t>(m.nv));
+  for (int v = 6; v < m.nv; ++v) tau[static_cast<std::size_t>(v)] = frame.command(v).torque_max_Nm;
+  return tau;
+}
+
 }  // namespace
 
 TEST_CASE_METHOD(biodyn::testing::SimulationTest,
@@ -292,17 +310,7 @@ TEST_CASE_METHOD(biodyn::testing::SimulationTest,
   auto stance_torques = [&](double support) {
     controllers::TorqueWalkerParams p;
     p.stance_weight_support = support;
-    controllers::TorqueWalker walker(rig, p);
-    walker.reset(d);
-    REQUIRE(walker.stance_side() == models::kLeft);
-    controllers::ControlFrame frame(rig, m.nv);
-    frame.begin_step();
-    const controllers::StepReport report{};
-    walker.drive({m, d, rig, report}, &frame);
-    std::vector<double> tau(static_cast<std::size_t>(m.nv));
-    for (int v = 6; v < m.nv; ++v)
-      tau[static_cast<std::size_t>(v)] = frame.command(v).torque_max_Nm;
-    return tau;
+    return first_drive_torques(rig, m, d, p);
   };
   const std::vector<double> off = stance_torques(0), on = stance_torques(1);
   const int knee_joint = m.dof_jntid[knee_dof];
@@ -376,4 +384,50 @@ TEST_CASE_METHOD(biodyn::testing::SimulationTest,
         controllers::WalkerActuation::kVelocity);
   CHECK_THROWS_WITH(controllers::parse_walker_actuation("pd", "--controller"),
                     Catch::Matchers::Contains("--controller: expected torque or velocity"));
+}
+
+TEST_CASE_METHOD(biodyn::testing::SimulationTest,
+                 "In the air the stance hip turns its thigh upright, not the pelvis", "[gait]") {
+  // flight_stance_thigh: with neither foot on the floor a torque on the pelvis only turns the
+  // legs, so the stance hip's torque is the one that brings its thigh upright in the heading
+  // frame; with a foot on the floor it is SIMBICON's torso torque as before.
+  sim::Simulation sim(testing::generated_character());
+  const mjModel& m = sim.model();
+  mjData& d = sim.data();
+  const models::Rig rig(m);
+  const models::RigLeg& left = rig.leg(models::kLeft);
+  const int hip_dof = rig.groups()[static_cast<std::size_t>(left.hip)].dof_begin;
+  // The left (stance) thigh flexed 0.3 rad, the pelvis as generated.
+  const double flex = 0.3;
+  d.qpos[m.jnt_qposadr[m.dof_jntid[hip_dof]]] = std::cos(flex / 2);
+  d.qpos[m.jnt_qposadr[m.dof_jntid[hip_dof]] + 2] = std::sin(flex / 2);  // about the thigh's y
+  double heading_rad = 0;  // the walker's heading at its reset
+  const auto stance_hip_torque_W = [&](bool flight_stance_thigh, double lift_m) {
+    d.qpos[2] = m.qpos0[2] + lift_m;
+    mj_forward(&m, &d);
+    controllers::TorqueWalkerParams p;
+    p.flight_stance_thigh = flight_stance_thigh;
+    const std::vector<double> tau = first_drive_torques(rig, m, d, p, &heading_rad);
+    Eigen::Vector3d t_B;
+    for (int k = 0; k < 3; ++k) t_B[k] = tau[static_cast<std::size_t>(hip_dof + k)];
+    return Eigen::Vector3d(sim::quat_at(d.xquat + 4 * left.thigh) * t_B);
+  };
+  // On the floor: the same torque either way.
+  const Eigen::Vector3d floor_on = stance_hip_torque_W(true, -0.02);
+  REQUIRE((controllers::foot_touches_floor(m, d, rig, models::kLeft) ||
+           controllers::foot_touches_floor(m, d, rig, models::kRight)));
+  CHECK(floor_on.isApprox(stance_hip_torque_W(false, -0.02)));
+  // In the air: towards the thigh upright (the rotation that undoes its flexion), and not the
+  // torso torque.
+  const Eigen::Vector3d air_on = stance_hip_torque_W(true, 0.3);
+  REQUIRE_FALSE(controllers::foot_touches_floor(m, d, rig, models::kLeft));
+  REQUIRE_FALSE(controllers::foot_touches_floor(m, d, rig, models::kRight));
+  const Eigen::Quaterniond q_heading(Eigen::AngleAxisd(heading_rad, Eigen::Vector3d::UnitZ()));
+  const Eigen::AngleAxisd to_upright(q_heading *
+                                     sim::quat_at(d.xquat + 4 * left.thigh).conjugate());
+  const Eigen::Vector3d axis = to_upright.angle() * to_upright.axis();
+  INFO("in the air " << air_on.transpose() << ", to upright " << axis.transpose());
+  REQUIRE(axis.norm() > 0.2);
+  CHECK(air_on.normalized().dot(axis.normalized()) > 0.99);
+  CHECK_FALSE(air_on.isApprox(stance_hip_torque_W(false, 0.3), 0.1));
 }

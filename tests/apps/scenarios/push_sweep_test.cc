@@ -262,10 +262,25 @@ TEST_CASE_METHOD(testing::SimulationTest,
   // hip (the default), holding the pelvis level with the CoM far inside its foot while the
   // trailing foot still carries the weight, that foot slides 40 cm outwards and lifts: a fall
   // 1.1 s after the onset. With the option the foot stays down (controllers/README.md,
-  // stance_hip_load_share; off by default: it costs 0.1 s pushes from the front).
+  // stance_hip_load_share; off by default: it costs 0.1 s pushes from the front). Both without
+  // flight_stance_thigh, which saves this push by itself.
   check_survives_where_other_fails(
-      {}, 350, PushSweepCell{45, 0.2, 0.3}, R"({"stance_hip_load_share": true})", "",
-      controllers::WalkerActuation::kTorque, 0.1, 1.0, PushOutcome::kFell);
+      {}, 350, PushSweepCell{45, 0.2, 0.3},
+      R"({"stance_hip_load_share": true, "flight_stance_thigh": false})",
+      R"({"flight_stance_thigh": false})", controllers::WalkerActuation::kTorque, 0.1, 1.0,
+      PushOutcome::kFell);
+}
+
+TEST_CASE_METHOD(testing::SimulationTest,
+                 "In the air the stance hip holds its thigh, not the pelvis", "[scenarios][push]") {
+  // 350 N x 0.2 s from behind-right (315 deg) at the left strike, 1.80 m / 80 kg, t_r 100 ms.
+  // The body vaults over its straightening stance leg into a flight; with the torso torque on
+  // the stance hip in the air (flight_stance_thigh false) it turns the legs instead of the
+  // pelvis, they splay and the body falls 1.0 s after the onset. It survives 320-380 N with the
+  // default, falls at 350 and 380 N without (controllers/README.md, twentieth session).
+  check_defaults_survive_where_before_fell({}, 350, PushSweepCell{315, 0.2, 0.0},
+                                           R"({"flight_stance_thigh": false})",
+                                           controllers::WalkerActuation::kTorque, 0.1);
 }
 
 TEST_CASE_METHOD(testing::SimulationTest,
@@ -300,12 +315,13 @@ TEST_CASE_METHOD(
     testing::SimulationTest,
     "A push from behind at t_r 100 ms: an earlier catching step (catch_step_s_per_m_s)",
     "[scenarios][push]") {
-  // 350 N x 0.2 s forward at 0.1 of the stride, 1.80 m / 80 kg, muscles' reaction time 100 ms.
-  // On the clock the early swing held the knee at 73 deg for 0.47 s while the body fell forward
-  // at 1.9 m/s; the foot landed on a knee bent 47 deg that the rate-limited torque could not
-  // hold. The defaults' catching step ends the swing sooner by the forward speed over the
-  // walk's own (controllers/README.md), and the body is caught.
-  check_defaults_survive_where_before_fell({}, 350, PushSweepCell{0, 0.2, 0.1},
+  // 350 N x 0.2 s forward at 0.4 of the stride, 1.80 m / 80 kg, muscles' reaction time 100 ms.
+  // On the clock the early swing held the knee at 66-73 deg for 0.45 s while the body moved
+  // forward at 1.8-1.9 m/s; the foot landed on a knee bent 51 deg (68 deg 0.1 s later) that the
+  // rate-limited torque could not hold. The defaults' catching step ends the swing 0.25 s sooner
+  // by the forward speed over the walk's own (controllers/README.md), and the body is caught.
+  // (The cell was 0.1 of the stride until flight_stance_thigh saved that push without it too.)
+  check_defaults_survive_where_before_fell({}, 350, PushSweepCell{0, 0.2, 0.4},
                                            R"({"catch_step_s_per_m_s": 0})",
                                            controllers::WalkerActuation::kTorque, 0.1);
 }

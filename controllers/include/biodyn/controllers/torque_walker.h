@@ -31,7 +31,8 @@
 ///    pelvis sum to tau_torso (the lower back's reaction included, the lumbar's or on the
 ///    paper's lower-body model the trunk's: the upper body is half the mass). Optionally its
 ///    roll and yaw parts scale with the stance foot's share of the feet's load
-///    (stance_hip_load_share).
+///    (stance_hip_load_share). In a flight it holds its thigh upright instead
+///    (flight_stance_thigh).
 /// Gains are for an 80 kg body and scale with the body mass. Nothing acts on the root: the
 /// torso torque is made by the hips against the legs, and the feet hold by contact only.
 ///
@@ -304,6 +305,18 @@ struct TorqueWalkerParams {
   /// torque on the stance hip (SIMBICON; Coros et al. 2010); controllers/README.md, nineteenth
   /// session.
   bool stance_hip_load_share = false;
+  /// In the air (neither foot touches the floor) no hip can turn the pelvis in the world: a
+  /// torque on it turns the legs. The stance hip then holds its thigh upright in the heading
+  /// frame (roll and pitch 0, facing the heading; damped relative to the pelvis) instead of the
+  /// pelvis, so the legs stay under the body for the landing. Why: at t_r 100 ms a hard push
+  /// vaults the body over its straightening stance leg into a flight (18 of 19 falls of a
+  /// 1.65 m / 60 kg body at 350 N x 0.2 s had one, 1 of its 21 survivals), where the whole torso
+  /// torque splayed the legs 0.5 m apart. On: the named body's pushes at t_r 100 ms 70 -> 73 of
+  /// 80, 20 held-out bodies 523 -> 629 of 800, 10 more not looked at before 309 -> 343 of 400.
+  /// Torque actuation only: velocity actuation's stance hip holds the pelvis only while its
+  /// foot touches the floor (controllers/README.md, twentieth session). false: the torso torque
+  /// in the air too (SIMBICON).
+  bool flight_stance_thigh = true;
   void validate() const;  ///< throws sim::InvalidArgument naming the field
 };
 
