@@ -388,19 +388,20 @@ TEST_CASE_METHOD(biodyn::testing::SimulationTest,
 
 TEST_CASE_METHOD(biodyn::testing::SimulationTest,
                  "In the air the stance hip turns its thigh upright, not the pelvis", "[gait]") {
-  // flight_stance_thigh: with neither foot on the floor a torque on the pelvis only turns the
-  // legs, so the stance hip's torque is the one that brings its thigh upright in the heading
-  // frame; with a foot on the floor it is SIMBICON's torso torque as before.
+  // flight_stance_thigh: with neither foot on the floor a hip torque turns the light legs far
+  // more than the pelvis, so the stance hip's torque is the one that brings its thigh upright in
+  // the heading frame, damped relative to the pelvis; with a foot on the floor it is SIMBICON's
+  // torso torque as before.
   sim::Simulation sim(testing::generated_character());
   const mjModel& m = sim.model();
   mjData& d = sim.data();
   const models::Rig rig(m);
   const models::RigLeg& left = rig.leg(models::kLeft);
   const int hip_dof = rig.groups()[static_cast<std::size_t>(left.hip)].dof_begin;
-  // The left (stance) thigh flexed 0.3 rad, the pelvis as generated.
-  const double flex = 0.3;
-  d.qpos[m.jnt_qposadr[m.dof_jntid[hip_dof]]] = std::cos(flex / 2);
-  d.qpos[m.jnt_qposadr[m.dof_jntid[hip_dof]] + 2] = std::sin(flex / 2);  // about the thigh's y
+  // The left (stance) thigh turned 0.3 rad about its y (extension), the pelvis as generated.
+  const double turn = 0.3;
+  d.qpos[m.jnt_qposadr[m.dof_jntid[hip_dof]]] = std::cos(turn / 2);
+  d.qpos[m.jnt_qposadr[m.dof_jntid[hip_dof]] + 2] = std::sin(turn / 2);
   double heading_rad = 0;  // the walker's heading at its reset
   const auto stance_hip_torque_W = [&](bool flight_stance_thigh, double lift_m) {
     d.qpos[2] = m.qpos0[2] + lift_m;
@@ -417,7 +418,7 @@ TEST_CASE_METHOD(biodyn::testing::SimulationTest,
   REQUIRE((controllers::foot_touches_floor(m, d, rig, models::kLeft) ||
            controllers::foot_touches_floor(m, d, rig, models::kRight)));
   CHECK(floor_on.isApprox(stance_hip_torque_W(false, -0.02)));
-  // In the air: towards the thigh upright (the rotation that undoes its flexion), and not the
+  // In the air: towards the thigh upright (the rotation that undoes its turn), and not the
   // torso torque.
   const Eigen::Vector3d air_on = stance_hip_torque_W(true, 0.3);
   REQUIRE_FALSE(controllers::foot_touches_floor(m, d, rig, models::kLeft));
@@ -430,4 +431,15 @@ TEST_CASE_METHOD(biodyn::testing::SimulationTest,
   REQUIRE(axis.norm() > 0.2);
   CHECK(air_on.normalized().dot(axis.normalized()) > 0.99);
   CHECK_FALSE(air_on.isApprox(stance_hip_torque_W(false, 0.3), 0.1));
+  // The thigh turning relative to the pelvis: the torque changes against that turn.
+  d.qvel[hip_dof + 1] = 1.0;  // rad/s about the thigh's y
+  const Eigen::Vector3d air_turning = stance_hip_torque_W(true, 0.3);
+  const Eigen::Vector3d w_relative =
+      sim::vec3_at(d.cvel + 6 * left.thigh) - sim::vec3_at(d.cvel + 6 * rig.pelvis());
+  REQUIRE(w_relative.norm() > 0.9);
+  CHECK((air_turning - air_on).normalized().dot(-w_relative.normalized()) > 0.99);
+  // The whole body turning together (the root's angular velocity, the hip at rest): no change.
+  d.qvel[hip_dof + 1] = 0;
+  d.qvel[5] = 1.0;  // rad/s, the free joint's angular velocity about its z
+  CHECK(stance_hip_torque_W(true, 0.3).isApprox(air_on, 1e-9));
 }

@@ -305,17 +305,19 @@ struct TorqueWalkerParams {
   /// torque on the stance hip (SIMBICON; Coros et al. 2010); controllers/README.md, nineteenth
   /// session.
   bool stance_hip_load_share = false;
-  /// In the air (neither foot touches the floor) no hip can turn the pelvis in the world: a
-  /// torque on it turns the legs. The stance hip then holds its thigh upright in the heading
-  /// frame (roll and pitch 0, facing the heading; damped relative to the pelvis) instead of the
-  /// pelvis, so the legs stay under the body for the landing. Why: at t_r 100 ms a hard push
-  /// vaults the body over its straightening stance leg into a flight (18 of 19 falls of a
-  /// 1.65 m / 60 kg body at 350 N x 0.2 s had one, 1 of its 21 survivals), where the whole torso
-  /// torque splayed the legs 0.5 m apart. On: the named body's pushes at t_r 100 ms 70 -> 73 of
-  /// 80, 20 held-out bodies 523 -> 629 of 800, 10 more not looked at before 309 -> 343 of 400.
-  /// Torque actuation only: velocity actuation's stance hip holds the pelvis only while its
-  /// foot touches the floor (controllers/README.md, twentieth session). false: the torso torque
-  /// in the air too (SIMBICON).
+  /// In the air (neither foot touches the floor) the body's angular momentum cannot change: a
+  /// hip torque turns the pelvis one way and the legs the other, and the light legs take the
+  /// turn. The stance hip then holds its thigh upright in the heading frame (roll and pitch 0,
+  /// facing the heading; damped relative to the pelvis) instead of the pelvis, so the legs stay
+  /// under the body for the landing. It acts at once: a strike's bounce (both feet off for one
+  /// 2 ms step in a steady walk) gets it for that step; waiting 20 ms lost the gain. Why: at t_r
+  /// 100 ms a hard push vaults the body over its straightening stance leg into a flight (18 of
+  /// 19 falls of a 1.65 m / 60 kg body at 350 N x 0.2 s had one, 1 of its 21 survivals), where
+  /// the whole torso torque splayed the legs 0.75 m apart. On: the named body's pushes at t_r
+  /// 100 ms 70 -> 73 of 80, 20 held-out bodies 523 -> 629 of 800, 10 more not looked at before
+  /// 309 -> 343 of 400. Torque actuation only; velocity actuation ignores it (its stance hip
+  /// drops its velocity wish in the air). controllers/README.md, twentieth session. false: the
+  /// torso torque in the air too (SIMBICON).
   bool flight_stance_thigh = true;
   void validate() const;  ///< throws sim::InvalidArgument naming the field
 };
