@@ -152,6 +152,14 @@ double within_step_limit(double value, double limit) {
   return limit > 0 ? std::clamp(value, -limit, limit) : value;
 }
 
+// The torque (world) of a PD turning a body at orientation q to `goal`: kp times the rotation
+// between them, less kp damping_time_s times w_damped, the angular velocity it is damped
+// against (SIMBICON's swing thigh and torso; kd = kp damping_time_s).
+Vector3d orientation_pd(double kp, double damping_time_s, const Quaterniond& goal,
+                        const Quaterniond& q, const Vector3d& w_damped) {
+  return kp * rotation_vector(goal * q.conjugate()) - kp * damping_time_s * w_damped;
+}
+
 }  // namespace
 
 const char* to_string(WalkerActuation a) {
@@ -643,9 +651,8 @@ void TorqueWalker::drive(const ControlInput& in, ControlFrame* frame) {
       placed ? Vector3d(w_thigh - q_heading * Vector3d(0, -state_.ik_pitch_rate, 0))
              : Vector3d(w_thigh - w_pelvis);
   const Vector3d tau_swing =
-      k_hip * rotation_vector(q_thigh_goal *
-                              sim::quat_at(d.xquat + 4 * rig_->leg(swing).thigh).conjugate()) -
-      k_hip * p.damping_time_s * w_damped;
+      orientation_pd(k_hip, p.damping_time_s, q_thigh_goal,
+                     sim::quat_at(d.xquat + 4 * rig_->leg(swing).thigh), w_damped);
 
   // Pelvis in the world by the virtual torso torque; the stance hip makes it (Coros 2010).
   const bool starting = in_start(d.time);
@@ -653,10 +660,8 @@ void TorqueWalker::drive(const ControlInput& in, ControlFrame* frame) {
       p.pelvis_pitch_rad + (starting ? p.start_pitch_rad : 0.0) + speed_lean_rad(starting);
   const Quaterniond q_pelvis_goal = q_heading * Quaterniond(AngleAxisd(lean, Vector3d::UnitY()));
   const double k_torso = p.torso_kp * gain_scale_;
-  const Vector3d tau_torso =
-      k_torso *
-          rotation_vector(q_pelvis_goal * sim::quat_at(d.xquat + 4 * rig_->pelvis()).conjugate()) -
-      k_torso * p.damping_time_s * w_pelvis;
+  const Vector3d tau_torso = orientation_pd(k_torso, p.damping_time_s, q_pelvis_goal,
+                                            sim::quat_at(d.xquat + 4 * rig_->pelvis()), w_pelvis);
   if (actuation_ == WalkerActuation::kVelocity) {
     hip_targets(frame, m, d, q_thigh_goal, q_pelvis_goal, ph.swing_foot_down);
     return;
@@ -669,11 +674,10 @@ void TorqueWalker::drive(const ControlInput& in, ControlFrame* frame) {
   Vector3d tau_stance = -tau_torso - tau_swing - tau_lumbar;
   if (params_.flight_stance_thigh && !foot_touches_floor(m, d, *rig_, stance) &&
       !foot_touches_floor(m, d, *rig_, swing)) {
-    const models::RigLeg& leg = rig_->leg(stance);
-    const Vector3d w_stance_thigh = sim::vec3_at(d.cvel + 6 * leg.thigh);
+    const int thigh = rig_->leg(stance).thigh;
     tau_stance =
-        k_hip * rotation_vector(q_heading * sim::quat_at(d.xquat + 4 * leg.thigh).conjugate()) -
-        k_hip * p.damping_time_s * (w_stance_thigh - w_pelvis);
+        orientation_pd(k_hip, p.damping_time_s, q_heading, sim::quat_at(d.xquat + 4 * thigh),
+                       sim::vec3_at(d.cvel + 6 * thigh) - w_pelvis);
   } else if (params_.stance_hip_load_share) {
     const Vector2d along = state_.heading.along();
     const Vector3d pitch_axis(-along.y(), along.x(), 0);
